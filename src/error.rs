@@ -1,0 +1,39 @@
+//! The engine's one error type.
+//!
+//! Variants tell bad input (the caller can fix it) from a broken internal
+//! invariant (a bug in dmesh). Messages are lower-case, quote the bad value and
+//! say what would be accepted.
+
+/// Everything the engine can refuse or fail at.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// An argument or a field has a value the engine does not accept.
+    #[error("{0}")]
+    InvalidInput(String),
+    /// The input declares more pixels or bytes than the configured limit;
+    /// detected before anything of that size is allocated.
+    #[error("{0}")]
+    TooLarge(String),
+    /// Image bytes that could not be decoded: truncated, malformed or of an
+    /// unsupported kind.
+    #[error("{0}")]
+    Decode(String),
+    /// An internal invariant does not hold. This is a bug in dmesh: please report it.
+    #[error("internal error: {0} (this is a bug in dmesh, please report it)")]
+    Internal(String),
+}
+
+/// Shorthand for results of the engine.
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+impl Error {
+    /// Bad input, with a message that names the field and what is accepted.
+    pub fn invalid(message: impl Into<String>) -> Self {
+        Self::InvalidInput(message.into())
+    }
+
+    /// Undecodable image bytes.
+    pub fn decode(message: impl Into<String>) -> Self {
+        Self::Decode(message.into())
+    }
+}

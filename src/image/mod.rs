@@ -1,0 +1,377 @@
+//! Decoding depth and colour images, and turning depth samples into `z`.
+//!
+//! Formats are recognised by their magic bytes, never by a file name. Every
+//! decoder reads the header first and refuses an image whose declared size is
+//! over [`Limits::max_pixels`] before it allocates for the pixels; truncated or
+//! malformed input is an [`Error::Decode`], never a panic.
+//!
+//! Depth samples that are zero, negative, NaN or infinite (after conversion)
+//! are *invalid*: they are kept as `0.0` in [`DepthImage::z`] and the mesher
+//! segments every triangle that touches them.
+
+mod color;
+mod exr_depth;
+mod pfm;
+mod png_depth;
+
+pub use color::{decode_color, ColorImage};
+pub use exr_depth::encode_exr;
+pub use pfm::encode_pfm;
+
+use crate::camera::Camera;
+use crate::error::{Error, Result};
+
+/// Upper bounds checked before any pixel buffer is allocated.
+#[derive(Clone, Copy, Debug)]
+pub struct Limits {
+    /// Largest accepted `width * height`.
+    pub max_pixels: u64,
+}
+
+impl Default for Limits {
+    /// 64 Mpx, the server's default.
+    fn default() -> Self {
+        Self {
+            max_pixels: 64 << 20,
+        }
+    }
+}
+
+impl Limits {
+    /// Refuses `width x height` when it is empty or over the limit.
+    pub fn check(&self, what: &str, width: u64, height: u64) -> Result<()> {
+        if width == 0 || height == 0 {
+            return Err(Error::decode(format!(
+                "{what} is {width}x{height}; width and height must be at least 1"
+            )));
+        }
+        let pixels = width.saturating_mul(height);
+        if pixels > self.max_pixels {
+            return Err(Error::TooLarge(format!(
+                "{what} declares {width}x{height} = {pixels} pixels; the limit is {} pixels",
+                self.max_pixels
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// What the samples of a depth image measure.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum DepthKind {
+    /// Metres along the optical axis.
+    #[default]
+    Z,
+    /// Distance from the camera centre along the pixel's ray.
+    Range,
+    /// Disparity in pixels; `z = focal * baseline / disparity`.
+    Disparity,
+    /// `1 / z`.
+    InverseDepth,
+}
+
+impl std::str::FromStr for DepthKind {
+    type Err = Error;
+
+    fn from_str(s: &str) -> Result<Self> {
+        match s {
+            "z" => Ok(Self::Z),
+            "range" => Ok(Self::Range),
+            "disparity" => Ok(Self::Disparity),
+            "inverse" | "inverse_depth" => Ok(Self::InverseDepth),
+            other => Err(Error::invalid(format!(
+                "depth kind {other:?} is unknown; use z, range, disparity or inverse_depth"
+            ))),
+        }
+    }
+}
+
+/// How raw samples become depth: `value = raw * scale + offset`, then `kind`.
+#[derive(Clone, Debug)]
+pub struct DepthOptions {
+    /// What the samples measure.
+    pub kind: DepthKind,
+    /// Multiplies every raw sample (PNG samples are raw integers).
+    pub scale: f64,
+    /// Added after scaling (Middlebury 2005/2006 disparities need `dmin`).
+    pub offset: f64,
+    /// `focal * baseline` for disparity, in pixels times metres.
+    pub focal_baseline: Option<f64>,
+    /// Name of the EXR channel to read; the first float channel when `None`.
+    pub channel: Option<String>,
+}
+
+impl Default for DepthOptions {
+    fn default() -> Self {
+        Self {
+            kind: DepthKind::Z,
+            scale: 1.0,
+            offset: 0.0,
+            focal_baseline: None,
+            channel: None,
+        }
+    }
+}
+
+/// A depth map converted to `z`, invalid samples as `0.0`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DepthImage {
+    /// Width in samples.
+    pub width: u32,
+    /// Height in samples.
+    pub height: u32,
+    /// Row-major `z` in metres; `0.0` marks an invalid sample.
+    pub z: Vec<f32>,
+}
+
+impl DepthImage {
+    /// Wraps row-major depths, mapping every non-finite or non-positive value to
+    /// invalid (`0.0`). Width and height must be at least 2.
+    pub fn from_z(width: u32, height: u32, mut z: Vec<f32>) -> Result<Self> {
+        if width < 2 || height < 2 {
+            return Err(Error::invalid(format!(
+                "depth image is {width}x{height}; width and height must be at least 2"
+            )));
+        }
+        if z.len() as u64 != u64::from(width) * u64::from(height) {
+            return Err(Error::invalid(format!(
+                "depth image is {width}x{height} but has {} samples",
+                z.len()
+            )));
+        }
+        if width > u32::from(u16::MAX) || height > u32::from(u16::MAX) {
+            return Err(Error::TooLarge(format!(
+                "depth image is {width}x{height}; each side must be at most 65535"
+            )));
+        }
+        for v in &mut z {
+            if !(v.is_finite() && *v > 0.0) {
+                *v = 0.0;
+            }
+        }
+        Ok(Self { width, height, z })
+    }
+
+    /// Marks samples invalid where `mask` is false. The mask must have the same size.
+    pub fn apply_mask(&mut self, mask: &[bool]) -> Result<()> {
+        if mask.len() != self.z.len() {
+            return Err(Error::invalid(format!(
+                "mask has {} samples but the depth image has {}",
+                mask.len(),
+                self.z.len()
+            )));
+        }
+        for (z, &keep) in self.z.iter_mut().zip(mask) {
+            if !keep {
+                *z = 0.0;
+            }
+        }
+        Ok(())
+    }
+
+    /// Number of valid samples.
+    pub fn valid_count(&self) -> usize {
+        self.z.iter().filter(|&&z| z > 0.0).count()
+    }
+}
+
+/// Raw samples as decoded, before conversion to `z`.
+#[derive(Debug)]
+pub(crate) struct RawSamples {
+    pub width: u32,
+    pub height: u32,
+    pub values: Vec<f32>,
+}
+
+/// Image containers recognised by their first bytes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    /// `\x89PNG`.
+    Png,
+    /// OpenEXR, `76 2f 31 01`.
+    Exr,
+    /// Portable float map, `Pf` (grey) or `PF` (colour).
+    Pfm,
+    /// JPEG, `ff d8 ff`.
+    Jpeg,
+}
+
+/// Recognises the container from its magic bytes.
+pub fn sniff(bytes: &[u8]) -> Option<Format> {
+    if bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
+        Some(Format::Png)
+    } else if bytes.starts_with(&[0x76, 0x2f, 0x31, 0x01]) {
+        Some(Format::Exr)
+    } else if bytes.starts_with(b"Pf") || bytes.starts_with(b"PF") {
+        Some(Format::Pfm)
+    } else if bytes.starts_with(&[0xff, 0xd8, 0xff]) {
+        Some(Format::Jpeg)
+    } else {
+        None
+    }
+}
+
+/// Decodes a depth image (EXR, PNG 8/16-bit grey, PFM) and converts it to `z`
+/// for `camera`, whose size must match the image.
+pub fn decode_depth(
+    bytes: &[u8],
+    options: &DepthOptions,
+    camera: &Camera,
+    limits: &Limits,
+) -> Result<DepthImage> {
+    let raw = match sniff(bytes) {
+        Some(Format::Png) => png_depth::decode(bytes, limits)?,
+        Some(Format::Exr) => exr_depth::decode(bytes, options.channel.as_deref(), limits)?,
+        Some(Format::Pfm) => pfm::decode(bytes, limits)?,
+        Some(Format::Jpeg) => {
+            return Err(Error::decode(
+                "depth image is a JPEG; use EXR, 8/16-bit greyscale PNG or PFM",
+            ))
+        }
+        None => {
+            return Err(Error::decode(
+                "depth image is not EXR, PNG or PFM (unrecognised magic bytes)",
+            ))
+        }
+    };
+    if raw.width != camera.width || raw.height != camera.height {
+        return Err(Error::invalid(format!(
+            "depth image is {}x{} but the camera is {}x{}; they must match",
+            raw.width, raw.height, camera.width, camera.height
+        )));
+    }
+    to_z(raw, options, camera)
+}
+
+fn to_z(raw: RawSamples, options: &DepthOptions, camera: &Camera) -> Result<DepthImage> {
+    if !options.scale.is_finite() || options.scale == 0.0 {
+        return Err(Error::invalid(format!(
+            "depth scale is {}; it must be finite and non-zero",
+            options.scale
+        )));
+    }
+    if !options.offset.is_finite() {
+        return Err(Error::invalid(format!(
+            "depth offset is {}; it must be finite",
+            options.offset
+        )));
+    }
+    let fb =
+        match (options.kind, options.focal_baseline) {
+            (DepthKind::Disparity, Some(fb)) if fb.is_finite() && fb > 0.0 => fb,
+            (DepthKind::Disparity, Some(fb)) => {
+                return Err(Error::invalid(format!(
+                    "focal_baseline is {fb}; it must be a finite number greater than 0"
+                )))
+            }
+            (DepthKind::Disparity, None) => return Err(Error::invalid(
+                "depth kind disparity needs focal_baseline (focal length in pixels times baseline)",
+            )),
+            _ => 0.0,
+        };
+    let RawSamples {
+        width,
+        height,
+        mut values,
+    } = raw;
+    let w = width as usize;
+    for (idx, v) in values.iter_mut().enumerate() {
+        let raw = f64::from(*v);
+        // Raw zero stays invalid whatever the offset: Middlebury's "unknown".
+        if raw == 0.0 || !raw.is_finite() {
+            *v = 0.0;
+            continue;
+        }
+        let x = raw * options.scale + options.offset;
+        let z = match options.kind {
+            DepthKind::Z => x,
+            DepthKind::Range => {
+                let (u, vv) = ((idx % w) as f64, (idx / w) as f64);
+                x / camera.ray_length(u, vv)
+            }
+            DepthKind::Disparity => {
+                if x > 0.0 {
+                    fb / x
+                } else {
+                    0.0
+                }
+            }
+            DepthKind::InverseDepth => {
+                if x > 0.0 {
+                    1.0 / x
+                } else {
+                    0.0
+                }
+            }
+        };
+        let z = z as f32;
+        *v = if z.is_finite() && z > 0.0 { z } else { 0.0 };
+    }
+    DepthImage::from_z(width, height, values)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn raw(values: Vec<f32>) -> RawSamples {
+        RawSamples {
+            width: 2,
+            height: 2,
+            values,
+        }
+    }
+
+    #[test]
+    fn disparity_converts_with_scale_and_offset_and_zero_stays_invalid() {
+        let cam = Camera::perspective(2, 2, 100.0, 100.0, 0.5, 0.5).unwrap();
+        let opts = DepthOptions {
+            kind: DepthKind::Disparity,
+            scale: 0.5,
+            offset: 1.0,
+            focal_baseline: Some(10.0),
+            channel: None,
+        };
+        let d = to_z(raw(vec![0.0, 2.0, 8.0, f32::NAN]), &opts, &cam).unwrap();
+        assert_eq!(d.z, vec![0.0, 5.0, 2.0, 0.0]);
+    }
+
+    #[test]
+    fn range_is_shortened_off_axis() {
+        let cam = Camera::perspective(2, 2, 1.0, 1.0, 0.0, 0.0).unwrap();
+        let d = to_z(
+            raw(vec![1.0; 4]),
+            &DepthOptions {
+                kind: DepthKind::Range,
+                ..Default::default()
+            },
+            &cam,
+        )
+        .unwrap();
+        assert_eq!(d.z[0], 1.0);
+        assert!((f64::from(d.z[3]) - 1.0 / 3f64.sqrt()).abs() < 1e-6);
+    }
+
+    #[test]
+    fn disparity_without_focal_baseline_is_refused() {
+        let cam = Camera::perspective(2, 2, 1.0, 1.0, 0.0, 0.0).unwrap();
+        let e = to_z(
+            raw(vec![1.0; 4]),
+            &DepthOptions {
+                kind: DepthKind::Disparity,
+                ..Default::default()
+            },
+            &cam,
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("focal_baseline"));
+    }
+
+    #[test]
+    fn tiny_images_are_refused() {
+        assert!(DepthImage::from_z(1, 5, vec![1.0; 5])
+            .unwrap_err()
+            .to_string()
+            .contains("at least 2"));
+    }
+}

@@ -1,0 +1,26 @@
+//! dmesh: multiresolution depth-meshes from depth images (Pajarola, Sainz and
+//! Meng, "DMesh: fast depth-image meshing and warping", 2003).
+//!
+//! The engine is pure: no HTTP, no async, no file system.
+//! - [`camera`]: intrinsics, pose, projection and back-projection;
+//! - [`image`]: decoding depth (EXR, PNG, PFM) and colour, conversion to `z`;
+//! - [`mesh`]: the hierarchy, its error metric, segmentation and extraction;
+//! - [`ply`]: binary PLY output of an extracted mesh.
+//!
+//! ```
+//! use dmesh::{camera::Camera, image::DepthImage, mesh::{DepthMesh, Lod, Segmentation}};
+//! let camera = Camera::perspective(64, 48, 60.0, 60.0, 31.5, 23.5)?;
+//! let depth = DepthImage::from_z(64, 48, vec![2.0; 64 * 48])?;
+//! let hierarchy = DepthMesh::build(&depth, &camera, &Segmentation::default())?;
+//! let mesh = hierarchy.extract(Lod::Epsilon(0.001))?;
+//! assert!(mesh.triangles.len() >= 2);
+//! # Ok::<(), dmesh::Error>(())
+//! ```
+
+pub mod camera;
+mod error;
+pub mod image;
+pub mod mesh;
+pub mod ply;
+
+pub use error::{Error, Result};

@@ -1,0 +1,42 @@
+//! Back-projection of grid samples, factored per row and column.
+//!
+//! `camera.rs` defines `x = ax + bx * z` per column and `y = ay + by * z` per
+//! row; caching those four numbers per row and column makes a sample's 3D
+//! point one multiply-add per axis.
+
+use glam::DVec3;
+
+use crate::camera::Camera;
+
+/// Cached per-column and per-row back-projection factors of a grid.
+#[derive(Clone, Debug)]
+pub struct BackProject {
+    cols: Vec<(f64, f64)>,
+    rows: Vec<(f64, f64)>,
+}
+
+impl BackProject {
+    /// Factors for `gw` columns and `gh` rows (padding included).
+    pub fn new(camera: &Camera, gw: u32, gh: u32) -> Self {
+        Self {
+            cols: (0..gw)
+                .map(|u| camera.column_factors(f64::from(u)))
+                .collect(),
+            rows: (0..gh).map(|v| camera.row_factors(f64::from(v))).collect(),
+        }
+    }
+
+    /// The camera-frame point of grid vertex `(x, y)` at depth `z`.
+    #[inline]
+    pub fn point(&self, x: u32, y: u32, z: f32) -> DVec3 {
+        let z = f64::from(z);
+        let (ax, bx) = self.cols[x as usize];
+        let (ay, by) = self.rows[y as usize];
+        DVec3::new(ax + bx * z, ay + by * z, z)
+    }
+
+    /// Heap bytes held.
+    pub fn heap_bytes(&self) -> usize {
+        (self.cols.capacity() + self.rows.capacity()) * std::mem::size_of::<(f64, f64)>()
+    }
+}

@@ -1,0 +1,377 @@
+//! Building the multiresolution depth-mesh: DMesh Sec. 4.2 and 5.3.
+//!
+//! One bottom-up pass over the levels of the 4-8 hierarchy (see `grid.rs`),
+//! finest first, computes for every split vertex `v`:
+//!
+//! - **segmentation flags** of the two halves of its diamond, OR- and
+//!   AND-combined from the two child triangles of each half (Sec. 5.3, Fig. 11-12:
+//!   a triangle is segmented when any full-resolution triangle inside it is;
+//!   it is *fully* segmented when all of them are). DMesh's eight flags of a
+//!   quadtree node are the half-flags of the four edge midpoints and the
+//!   centre of that node;
+//! - its **own error**, the larger of
+//!   - Eq. 1 (centres) or Eq. 2 (edge midpoints): distance of `v` to the edge it bisects;
+//!   - the depth deviation bound `dev`: over every sample inside an unsegmented
+//!     half, `|z - z_lin|` where `z_lin` interpolates the half's three corner
+//!     depths affinely over the grid. With `d = z_v - (z_a + z_b) / 2`, a half's
+//!     signed deviation lies in `[lo_1 + min(d, 0), hi_1 + max(d, 0)]` joined with the
+//!     same for its second child (the interpolant of a child differs from the
+//!     parent's by `d` times a barycentric in `[0, 1]`), so the bound is exact to
+//!     compute and never below the truth;
+//!   - for a half that is segmented but not fully (dropping it would drop
+//!     valid, unsegmented samples), its footprint: hypotenuse length in pixels
+//!     times the pixel size at its deepest valid corner. Refining it shrinks
+//!     the hole towards the full-resolution flagged triangles (DESIGN.md);
+//! - the **saturated error** `e(v) = max(own(v), e(children))` (nested, as in
+//!   Lindstrom and Pascucci), so a vertex's error is at least every dependent's
+//!   and the selection `e > threshold` always brings a vertex's dependencies;
+//! - the **nested bounding radius** `r(v) = max(|p_v - p_c| + r(c))` over children,
+//!   which keeps the view-dependent test of Eq. 4 monotone.
+//!
+//! Errors are stored squared (Eq. 3) in f32, rounded up, saturated at `f32::MAX`.
+
+use std::time::Instant;
+
+use glam::DVec3;
+
+use super::backproject::BackProject;
+use super::error_metric::{point_line_2d_sq, point_line_3d_sq};
+use super::grid::{cell_half, half_of, Grid, Kind, Pt};
+use super::normals::normals_and_quality;
+use super::segmentation::{leaf_flags, Samples, Segmentation};
+use crate::camera::Camera;
+use crate::error::{Error, Result};
+use crate::image::DepthImage;
+
+/// Bit of half `h` in [`DepthMesh::flags`]: some full-resolution triangle inside is segmented.
+pub(crate) const fn or_bit(h: usize) -> u8 {
+    1 << h
+}
+
+/// Bit of half `h`: every full-resolution triangle inside is segmented (or the half does not exist).
+pub(crate) const fn and_bit(h: usize) -> u8 {
+    4 << h
+}
+
+/// Bit of half `h` of the unit cell whose min corner is this vertex.
+pub(crate) const fn cell_bit(h: usize) -> u8 {
+    16 << h
+}
+
+/// The multiresolution hierarchy of one reference view. 16 bytes per grid
+/// vertex (see [`DepthMesh::heap_bytes`]); immutable once built, so many
+/// extractions may read it at once.
+#[derive(Clone, Debug)]
+pub struct DepthMesh {
+    pub(crate) grid: Grid,
+    pub(crate) camera: Camera,
+    pub(crate) bp: BackProject,
+    /// Depth per grid vertex; 0 for invalid and padding.
+    pub(crate) z: Vec<f32>,
+    /// Saturated squared error.
+    pub(crate) err2: Vec<f32>,
+    /// Nested bounding radius.
+    pub(crate) radius: Vec<f32>,
+    /// Octahedron-encoded normal.
+    pub(crate) normal: Vec<[u8; 2]>,
+    /// Sampling quality rho in 1/255.
+    pub(crate) rho: Vec<u8>,
+    /// Segmentation flags, see [`or_bit`], [`and_bit`], [`cell_bit`].
+    pub(crate) flags: Vec<u8>,
+    segmented: usize,
+    build_peak_bytes: usize,
+    build_ms: f64,
+}
+
+/// Figures of a built hierarchy.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BuildStats {
+    /// Vertices of the padded grid.
+    pub grid_vertices: usize,
+    /// Full-resolution triangles of the image that are segmented.
+    pub segmented_triangles: usize,
+    /// Bytes the hierarchy keeps.
+    pub heap_bytes: usize,
+    /// Largest heap the build itself held at once (kept arrays plus scratch).
+    pub build_peak_bytes: usize,
+    /// Wall-clock build time.
+    pub build_ms: f64,
+}
+
+/// Per-vertex signed deviation interval, scratch of the build.
+struct Dev {
+    hi: Vec<f32>,
+    lo: Vec<f32>,
+}
+
+fn round_up(v: f64) -> f32 {
+    let f = v as f32;
+    if f64::from(f) < v { f.next_up() } else { f }.min(f32::MAX)
+}
+
+fn round_down(v: f64) -> f32 {
+    let f = v as f32;
+    if f64::from(f) > v { f.next_down() } else { f }.max(f32::MIN)
+}
+
+impl DepthMesh {
+    /// Builds the hierarchy of `depth` seen by `camera` (same size), segmented with `seg`.
+    pub fn build(depth: &DepthImage, camera: &Camera, seg: &Segmentation) -> Result<Self> {
+        let start = Instant::now();
+        if depth.width != camera.width || depth.height != camera.height {
+            return Err(Error::invalid(format!(
+                "depth image is {}x{} but the camera is {}x{}; they must match",
+                depth.width, depth.height, camera.width, camera.height
+            )));
+        }
+        if depth.width < 2 || depth.height < 2 {
+            return Err(Error::invalid(format!(
+                "depth image is {}x{}; width and height must be at least 2",
+                depth.width, depth.height
+            )));
+        }
+        seg.validate()?;
+        let grid = Grid::for_image(depth.width, depth.height);
+        let (gw, gh) = (grid.gw(), grid.gh());
+        let bp = BackProject::new(camera, gw, gh);
+
+        let mut z = vec![0f32; grid.len()];
+        let w = depth.width as usize;
+        for (row, src) in depth.z.chunks_exact(w).enumerate() {
+            let dst = row * gw as usize;
+            for (d, &s) in z[dst..dst + w].iter_mut().zip(src) {
+                *d = if s.is_finite() && s > 0.0 { s } else { 0.0 };
+            }
+        }
+        let (normal, rho) = normals_and_quality(&grid, camera, &bp, &z);
+        let cells = leaf_flags(
+            &Samples {
+                grid: &grid,
+                camera,
+                bp: &bp,
+                z: &z,
+                normals: &normal,
+            },
+            seg,
+        );
+        let mut segmented = 0;
+        for y in 0..depth.height - 1 {
+            for x in 0..depth.width - 1 {
+                segmented += cells[grid.index((x, y))].count_ones() as usize;
+            }
+        }
+        let mut flags: Vec<u8> = cells.into_iter().map(|c| (c & 3) << 4).collect();
+        let mut mesh = Self {
+            grid,
+            camera: *camera,
+            bp,
+            z,
+            err2: vec![0f32; grid.len()],
+            radius: vec![0f32; grid.len()],
+            normal,
+            rho,
+            flags: Vec::new(),
+            segmented,
+            build_peak_bytes: 0,
+            build_ms: 0.0,
+        };
+        let mut dev = Dev {
+            hi: vec![0f32; grid.len()],
+            lo: vec![0f32; grid.len()],
+        };
+        mesh.build_peak_bytes = mesh.heap_bytes() + flags.capacity() + 2 * dev.hi.capacity() * 4;
+        let zmax = mesh.z.iter().copied().fold(0f32, f32::max);
+        for g in 0..grid.k {
+            let h = 1u32 << g;
+            // Edge midpoints of level g depend on centres of level g - 1,
+            // centres of level g on edge midpoints of level g.
+            let step = 2 * h as usize;
+            for y in (0..gh).step_by(step) {
+                for x in (h..gw).step_by(step) {
+                    mesh.process(&mut flags, &mut dev, (x, y), zmax);
+                }
+            }
+            for y in (h..gh).step_by(step) {
+                for x in (0..gw).step_by(step) {
+                    mesh.process(&mut flags, &mut dev, (x, y), zmax);
+                }
+            }
+            for y in (h..gh).step_by(2 * h as usize) {
+                for x in (h..gw).step_by(2 * h as usize) {
+                    mesh.process(&mut flags, &mut dev, (x, y), zmax);
+                }
+            }
+        }
+        mesh.flags = flags;
+        mesh.build_ms = start.elapsed().as_secs_f64() * 1e3;
+        Ok(mesh)
+    }
+
+    #[inline]
+    fn point(&self, (x, y): Pt) -> DVec3 {
+        self.bp.point(x, y, self.z[self.grid.index((x, y))])
+    }
+
+    /// Computes flags, own and saturated error, radius and deviation of split vertex `v`.
+    fn process(&mut self, flags: &mut [u8], dev: &mut Dev, v: Pt, zmax: f32) {
+        let grid = self.grid;
+        let Some(d) = grid.diamond(v) else { return };
+        let kind = grid.kind(v);
+        let (h, leaf_children) = match kind {
+            Kind::Edge { h, .. } => (h, h == 1),
+            Kind::Centre { h } => (h, false),
+            Kind::Root => return,
+        };
+        let vi = grid.index(v);
+        let a = (d.a.0 as u32, d.a.1 as u32);
+        let b = (d.b.0 as u32, d.b.1 as u32);
+        let (za, zb, zv) = (self.z[grid.index(a)], self.z[grid.index(b)], self.z[vi]);
+        let pv = self.point(v);
+        let mut bits = flags[vi] & 0xf0;
+        let mut own = 0f64;
+        let mut err = 0f32;
+        let mut radius = 0f64;
+        let (mut hi_v, mut lo_v) = (0f64, 0f64);
+        let detail = f64::from(zv) - 0.5 * (f64::from(za) + f64::from(zb));
+        let mut eq12: Option<f64> = None;
+        for half in 0..2 {
+            let (ax, ay) = d.apex[half];
+            if !grid.contains(ax, ay) {
+                bits |= or_bit(half) | and_bit(half);
+                continue;
+            }
+            let apex = (ax as u32, ay as u32);
+            // The half's children: hypotenuses a-apex and apex-b, both with apex v.
+            let (or, and, hi_c, lo_c) = if leaf_children {
+                let mut or = false;
+                let mut and = true;
+                for (e0, e1) in [(a, apex), (apex, b)] {
+                    let cell = (e0.0.min(e1.0), e0.1.min(e1.1));
+                    let bit = cell_bit(cell_half(cell, v));
+                    let set = flags[grid.index(cell)] & bit != 0;
+                    or |= set;
+                    and &= set;
+                }
+                (or, and, 0f64, 0f64)
+            } else {
+                let mut or = false;
+                let mut and = true;
+                let (mut hi, mut lo) = (0f64, 0f64);
+                for (e0, e1) in [(a, apex), (apex, b)] {
+                    let c = ((e0.0 + e1.0) / 2, (e0.1 + e1.1) / 2);
+                    let ci = grid.index(c);
+                    let hh = half_of(c, v);
+                    or |= flags[ci] & or_bit(hh) != 0;
+                    and &= flags[ci] & and_bit(hh) != 0;
+                    hi = hi.max(f64::from(dev.hi[ci]));
+                    lo = lo.min(f64::from(dev.lo[ci]));
+                    // Saturation and nesting over the DAG children.
+                    err = err.max(self.err2[ci]);
+                    radius = radius.max((pv - self.point(c)).length() + f64::from(self.radius[ci]));
+                }
+                (or, and, hi, lo)
+            };
+            if or {
+                bits |= or_bit(half);
+            }
+            if and {
+                bits |= and_bit(half);
+            }
+            if !or {
+                let hi_t = hi_c + detail.max(0.0);
+                let lo_t = lo_c + detail.min(0.0);
+                hi_v = hi_v.max(hi_t);
+                lo_v = lo_v.min(lo_t);
+                own = own.max(hi_t * hi_t).max(lo_t * lo_t);
+                let e = *eq12.get_or_insert_with(|| {
+                    let (pa, pb) = (self.point(a), self.point(b));
+                    match kind {
+                        Kind::Centre { .. } => point_line_3d_sq(pv, pa, pb),
+                        Kind::Edge {
+                            horizontal: true, ..
+                        } => point_line_2d_sq((pv.x, pv.z), (pa.x, pa.z), (pb.x, pb.z)),
+                        _ => point_line_2d_sq((pv.y, pv.z), (pa.y, pa.z), (pb.y, pb.z)),
+                    }
+                });
+                own = own.max(e);
+            } else if !and {
+                let zref = [za, zb, zv, self.z[grid.index(apex)]]
+                    .into_iter()
+                    .fold(0f32, f32::max);
+                let zref = if zref > 0.0 { zref } else { zmax };
+                let len = f64::from(2 * h)
+                    * if matches!(kind, Kind::Centre { .. }) {
+                        std::f64::consts::SQRT_2
+                    } else {
+                        1.0
+                    };
+                let extent = len * self.camera.pixel_size(f64::from(zref));
+                own = own.max(extent * extent);
+            }
+        }
+        flags[vi] = bits;
+        dev.hi[vi] = round_up(hi_v);
+        dev.lo[vi] = round_down(lo_v);
+        self.err2[vi] = err.max(round_up(own));
+        self.radius[vi] = round_up(radius);
+    }
+
+    /// The grid layout.
+    pub fn grid(&self) -> &Grid {
+        &self.grid
+    }
+
+    /// The reference camera.
+    pub fn camera(&self) -> &Camera {
+        &self.camera
+    }
+
+    /// Depth of grid vertex `p` (0 for invalid or padding).
+    pub fn depth(&self, p: Pt) -> f32 {
+        self.z[self.grid.index(p)]
+    }
+
+    /// Saturated error of grid vertex `p` (not squared).
+    pub fn error(&self, p: Pt) -> f32 {
+        self.err2[self.grid.index(p)].sqrt()
+    }
+
+    /// Nested bounding radius of grid vertex `p`.
+    pub fn radius(&self, p: Pt) -> f32 {
+        self.radius[self.grid.index(p)]
+    }
+
+    /// Camera-frame position of grid vertex `p`.
+    pub fn position(&self, p: Pt) -> DVec3 {
+        self.point(p)
+    }
+
+    /// True when the full-resolution triangle half `h` of the unit cell with
+    /// min corner `cell` is segmented.
+    pub fn cell_segmented(&self, cell: Pt, h: usize) -> bool {
+        self.flags[self.grid.index(cell)] & cell_bit(h) != 0
+    }
+
+    /// Heap bytes the hierarchy keeps: 16 per grid vertex plus the per-row
+    /// and per-column back-projection factors.
+    pub fn heap_bytes(&self) -> usize {
+        self.z.capacity() * 4
+            + self.err2.capacity() * 4
+            + self.radius.capacity() * 4
+            + self.normal.capacity() * 2
+            + self.rho.capacity()
+            + self.flags.capacity()
+            + self.bp.heap_bytes()
+    }
+
+    /// Figures of this build.
+    pub fn stats(&self) -> BuildStats {
+        BuildStats {
+            grid_vertices: self.grid.len(),
+            segmented_triangles: self.segmented,
+            heap_bytes: self.heap_bytes(),
+            build_peak_bytes: self.build_peak_bytes,
+            build_ms: self.build_ms,
+        }
+    }
+}

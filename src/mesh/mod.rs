@@ -1,0 +1,28 @@
+//! The depth-mesh: a multiresolution restricted-quadtree triangulation of one
+//! depth image (DMesh Sec. 3-5).
+//!
+//! - [`grid`]: the forest grid and the 4-8 hierarchy's geometry (Sec. 3, Fig. 1-3);
+//! - [`error_metric`]: Eq. 1 and Eq. 2, squared and division-safe;
+//! - [`normals`]: per-vertex normals and quality rho (Sec. 4.2);
+//! - [`segmentation`]: orthogonality, disparity, connectedness, gated by lambda (Sec. 5.2);
+//! - [`hierarchy`]: the bottom-up build with saturated errors, nested radii
+//!   and propagated segmentation flags (Sec. 4.2, 5.3);
+//! - `select`: static (Eq. 3) and view-dependent (Eq. 4) selection;
+//! - [`extract`]: the top-down traversal emitting a conforming mesh (Sec. 4.3-4.4);
+//! - [`strips`]: generalised strips with primitive restart (Fig. 13).
+
+mod backproject;
+pub mod error_metric;
+pub mod extract;
+pub mod grid;
+pub mod hierarchy;
+pub mod normals;
+pub mod segmentation;
+mod select;
+pub mod strips;
+
+pub use extract::{Lod, Mesh, MeshVertex};
+pub use grid::Grid;
+pub use hierarchy::{BuildStats, DepthMesh};
+pub use segmentation::{Method, Segmentation};
+pub use strips::{decode_strips, RESTART};

@@ -1,0 +1,235 @@
+//! Rubber-sheet segmentation of the full-resolution triangles, DMesh Sec. 5.2.
+//!
+//! Each finest triangle (two per unit cell) is flagged when
+//! - any of its corners is an invalid sample (always), or
+//! - the chosen test says it spans a discontinuity **and** its depth range
+//!   passes the gate of Eq. 11, `dz / z > lambda` (`z` the nearest corner's depth):
+//!   - **orthogonality** (Eq. 10): `|v/|v| . n_t| < cos(90 deg - omega)`, with `v` the
+//!     direction from the reference camera to the triangle's centroid (the
+//!     optical axis for an orthographic camera), written without division as
+//!     `(v . n)^2 < sin^2(omega) |v|^2 |n|^2`;
+//!   - **disparity** (Eq. 9): a corner is a discontinuity when
+//!     `|(z1 - z2)/z1 - (z2 - z3)/z3| > sigma` along its row or its column;
+//!     the triangle is flagged when two or more corners are;
+//!   - **connectedness** (Eq. 5-6): for each axis-aligned leg `P1-P2`, the
+//!     quadratic through `P1` with the normals' slopes as derivatives,
+//!     evaluated at the edge length (Fig. 9b), misses `P2` by
+//!     `r = |f(x2) - z2| / x2`; the triangle is flagged when a leg has
+//!     `r > kappa`. A normal seen exactly edge-on (infinite slope) counts as
+//!     disconnected.
+//!
+//! Flags are propagated up the hierarchy by `hierarchy.rs` (Sec. 5.3).
+
+use glam::DVec3;
+
+use super::backproject::BackProject;
+use super::grid::{Diamond, Grid};
+use super::normals::oct_decode;
+use crate::camera::Camera;
+use crate::error::{Error, Result};
+
+/// The discontinuity test applied to full-resolution triangles.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Method {
+    /// Only triangles touching invalid samples are removed.
+    None,
+    /// Eq. 10 with threshold angle `omega_deg` in degrees.
+    Orthogonality {
+        /// Angle between the triangle plane and the view ray below which it is a rubber sheet.
+        omega_deg: f64,
+    },
+    /// Eq. 9 with threshold `sigma`.
+    Disparity {
+        /// Threshold on the normalised second difference of depth.
+        sigma: f64,
+    },
+    /// Eq. 6 with threshold `kappa` (1.0 flags real surfaces only past about 63 degrees).
+    Connectedness {
+        /// Threshold on the fitted-curve miss ratio.
+        kappa: f64,
+    },
+}
+
+/// Segmentation settings: a method and the depth-range gate `lambda` of Eq. 11.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Segmentation {
+    /// The discontinuity test.
+    pub method: Method,
+    /// Only triangles with `dz / z > lambda` can be removed by the test.
+    pub lambda: f64,
+}
+
+impl Default for Segmentation {
+    /// Orthogonality at 5 degrees (DMesh's choice), `lambda = 0.02`.
+    fn default() -> Self {
+        Self {
+            method: Method::Orthogonality { omega_deg: 5.0 },
+            lambda: 0.02,
+        }
+    }
+}
+
+impl Segmentation {
+    /// Checks the thresholds: finite, `omega` in `[0, 90]`, others `>= 0`.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |name: &str, v: f64, accepted: &str| {
+            Err(Error::invalid(format!(
+                "segmentation {name} is {v}; it must be {accepted}"
+            )))
+        };
+        if !(self.lambda.is_finite() && self.lambda >= 0.0) {
+            return bad("lambda", self.lambda, "a finite number >= 0");
+        }
+        match self.method {
+            Method::Orthogonality { omega_deg } if !(0.0..=90.0).contains(&omega_deg) => {
+                bad("omega", omega_deg, "between 0 and 90 degrees")
+            }
+            Method::Disparity { sigma } if !(sigma.is_finite() && sigma >= 0.0) => {
+                bad("sigma", sigma, "a finite number >= 0")
+            }
+            Method::Connectedness { kappa } if !(kappa.is_finite() && kappa >= 0.0) => {
+                bad("kappa", kappa, "a finite number >= 0")
+            }
+            _ => Ok(()),
+        }
+    }
+}
+
+/// Everything the leaf tests read.
+pub(crate) struct Samples<'a> {
+    pub grid: &'a Grid,
+    pub camera: &'a Camera,
+    pub bp: &'a BackProject,
+    pub z: &'a [f32],
+    pub normals: &'a [[u8; 2]],
+}
+
+/// Flags the two finest triangles of every unit cell: bit `h` of the returned
+/// byte per cell (indexed like its min corner) is half `h`.
+pub(crate) fn leaf_flags(s: &Samples<'_>, seg: &Segmentation) -> Vec<u8> {
+    let grid = s.grid;
+    let (gw, gh) = (grid.gw(), grid.gh());
+    let disparity_marks = match seg.method {
+        Method::Disparity { sigma } => Some(disparity_discontinuities(s, sigma)),
+        _ => None,
+    };
+    let sin2 = match seg.method {
+        Method::Orthogonality { omega_deg } => omega_deg.to_radians().sin().powi(2),
+        _ => 0.0,
+    };
+    let mut out = vec![0u8; grid.len()];
+    for y in 0..gh - 1 {
+        for x in 0..gw - 1 {
+            let d: Diamond = grid.cell((x, y));
+            let mut bits = 0u8;
+            for half in 0..2 {
+                let corners = [d.a, d.b, d.apex[half]].map(|(cx, cy)| (cx as u32, cy as u32));
+                let zs = corners.map(|(cx, cy)| s.z[grid.index((cx, cy))]);
+                let flagged = if zs.iter().any(|&zz| zz <= 0.0) {
+                    true
+                } else {
+                    let pts = [0, 1, 2].map(|i| s.bp.point(corners[i].0, corners[i].1, zs[i]));
+                    gate(zs, seg.lambda)
+                        && match seg.method {
+                            Method::None => false,
+                            Method::Orthogonality { .. } => orthogonal(s.camera, pts, sin2),
+                            Method::Disparity { .. } => {
+                                let marks = disparity_marks.as_deref().unwrap_or_default();
+                                corners
+                                    .iter()
+                                    .filter(|&&c| {
+                                        marks.get(grid.index(c)).copied().unwrap_or(false)
+                                    })
+                                    .count()
+                                    >= 2
+                            }
+                            Method::Connectedness { kappa } => {
+                                // Legs run from the apex (index 2) to each diagonal end.
+                                let n = |i: usize| oct_decode(s.normals[grid.index(corners[i])]);
+                                disconnected(s.camera, pts[2], pts[0], n(2), n(0), kappa)
+                                    || disconnected(s.camera, pts[2], pts[1], n(2), n(1), kappa)
+                            }
+                        }
+                };
+                if flagged {
+                    bits |= 1 << half;
+                }
+            }
+            out[grid.index((x, y))] = bits;
+        }
+    }
+    out
+}
+
+/// Eq. 11: the triangle spans enough depth to be a discontinuity at all.
+fn gate(z: [f32; 3], lambda: f64) -> bool {
+    let lo = f64::from(z[0].min(z[1]).min(z[2]));
+    let hi = f64::from(z[0].max(z[1]).max(z[2]));
+    hi - lo > lambda * lo
+}
+
+/// Eq. 10 without division.
+fn orthogonal(camera: &Camera, p: [DVec3; 3], sin2: f64) -> bool {
+    let n = (p[1] - p[0]).cross(p[2] - p[0]);
+    let v = if camera.is_orthographic() {
+        DVec3::Z
+    } else {
+        (p[0] + p[1] + p[2]) / 3.0
+    };
+    let dot = v.dot(n);
+    dot * dot < sin2 * v.length_squared() * n.length_squared()
+}
+
+/// Eq. 5-6: the frame has its z axis along the ray to `P1` and its x axis
+/// across it, towards `P2`; as in Fig. 9b the curve parameter at `P2` is the
+/// edge length `x2' = |P2 - P1|` rather than `P2`'s lateral offset, so a
+/// rubber sheet (nearly along the ray, with normals nearly across it) overshoots
+/// by far, while a real surface at angle `t` to the image plane misses by only
+/// `tan(t) (1 - cos(t))`.
+fn disconnected(camera: &Camera, p1: DVec3, p2: DVec3, n1: DVec3, n2: DVec3, kappa: f64) -> bool {
+    let edge = p2 - p1;
+    let len = edge.length();
+    if !(len > 0.0) {
+        return false;
+    }
+    let w = camera.view_direction(p1);
+    let dz = edge.dot(w);
+    let Some(x) = (edge - dz * w).try_normalize() else {
+        // The edge runs exactly along the ray: the two samples occlude each other.
+        return true;
+    };
+    let (d1, d2) = (w.dot(n1), w.dot(n2));
+    if d1.abs() < 1e-12 || d2.abs() < 1e-12 {
+        return true;
+    }
+    // First derivatives from the normals (Eq. 5: B = f'(0), and f'(x2)).
+    let (b, f2) = (-x.dot(n1) / d1, -x.dot(n2) / d2);
+    // f(x2') - z1 = x2' (B + f'(x2')) / 2, so r = |(B + f') / 2 - dz / x2'| (Eq. 6).
+    ((b + f2) / 2.0 - dz / len).abs() > kappa
+}
+
+/// Eq. 9 at every sample along its row and its column.
+fn disparity_discontinuities(s: &Samples<'_>, sigma: f64) -> Vec<bool> {
+    let grid = s.grid;
+    let z = |x: i64, y: i64| -> Option<f64> {
+        if x < 0 || y < 0 || x >= i64::from(grid.width) || y >= i64::from(grid.height) {
+            return None;
+        }
+        let v = s.z[grid.index((x as u32, y as u32))];
+        (v > 0.0).then_some(f64::from(v))
+    };
+    let exceeds = |a: Option<f64>, b: f64, c: Option<f64>| match (a, c) {
+        (Some(z1), Some(z3)) => ((z1 - b) / z1 - (b - z3) / z3).abs() > sigma,
+        _ => false,
+    };
+    let mut marks = vec![false; grid.len()];
+    for y in 0..i64::from(grid.height) {
+        for x in 0..i64::from(grid.width) {
+            if let Some(b) = z(x, y) {
+                marks[grid.index((x as u32, y as u32))] =
+                    exceeds(z(x - 1, y), b, z(x + 1, y)) || exceeds(z(x, y - 1), b, z(x, y + 1));
+            }
+        }
+    }
+    marks
+}

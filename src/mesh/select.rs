@@ -1,0 +1,159 @@
+//! Vertex selection: static (DMesh Sec. 4.3, Eq. 3) and view-dependent with
+//! frustum culling (Sec. 4.4, Eq. 4).
+//!
+//! Both predicates are monotone over the hierarchy (a vertex is selected only
+//! if every vertex it depends on is), which is what keeps the extracted mesh
+//! conforming without an explicit dependency walk:
+//! - static: `e^2 > epsilon^2`, with saturated errors;
+//! - view-dependent: the error projected into the requesting camera in pixels
+//!   exceeds `tau`. For a perspective camera with focal length `f` (the larger
+//!   of `fx, fy`) and eye `E`, Eq. 4 with nested spheres (Lindstrom and
+//!   Pascucci) reads `(f e)^2 > tau^2 (|p - E| - r)^2`, true outright when the eye
+//!   is inside the sphere (`|p - E| <= r`, which covers the eye on a vertex);
+//!   for an orthographic one with pixel size `s`, `e^2 > tau^2 s^2`. A vertex is
+//!   selected only when its sphere meets the frustum; since spheres are
+//!   nested, a parent's sphere meets it whenever a child's does.
+//!
+//! `epsilon = 0` and `tau = 0` mean full resolution: every vertex is selected
+//! (inside the frustum), even where the surface is exactly planar.
+
+use glam::{DMat3, DVec3};
+
+use crate::camera::{Camera, Projection};
+
+/// A selection predicate plus triangle culling.
+pub(crate) trait Select {
+    /// True when the vertex with squared error `err2`, position `p` and
+    /// nested radius `r` is to be in the mesh.
+    fn active(&self, err2: f32, p: DVec3, r: f32) -> bool;
+    /// True when a triangle with these corners, whose finer content lies in
+    /// `sphere`, is entirely outside the requesting view.
+    fn outside(&self, corners: [DVec3; 3], sphere: Option<(DVec3, f32)>) -> bool;
+}
+
+/// Static selection by an object-space tolerance.
+pub(crate) struct Static {
+    pub eps2: f32,
+    pub all: bool,
+}
+
+impl Select for Static {
+    #[inline]
+    fn active(&self, err2: f32, _: DVec3, _: f32) -> bool {
+        self.all || err2 > self.eps2
+    }
+
+    #[inline]
+    fn outside(&self, _: [DVec3; 3], _: Option<(DVec3, f32)>) -> bool {
+        false
+    }
+}
+
+/// View-dependent selection for a requesting camera, in the reference frame.
+pub(crate) struct ViewDependent {
+    /// Reference-frame to view-frame rotation and offset.
+    rot: DMat3,
+    off: DVec3,
+    /// Eye position in the reference frame.
+    eye: DVec3,
+    /// Frustum planes (unit normal, offset) in the view frame: inside when `n . p + d >= 0`.
+    planes: [(DVec3, f64); 5],
+    /// `f^2` (perspective) or `None` (orthographic).
+    focal2: Option<f64>,
+    /// `tau^2 s^2` for orthographic views, `tau^2` for perspective ones.
+    tau2: f64,
+    all: bool,
+}
+
+impl ViewDependent {
+    /// Selection for `view` looking at a mesh built in `reference`'s frame.
+    pub fn new(reference: &Camera, view: &Camera, tau: f64) -> Self {
+        let inv = view.rotation.inverse();
+        let rot = DMat3::from_quat(inv * reference.rotation);
+        let off = inv * (reference.translation - view.translation);
+        let eye = reference.to_camera(view.translation);
+        let (w, h) = (f64::from(view.width), f64::from(view.height));
+        let planes = match view.projection {
+            Projection::Perspective { fx, fy, cx, cy } => {
+                let (l, r) = ((-0.5 - cx) / fx, (w - 0.5 - cx) / fx);
+                let (t, b) = ((-0.5 - cy) / fy, (h - 0.5 - cy) / fy);
+                let unit = |n: DVec3| (n.normalize(), 0.0);
+                [
+                    unit(DVec3::new(1.0, 0.0, -l)),
+                    unit(DVec3::new(-1.0, 0.0, r)),
+                    unit(DVec3::new(0.0, 1.0, -t)),
+                    unit(DVec3::new(0.0, -1.0, b)),
+                    (DVec3::Z, 0.0),
+                ]
+            }
+            Projection::Orthographic { sx, sy, cx, cy } => {
+                let (l, r) = ((-0.5 - cx) * sx, (w - 0.5 - cx) * sx);
+                let (t, b) = ((-0.5 - cy) * sy, (h - 0.5 - cy) * sy);
+                [
+                    (DVec3::X, -l),
+                    (DVec3::NEG_X, r),
+                    (DVec3::Y, -t),
+                    (DVec3::NEG_Y, b),
+                    (DVec3::Z, 0.0),
+                ]
+            }
+        };
+        let (focal2, tau2) = match (view.focal_pixels(), view.projection) {
+            (Some(f), _) => (Some(f * f), tau * tau),
+            (None, Projection::Orthographic { sx, sy, .. }) => {
+                (None, tau * tau * sx.min(sy).powi(2))
+            }
+            (None, _) => (None, tau * tau),
+        };
+        Self {
+            rot,
+            off,
+            eye,
+            planes,
+            focal2,
+            tau2,
+            all: tau == 0.0,
+        }
+    }
+
+    #[inline]
+    fn to_view(&self, p: DVec3) -> DVec3 {
+        self.rot * p + self.off
+    }
+
+    #[inline]
+    fn sphere_outside(&self, c: DVec3, r: f64) -> Option<usize> {
+        let c = self.to_view(c);
+        self.planes.iter().position(|&(n, d)| n.dot(c) + d < -r)
+    }
+}
+
+impl Select for ViewDependent {
+    #[inline]
+    fn active(&self, err2: f32, p: DVec3, r: f32) -> bool {
+        let r = f64::from(r);
+        if self.sphere_outside(p, r).is_some() {
+            return false;
+        }
+        if self.all {
+            return true;
+        }
+        let e2 = f64::from(err2);
+        match self.focal2 {
+            Some(f2) => {
+                let dist = (p - self.eye).length() - r;
+                dist <= 0.0 || f2 * e2 > self.tau2 * dist * dist
+            }
+            None => e2 > self.tau2,
+        }
+    }
+
+    fn outside(&self, corners: [DVec3; 3], sphere: Option<(DVec3, f32)>) -> bool {
+        let corners = corners.map(|c| self.to_view(c));
+        let sphere = sphere.map(|(c, r)| (self.to_view(c), f64::from(r)));
+        self.planes.iter().any(|&(n, d)| {
+            corners.iter().all(|&c| n.dot(c) + d < 0.0)
+                && sphere.is_none_or(|(c, r)| n.dot(c) + d < -r)
+        })
+    }
+}

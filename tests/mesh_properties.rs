@@ -1,0 +1,340 @@
+//! Invariants of the engine: conforming meshes, strips equal to the triangle
+//! list, the static epsilon bound over every sample, monotone errors, full
+//! resolution at tau = 0, segmentation of step edges, odd sizes.
+
+mod common;
+
+use common::*;
+use dmesh::camera::Camera;
+use dmesh::image::DepthImage;
+use dmesh::mesh::{DepthMesh, Lod, Method, Segmentation};
+use proptest::prelude::*;
+
+fn check_all(depth: &DepthImage, cam: &Camera, seg: &Segmentation, eps: f64) {
+    let h = DepthMesh::build(depth, cam, seg).unwrap();
+    let mesh = h.extract(Lod::Epsilon(eps)).unwrap();
+    assert_finite(&mesh, depth.width, depth.height);
+    assert_conforming(&mesh);
+    assert_strips_match(&mesh);
+    assert_epsilon_bound(&mesh, depth, eps);
+}
+
+#[test]
+fn smooth_surface_at_several_tolerances() {
+    let depth = waves(65, 49);
+    let cam = camera(65, 49);
+    let h = DepthMesh::build(&depth, &cam, &Segmentation::default()).unwrap();
+    assert_monotone(&h);
+    let mut last = usize::MAX;
+    for eps in [0.0, 1e-4, 1e-3, 1e-2, 0.1, 1.0] {
+        let mesh = h.extract(Lod::Epsilon(eps)).unwrap();
+        assert_conforming(&mesh);
+        assert_strips_match(&mesh);
+        assert_epsilon_bound(&mesh, &depth, eps);
+        assert!(
+            mesh.triangles.len() <= last,
+            "coarser tolerance gave more triangles"
+        );
+        last = mesh.triangles.len();
+    }
+    assert!(
+        last < 100,
+        "a 1 m tolerance should leave a coarse mesh, got {last}"
+    );
+}
+
+#[test]
+fn odd_sizes_work() {
+    for (w, h) in [(2, 2), (3, 7), (7, 3), (640, 480), (1390, 1110)] {
+        let depth = waves(w, h);
+        let cam = camera(w, h);
+        let eps = if w * h > 100_000 { 0.01 } else { 0.001 };
+        let hier = DepthMesh::build(&depth, &cam, &Segmentation::default()).unwrap();
+        let mesh = hier.extract(Lod::Epsilon(eps)).unwrap();
+        assert!(!mesh.triangles.is_empty(), "{w}x{h} gave no triangles");
+        assert_finite(&mesh, w, h);
+        assert_strips_match(&mesh);
+        if w * h <= 400_000 {
+            assert_conforming(&mesh);
+        }
+        assert_epsilon_bound(&mesh, &depth, eps);
+    }
+}
+
+#[test]
+fn tau_zero_is_full_resolution_minus_segmented_triangles() {
+    let (w, h) = (33, 21);
+    let depth = depth_from(w, h, |x, y| {
+        if x > 20 && y < 9 {
+            1.0
+        } else if (x + y) % 11 == 0 {
+            0.0
+        } else {
+            3.0
+        }
+    });
+    let cam = camera(w, h);
+    let hier = DepthMesh::build(&depth, &cam, &Segmentation::default()).unwrap();
+    for lod in [
+        Lod::Tau {
+            tau: 0.0,
+            view: &cam,
+        },
+        Lod::Epsilon(0.0),
+    ] {
+        let mesh = hier.extract(lod).unwrap();
+        let mut want = 0;
+        for y in 0..h - 1 {
+            for x in 0..w - 1 {
+                want += (0..2).filter(|&k| !hier.cell_segmented((x, y), k)).count();
+            }
+        }
+        assert!(hier.stats().segmented_triangles > 0);
+        assert_eq!(mesh.triangles.len(), want);
+        assert_eq!(
+            mesh.triangles.len() + hier.stats().segmented_triangles,
+            2 * (w as usize - 1) * (h as usize - 1)
+        );
+        assert_conforming(&mesh);
+        assert_strips_match(&mesh);
+    }
+}
+
+#[test]
+fn step_edge_has_no_rubber_sheet_with_orthogonality_at_5_degrees() {
+    let (w, h) = (64, 40);
+    let depth = step(w, h);
+    let cam = camera(w, h);
+    let seg = Segmentation {
+        method: Method::Orthogonality { omega_deg: 5.0 },
+        lambda: 0.02,
+    };
+    let hier = DepthMesh::build(&depth, &cam, &seg).unwrap();
+    let view = Camera::new(
+        w,
+        h,
+        cam.projection,
+        glam::DQuat::from_rotation_y(0.2),
+        glam::DVec3::new(-0.5, 0.0, 0.1),
+    )
+    .unwrap();
+    for lod in [
+        Lod::Epsilon(0.0),
+        Lod::Epsilon(0.01),
+        Lod::Epsilon(10.0),
+        Lod::Tau {
+            tau: 1.0,
+            view: &view,
+        },
+        Lod::Tau {
+            tau: 50.0,
+            view: &view,
+        },
+    ] {
+        let mesh = hier.extract(lod).unwrap();
+        assert!(!mesh.triangles.is_empty());
+        for t in &mesh.triangles {
+            let z = t.map(|v| mesh.vertices[v as usize].depth);
+            let spread = z.iter().copied().fold(f32::MIN, f32::max)
+                - z.iter().copied().fold(f32::MAX, f32::min);
+            assert!(
+                spread < 0.5,
+                "rubber sheet {t:?} with depths {z:?} at {lod:?}"
+            );
+        }
+        assert_conforming(&mesh);
+    }
+    // And the hole converges: at epsilon 0 only the full-resolution flagged
+    // triangles (one column of cells) are missing.
+    let full = hier.extract(Lod::Epsilon(0.0)).unwrap();
+    assert_eq!(
+        full.triangles.len(),
+        2 * (w as usize - 1) * (h as usize - 1) - 2 * (h as usize - 1)
+    );
+}
+
+#[test]
+fn every_segmentation_method_cuts_the_step() {
+    let (w, h) = (32, 16);
+    let depth = step(w, h);
+    let cam = camera(w, h);
+    for method in [
+        Method::Orthogonality { omega_deg: 5.0 },
+        Method::Disparity { sigma: 0.1 },
+        Method::Connectedness { kappa: 1.0 },
+    ] {
+        let hier = DepthMesh::build(
+            &depth,
+            &cam,
+            &Segmentation {
+                method,
+                lambda: 0.02,
+            },
+        )
+        .unwrap();
+        let segmented = hier.stats().segmented_triangles;
+        assert!(
+            segmented >= 2 * (h as usize - 1),
+            "{method:?} segmented only {segmented}"
+        );
+        assert!(
+            segmented <= 6 * (h as usize - 1),
+            "{method:?} segmented {segmented}: too many"
+        );
+    }
+    let none = DepthMesh::build(
+        &depth,
+        &cam,
+        &Segmentation {
+            method: Method::None,
+            lambda: 0.0,
+        },
+    )
+    .unwrap();
+    assert_eq!(none.stats().segmented_triangles, 0);
+}
+
+#[test]
+fn lambda_gate_keeps_small_relief() {
+    // A 1 mm bump on a 2 m wall is rough surface, not a discontinuity.
+    let (w, h) = (32, 32);
+    let depth = depth_from(
+        w,
+        h,
+        |x, y| if (x / 4 + y / 4) % 2 == 0 { 2.0 } else { 2.001 },
+    );
+    let cam = camera(w, h);
+    let gated = DepthMesh::build(
+        &depth,
+        &cam,
+        &Segmentation {
+            method: Method::Orthogonality { omega_deg: 80.0 },
+            lambda: 0.01,
+        },
+    )
+    .unwrap();
+    assert_eq!(gated.stats().segmented_triangles, 0);
+    let ungated = DepthMesh::build(
+        &depth,
+        &cam,
+        &Segmentation {
+            method: Method::Orthogonality { omega_deg: 80.0 },
+            lambda: 0.0,
+        },
+    )
+    .unwrap();
+    assert!(ungated.stats().segmented_triangles > 0);
+}
+
+#[test]
+fn view_dependent_meshes_are_conforming_and_coarsen_with_distance() {
+    let (w, h) = (129, 97);
+    let depth = waves(w, h);
+    let cam = camera(w, h);
+    let hier = DepthMesh::build(&depth, &cam, &Segmentation::default()).unwrap();
+    let near = cam;
+    let far = Camera::new(
+        w,
+        h,
+        cam.projection,
+        glam::DQuat::IDENTITY,
+        glam::DVec3::new(0.0, 0.0, -20.0),
+    )
+    .unwrap();
+    let m_near = hier
+        .extract(Lod::Tau {
+            tau: 1.0,
+            view: &near,
+        })
+        .unwrap();
+    let m_far = hier
+        .extract(Lod::Tau {
+            tau: 1.0,
+            view: &far,
+        })
+        .unwrap();
+    for m in [&m_near, &m_far] {
+        assert_conforming(m);
+        assert_strips_match(m);
+        assert_finite(m, w, h);
+    }
+    assert!(m_far.triangles.len() < m_near.triangles.len());
+    // Looking away: everything is culled.
+    let away = Camera::new(
+        w,
+        h,
+        cam.projection,
+        glam::DQuat::from_rotation_y(std::f64::consts::PI),
+        glam::DVec3::ZERO,
+    )
+    .unwrap();
+    assert!(hier
+        .extract(Lod::Tau {
+            tau: 1.0,
+            view: &away
+        })
+        .unwrap()
+        .triangles
+        .is_empty());
+}
+
+#[test]
+fn hierarchy_stays_within_24_bytes_per_grid_vertex() {
+    let depth = waves(513, 513);
+    let hier = DepthMesh::build(&depth, &camera(513, 513), &Segmentation::default()).unwrap();
+    let s = hier.stats();
+    assert!(
+        s.heap_bytes <= 24 * s.grid_vertices,
+        "{} bytes for {} vertices",
+        s.heap_bytes,
+        s.grid_vertices
+    );
+    assert!(
+        s.build_peak_bytes <= 24 * s.grid_vertices + 64 * 1024,
+        "build peak {}",
+        s.build_peak_bytes
+    );
+}
+
+fn arb_depth() -> impl Strategy<Value = (u32, u32, Vec<f32>)> {
+    (2u32..24, 2u32..24).prop_flat_map(|(w, h)| {
+        let n = (w * h) as usize;
+        let sample = prop_oneof![
+            6 => 0.5f32..4.0,
+            1 => Just(0.0f32),
+            1 => Just(f32::NAN),
+            1 => 100.0f32..200.0,
+        ];
+        (Just(w), Just(h), proptest::collection::vec(sample, n))
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 96, ..ProptestConfig::default() })]
+
+    #[test]
+    fn random_depths_give_conforming_bounded_meshes((w, h, z) in arb_depth(), eps in prop_oneof![Just(0.0), 0.0f64..0.5, 1.0f64..100.0], omega in 0.0f64..30.0) {
+        let depth = DepthImage::from_z(w, h, z).unwrap();
+        let seg = Segmentation { method: Method::Orthogonality { omega_deg: omega }, lambda: 0.01 };
+        check_all(&depth, &camera(w, h), &seg, eps);
+        let hier = DepthMesh::build(&depth, &camera(w, h), &seg).unwrap();
+        assert_monotone(&hier);
+    }
+
+    #[test]
+    fn random_views_give_conforming_finite_meshes(
+        (w, h, z) in arb_depth(),
+        tau in prop_oneof![Just(0.0), 0.0f64..4.0, 10.0f64..1000.0],
+        eye in (-5.0f64..5.0, -5.0f64..5.0, -10.0f64..5.0),
+        yaw in -3.2f64..3.2,
+    ) {
+        let depth = DepthImage::from_z(w, h, z).unwrap();
+        let cam = camera(w, h);
+        let hier = DepthMesh::build(&depth, &cam, &Segmentation::default()).unwrap();
+        let view = Camera::new(64, 48, cam.projection, glam::DQuat::from_rotation_y(yaw), glam::DVec3::new(eye.0, eye.1, eye.2)).unwrap();
+        let mesh = hier.extract(Lod::Tau { tau, view: &view }).unwrap();
+        assert_finite(&mesh, w, h);
+        assert_conforming(&mesh);
+        assert_strips_match(&mesh);
+    }
+}
