@@ -1,1 +1,134 @@
-fn main() {}
+//! Build and extraction benchmarks (criterion), plus a table of mesh sizes.
+//!
+//! `cargo bench --bench mesh` measures, single-threaded:
+//! - `build/<scene>`: the hierarchy build from a depth image;
+//! - `static/<scene>`: extraction at a static epsilon (0.5 % of the median depth);
+//! - `tau1/<scene>`: view-dependent extraction at tau = 1 px from a camera
+//!   10 % of the depth to the side of the reference and turned towards it.
+//!
+//! Before timing it prints, per scene, the triangles, indices per triangle
+//! and strips of each extraction.
+
+#![allow(missing_docs)] // criterion_group! generates undocumented items
+
+mod scenes;
+
+use std::hint::black_box;
+use std::time::Duration;
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use dmesh::camera::Camera;
+use dmesh::image::DepthImage;
+use dmesh::mesh::{DepthMesh, Lod, Mesh, Segmentation};
+
+fn all_scenes() -> Vec<(String, DepthImage, Camera)> {
+    let mut out: Vec<(String, DepthImage, Camera)> = Vec::new();
+    for (w, h) in [(513, 513), (1025, 1025), (1920, 1080)] {
+        let (d, c) = scenes::synthetic(w, h);
+        out.push((format!("synthetic-{w}x{h}"), d, c));
+    }
+    for name in ["cones", "teddy", "art", "books"] {
+        if let Some((d, c)) = scenes::middlebury(name) {
+            out.push((name.to_string(), d, c));
+        }
+    }
+    out
+}
+
+fn median_depth(d: &DepthImage) -> f64 {
+    let mut v: Vec<f32> = d.z.iter().copied().filter(|&z| z > 0.0).collect();
+    v.sort_unstable_by(f32::total_cmp);
+    f64::from(v.get(v.len() / 2).copied().unwrap_or(1.0))
+}
+
+fn side_view(c: &Camera, depth: f64) -> Camera {
+    let shift = 0.1 * depth;
+    let angle = -(0.1f64).atan();
+    Camera::new(
+        c.width,
+        c.height,
+        c.projection,
+        glam::DQuat::from_rotation_y(angle),
+        glam::DVec3::new(shift, 0.0, 0.0),
+    )
+    .unwrap()
+}
+
+fn row(name: &str, what: &str, m: &Mesh) {
+    let tris = m.triangles.len();
+    let ipt = m.strips.len() as f64 / tris.max(1) as f64;
+    println!(
+        "{name:<22} {what:<16} {tris:>10} {ipt:>9.3} {:>8} {:>10}",
+        m.strip_count(),
+        m.vertices.len()
+    );
+}
+
+fn bench(c: &mut Criterion) {
+    let scenes = all_scenes();
+    println!(
+        "{:<22} {:<16} {:>10} {:>9} {:>8} {:>10}",
+        "scene", "extraction", "triangles", "idx/tri", "strips", "vertices"
+    );
+    for (name, depth, cam) in &scenes {
+        let h = DepthMesh::build(depth, cam, &Segmentation::default()).unwrap();
+        let eps = 0.005 * median_depth(depth);
+        let view = side_view(cam, median_depth(depth));
+        row(
+            name,
+            &format!("eps={eps:.4}"),
+            &h.extract(Lod::Epsilon(eps)).unwrap(),
+        );
+        row(
+            name,
+            "tau=1",
+            &h.extract(Lod::Tau {
+                tau: 1.0,
+                view: &view,
+            })
+            .unwrap(),
+        );
+        row(
+            name,
+            "tau=0 (full)",
+            &h.extract(Lod::Tau {
+                tau: 0.0,
+                view: cam,
+            })
+            .unwrap(),
+        );
+    }
+    let mut g = c.benchmark_group("mesh");
+    g.sample_size(20)
+        .measurement_time(Duration::from_secs(3))
+        .warm_up_time(Duration::from_millis(500));
+    for (name, depth, cam) in &scenes {
+        let seg = Segmentation::default();
+        g.bench_function(format!("build/{name}"), |b| {
+            b.iter(|| DepthMesh::build(black_box(depth), cam, &seg).unwrap())
+        });
+        let h = DepthMesh::build(depth, cam, &seg).unwrap();
+        let eps = 0.005 * median_depth(depth);
+        let view = side_view(cam, median_depth(depth));
+        g.bench_function(format!("static/{name}"), |b| {
+            b.iter(|| h.extract(Lod::Epsilon(black_box(eps))).unwrap())
+        });
+        g.bench_function(format!("tau1/{name}"), |b| {
+            b.iter(|| {
+                h.extract(Lod::Tau {
+                    tau: black_box(1.0),
+                    view: &view,
+                })
+                .unwrap()
+            })
+        });
+    }
+    g.finish();
+}
+
+criterion_group! {
+    name = benches;
+    config = Criterion::default();
+    targets = bench
+}
+criterion_main!(benches);

@@ -61,7 +61,7 @@ fn finite(name: &str, value: f64) -> Result<f64> {
         Ok(value)
     } else {
         Err(Error::invalid(format!(
-            "camera {name} is {value}; it must be a finite number"
+            "camera {name} is {value:?}; it must be a finite number"
         )))
     }
 }
@@ -72,7 +72,7 @@ fn positive(name: &str, value: f64) -> Result<f64> {
         Ok(value)
     } else {
         Err(Error::invalid(format!(
-            "camera {name} is {value}; it must be a finite number greater than 0"
+            "camera {name} is {value:?}; it must be a finite number greater than 0"
         )))
     }
 }

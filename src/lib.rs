@@ -22,5 +22,6 @@ mod error;
 pub mod image;
 pub mod mesh;
 pub mod ply;
+pub mod synthetic;
 
 pub use error::{Error, Result};

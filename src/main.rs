@@ -1,1 +1,349 @@
-fn main() {}
+//! `dmesh`: command-line front end of the depth-mesh engine.
+//!
+//! - `dmesh demo`: meshes a built-in synthetic scene, no files needed;
+//! - `dmesh mesh`: meshes one depth image (EXR, PNG, PFM) for a camera and
+//!   writes a summary, JSON figures and optionally a binary PLY.
+//!
+//! Every failure exits non-zero with one line naming the problem.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::{anyhow, bail, Context, Result};
+use clap::{ArgGroup, Parser, Subcommand, ValueEnum};
+use dmesh::camera::{camera_from_json, Camera};
+use dmesh::image::{decode_color, decode_depth, ColorImage, DepthKind, DepthOptions, Limits};
+use dmesh::mesh::{DepthMesh, Lod, Mesh, Method, Segmentation};
+
+#[derive(Parser)]
+#[command(
+    name = "dmesh",
+    version,
+    about = "Multiresolution depth-meshes from depth images (DMesh)"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Mesh one depth image.
+    Mesh(Box<MeshArgs>),
+    /// Mesh a built-in synthetic scene (terrain with boxes) at several tolerances.
+    Demo {
+        /// Image width and height of the scene.
+        #[arg(long, default_value_t = 513)]
+        size: u32,
+        /// Write the epsilon = 0.01 mesh to this binary PLY file.
+        #[arg(long)]
+        ply: Option<PathBuf>,
+    },
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum KindArg {
+    Z,
+    Range,
+    Disparity,
+    #[value(alias = "inverse_depth")]
+    Inverse,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum SegmentArg {
+    Orthogonality,
+    Disparity,
+    Connectedness,
+    None,
+}
+
+#[derive(clap::Args)]
+#[command(group(ArgGroup::new("lod").required(true).args(["epsilon", "tau"])))]
+struct MeshArgs {
+    /// Depth image: OpenEXR (float), PNG (8/16-bit grey) or PFM.
+    #[arg(long)]
+    depth: PathBuf,
+    /// What the depth samples measure.
+    #[arg(long, value_enum, default_value = "z")]
+    depth_kind: KindArg,
+    /// Multiplies every raw sample.
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
+    scale: f64,
+    /// Added to every sample after scaling (Middlebury: dmin times the scale).
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    offset: f64,
+    /// Focal length in pixels times baseline, for --depth-kind disparity.
+    #[arg(long, allow_negative_numbers = true)]
+    focal_baseline: Option<f64>,
+    /// EXR channel to read (default: the first float channel).
+    #[arg(long)]
+    channel: Option<String>,
+    /// Reference camera JSON.
+    #[arg(long)]
+    camera: PathBuf,
+    /// Colour image (PNG or JPEG) of the same size; adds vertex colours to the PLY.
+    #[arg(long)]
+    color: Option<PathBuf>,
+    /// Static object-space tolerance in metres (0: full resolution).
+    #[arg(long, allow_negative_numbers = true)]
+    epsilon: Option<f64>,
+    /// View-dependent tolerance in pixels of --view (0: full resolution).
+    #[arg(long, requires = "view", allow_negative_numbers = true)]
+    tau: Option<f64>,
+    /// Requesting camera JSON for --tau.
+    #[arg(long)]
+    view: Option<PathBuf>,
+    /// Rubber-sheet test.
+    #[arg(long, value_enum, default_value = "orthogonality")]
+    segment: SegmentArg,
+    /// Orthogonality angle in degrees.
+    #[arg(long, default_value_t = 5.0, allow_negative_numbers = true)]
+    omega: f64,
+    /// Disparity threshold (Eq. 9).
+    #[arg(long, default_value_t = 0.05, allow_negative_numbers = true)]
+    sigma: f64,
+    /// Connectedness threshold (Eq. 6).
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
+    kappa: f64,
+    /// Depth-range gate dz / z (Eq. 11).
+    #[arg(long, default_value_t = 0.02, allow_negative_numbers = true)]
+    lambda: f64,
+    /// Largest accepted image, in pixels.
+    #[arg(long, default_value_t = 64 << 20)]
+    max_pixels: u64,
+    /// Write the mesh as binary little-endian PLY.
+    #[arg(long)]
+    ply: Option<PathBuf>,
+    /// Print one JSON object of figures instead of the summary.
+    #[arg(long)]
+    json: bool,
+}
+
+fn read(path: &Path, what: &str) -> Result<Vec<u8>> {
+    std::fs::read(path).with_context(|| format!("cannot read {what} file {}", path.display()))
+}
+
+fn read_camera(path: &Path, what: &str) -> Result<Camera> {
+    let bytes = read(path, what)?;
+    let text = String::from_utf8(bytes)
+        .map_err(|_| anyhow!("{what} file {} is not UTF-8 text", path.display()))?;
+    camera_from_json(&text).with_context(|| format!("{what} file {}", path.display()))
+}
+
+/// Peak resident set size of this process, from /proc (Linux); 0 elsewhere.
+fn peak_rss_bytes() -> u64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find_map(|l| l.strip_prefix("VmHWM:"))
+                .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<u64>().ok())
+        })
+        .map_or(0, |kb| kb * 1024)
+}
+
+fn write_ply(path: &Path, mesh: &Mesh, camera: &Camera, color: Option<&ColorImage>) -> Result<()> {
+    std::fs::write(path, dmesh::ply::encode_ply(mesh, camera, color))
+        .with_context(|| format!("cannot write PLY file {}", path.display()))
+}
+
+fn run_mesh(a: &MeshArgs) -> Result<()> {
+    let camera = read_camera(&a.camera, "camera")?;
+    let limits = Limits {
+        max_pixels: a.max_pixels,
+    };
+    let options = DepthOptions {
+        kind: match a.depth_kind {
+            KindArg::Z => DepthKind::Z,
+            KindArg::Range => DepthKind::Range,
+            KindArg::Disparity => DepthKind::Disparity,
+            KindArg::Inverse => DepthKind::InverseDepth,
+        },
+        scale: a.scale,
+        offset: a.offset,
+        focal_baseline: a.focal_baseline,
+        channel: a.channel.clone(),
+    };
+    let depth = decode_depth(&read(&a.depth, "depth")?, &options, &camera, &limits)
+        .with_context(|| format!("depth file {}", a.depth.display()))?;
+    let color = match &a.color {
+        Some(p) => {
+            let c = decode_color(&read(p, "colour")?, &limits)
+                .with_context(|| format!("colour file {}", p.display()))?;
+            if (c.width, c.height) != (depth.width, depth.height) {
+                bail!(
+                    "colour image is {}x{} but the depth image is {}x{}; they must match",
+                    c.width,
+                    c.height,
+                    depth.width,
+                    depth.height
+                );
+            }
+            Some(c)
+        }
+        None => None,
+    };
+    let seg = Segmentation {
+        method: match a.segment {
+            SegmentArg::Orthogonality => Method::Orthogonality { omega_deg: a.omega },
+            SegmentArg::Disparity => Method::Disparity { sigma: a.sigma },
+            SegmentArg::Connectedness => Method::Connectedness { kappa: a.kappa },
+            SegmentArg::None => Method::None,
+        },
+        lambda: a.lambda,
+    };
+    let hierarchy = DepthMesh::build(&depth, &camera, &seg)?;
+    let view = a
+        .view
+        .as_deref()
+        .map(|p| read_camera(p, "view camera"))
+        .transpose()?;
+    let lod = match (a.epsilon, a.tau, &view) {
+        (Some(e), None, _) => Lod::Epsilon(e),
+        (None, Some(t), Some(v)) => Lod::Tau { tau: t, view: v },
+        _ => bail!("give either --epsilon E or --tau T with --view VIEWCAM.json"),
+    };
+    let mesh = hierarchy.extract(lod)?;
+    if let Some(p) = &a.ply {
+        write_ply(p, &mesh, &camera, color.as_ref())?;
+    }
+    let stats = hierarchy.stats();
+    if a.json {
+        let figures = serde_json::json!({
+            "width": depth.width,
+            "height": depth.height,
+            "grid_vertices": stats.grid_vertices,
+            "vertices": mesh.vertices.len(),
+            "triangles": mesh.triangles.len(),
+            "strips": mesh.strip_count(),
+            "indices": mesh.strips.len(),
+            "segmented_triangles": stats.segmented_triangles,
+            "build_ms": stats.build_ms,
+            "extract_ms": mesh.extract_ms,
+            "peak_bytes": stats.build_peak_bytes,
+            "peak_rss_bytes": peak_rss_bytes(),
+        });
+        println!("{figures}");
+    } else {
+        println!(
+            "{}x{} depth image, {} grid vertices, {} segmented full-resolution triangles, built in {:.2} ms",
+            depth.width, depth.height, stats.grid_vertices, stats.segmented_triangles, stats.build_ms
+        );
+        println!(
+            "{} vertices, {} triangles in {} strips ({} indices, {:.3} per triangle), extracted in {:.2} ms",
+            mesh.vertices.len(),
+            mesh.triangles.len(),
+            mesh.strip_count(),
+            mesh.strips.len(),
+            mesh.strips.len() as f64 / mesh.triangles.len().max(1) as f64,
+            mesh.extract_ms
+        );
+        if let Some(p) = &a.ply {
+            println!("wrote {}", p.display());
+        }
+    }
+    Ok(())
+}
+
+fn run_demo(size: u32, ply: Option<&Path>) -> Result<()> {
+    if !(2..=8193).contains(&size) {
+        bail!("demo size is {size}; it must be between 2 and 8193");
+    }
+    let (depth, camera) = dmesh::synthetic::terrain_with_boxes(size, size);
+    let hierarchy = DepthMesh::build(&depth, &camera, &Segmentation::default())?;
+    let stats = hierarchy.stats();
+    println!(
+        "synthetic terrain with boxes, {size}x{size}: {} grid vertices, {} bytes, {} segmented triangles, built in {:.2} ms",
+        stats.grid_vertices, stats.heap_bytes, stats.segmented_triangles, stats.build_ms
+    );
+    println!(
+        "{:<26} {:>10} {:>10} {:>9} {:>11}",
+        "level of detail", "triangles", "vertices", "idx/tri", "extract ms"
+    );
+    let side = Camera::new(
+        size,
+        size,
+        camera.projection,
+        glam::DQuat::from_rotation_y(-0.1),
+        glam::DVec3::new(0.5, 0.0, 0.0),
+    )?;
+    let far = Camera::new(
+        size,
+        size,
+        camera.projection,
+        glam::DQuat::IDENTITY,
+        glam::DVec3::new(0.0, 0.0, -20.0),
+    )?;
+    let lods = [
+        ("epsilon 0 (full)", Lod::Epsilon(0.0)),
+        ("epsilon 1 mm", Lod::Epsilon(0.001)),
+        ("epsilon 1 cm", Lod::Epsilon(0.01)),
+        ("epsilon 10 cm", Lod::Epsilon(0.1)),
+        (
+            "tau 1 px, side view",
+            Lod::Tau {
+                tau: 1.0,
+                view: &side,
+            },
+        ),
+        (
+            "tau 1 px, 20 m back",
+            Lod::Tau {
+                tau: 1.0,
+                view: &far,
+            },
+        ),
+    ];
+    for (name, lod) in lods {
+        let m = hierarchy.extract(lod)?;
+        let ipt = m.strips.len() as f64 / m.triangles.len().max(1) as f64;
+        println!(
+            "{name:<26} {:>10} {:>10} {ipt:>9.3} {:>11.3}",
+            m.triangles.len(),
+            m.vertices.len(),
+            m.extract_ms
+        );
+    }
+    if let Some(p) = ply {
+        write_ply(p, &hierarchy.extract(Lod::Epsilon(0.01))?, &camera, None)?;
+        println!("wrote {}", p.display());
+    }
+    Ok(())
+}
+
+fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) if !e.use_stderr() => {
+            // --help and --version.
+            let _ = e.print();
+            return ExitCode::SUCCESS;
+        }
+        Err(e) => {
+            // Clap explains over several lines; keep everything before the
+            // usage block on one line.
+            let text = e.render().to_string();
+            let head: Vec<&str> = text
+                .lines()
+                .take_while(|l| !l.starts_with("Usage:"))
+                .map(str::trim)
+                .filter(|l| !l.is_empty())
+                .collect();
+            eprintln!("{}", head.join(" "));
+            return ExitCode::from(2);
+        }
+    };
+    let result = match &cli.command {
+        Command::Mesh(a) => run_mesh(a),
+        Command::Demo { size, ply } => run_demo(*size, ply.as_deref()),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            // One line: the context chain joined, outermost first.
+            eprintln!("error: {}", format!("{e:#}").replace('\n', " "));
+            ExitCode::FAILURE
+        }
+    }
+}

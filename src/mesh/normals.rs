@@ -15,7 +15,7 @@ use super::backproject::BackProject;
 use super::grid::Grid;
 use crate::camera::Camera;
 
-/// Octahedral encoding of a unit vector into two bytes.
+/// Octahedral encoding of the direction of `n` (any length) into two bytes.
 pub fn oct_encode(n: DVec3) -> [u8; 2] {
     let l1 = n.x.abs() + n.y.abs() + n.z.abs();
     if !(l1 > 0.0 && l1.is_finite()) {
@@ -26,7 +26,8 @@ pub fn oct_encode(n: DVec3) -> [u8; 2] {
         let sign = |v: f64| if v >= 0.0 { 1.0 } else { -1.0 };
         p = DVec2::new((1.0 - p.y.abs()) * sign(p.x), (1.0 - p.x.abs()) * sign(p.y));
     }
-    let q = |v: f64| ((v.clamp(-1.0, 1.0) * 0.5 + 0.5) * 255.0).round() as u8;
+    // Adding 0.5 then truncating rounds; `as` saturates, so this cannot wrap.
+    let q = |v: f64| ((v.clamp(-1.0, 1.0) * 0.5 + 0.5) * 255.0 + 0.5) as u8;
     [q(p.x), q(p.y)]
 }
 
@@ -43,7 +44,7 @@ pub fn oct_decode(e: [u8; 2]) -> DVec3 {
 
 /// Quantises `rho` in `[0, 1]` to a byte.
 pub fn rho_to_byte(rho: f64) -> u8 {
-    (rho.clamp(0.0, 1.0) * 255.0).round() as u8
+    (rho.clamp(0.0, 1.0) * 255.0 + 0.5) as u8
 }
 
 /// Computes the encoded normal and quality byte of every grid vertex.
@@ -53,47 +54,50 @@ pub fn normals_and_quality(
     bp: &BackProject,
     z: &[f32],
 ) -> (Vec<[u8; 2]>, Vec<u8>) {
-    let (gw, gh) = (grid.gw(), grid.gh());
+    let gw = grid.gw() as usize;
+    let (w, h) = (grid.width as usize, grid.height as usize);
     let facing = oct_encode(DVec3::NEG_Z);
     let mut normals = vec![facing; grid.len()];
     let mut rho = vec![0u8; grid.len()];
-    let valid = |x: i64, y: i64| -> Option<DVec3> {
-        if x < 0 || y < 0 || x >= i64::from(grid.width) || y >= i64::from(grid.height) {
-            return None;
-        }
-        let (x, y) = (x as u32, y as u32);
-        let zz = z[y as usize * gw as usize + x as usize];
-        (zz > 0.0).then(|| bp.point(x, y, zz))
-    };
-    // Difference across a sample along one axis, one-sided where needed.
+    let ortho = camera.is_orthographic();
+    // Difference across a sample along one axis, one-sided where a neighbour
+    // is invalid (depth 0) or off the image.
     let diff = |c: DVec3, lo: Option<DVec3>, hi: Option<DVec3>| match (lo, hi) {
         (Some(l), Some(h)) => Some(h - l),
         (None, Some(h)) => Some(h - c),
         (Some(l), None) => Some(c - l),
         (None, None) => None,
     };
-    for y in 0..grid.height.min(gh) {
-        for x in 0..grid.width.min(gw) {
-            let idx = y as usize * gw as usize + x as usize;
-            let zz = z[idx];
+    for y in 0..h {
+        let row = y * gw;
+        for x in 0..w {
+            let zz = z[row + x];
             if zz <= 0.0 {
                 continue;
             }
-            let p = bp.point(x, y, zz);
-            let (xi, yi) = (i64::from(x), i64::from(y));
-            let dx = diff(p, valid(xi - 1, yi), valid(xi + 1, yi));
-            let dy = diff(p, valid(xi, yi - 1), valid(xi, yi + 1));
-            let n = match (dx, dy) {
-                (Some(dx), Some(dy)) => dy.cross(dx).try_normalize(),
-                _ => None,
+            let at = |xx: usize, yy: usize| {
+                let d = z[yy * gw + xx];
+                (d > 0.0).then(|| bp.point(xx as u32, yy as u32, d))
             };
-            let v = camera.view_direction(p);
-            if let Some(mut n) = n {
-                if n.dot(v) > 0.0 {
-                    n = -n;
-                }
+            let p = bp.point(x as u32, y as u32, zz);
+            let left = if x > 0 { at(x - 1, y) } else { None };
+            let right = if x + 1 < w { at(x + 1, y) } else { None };
+            let up = if y > 0 { at(x, y - 1) } else { None };
+            let down = if y + 1 < h { at(x, y + 1) } else { None };
+            let n = match (diff(p, left, right), diff(p, up, down)) {
+                (Some(dx), Some(dy)) => dy.cross(dx),
+                _ => DVec3::ZERO,
+            };
+            // Neither n nor v needs normalising: the octahedral map divides by
+            // the L1 norm, and rho = |n . p| / (|n| |p|) takes one square root.
+            let v = if ortho { DVec3::Z } else { p };
+            let dot = n.dot(v);
+            let norms = (n.length_squared() * v.length_squared()).sqrt();
+            let idx = row + x;
+            if norms > 0.0 && norms.is_finite() {
+                let n = if dot > 0.0 { -n } else { n };
                 normals[idx] = oct_encode(n);
-                rho[idx] = rho_to_byte(n.dot(v).abs());
+                rho[idx] = rho_to_byte(dot.abs() / norms);
             } else {
                 normals[idx] = oct_encode(-v);
             }

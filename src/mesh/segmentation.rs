@@ -125,12 +125,12 @@ pub(crate) fn leaf_flags(s: &Samples<'_>, seg: &Segmentation) -> Vec<u8> {
             for half in 0..2 {
                 let corners = [d.a, d.b, d.apex[half]].map(|(cx, cy)| (cx as u32, cy as u32));
                 let zs = corners.map(|(cx, cy)| s.z[grid.index((cx, cy))]);
-                let flagged = if zs.iter().any(|&zz| zz <= 0.0) {
-                    true
-                } else {
-                    let pts = [0, 1, 2].map(|i| s.bp.point(corners[i].0, corners[i].1, zs[i]));
-                    gate(zs, seg.lambda)
-                        && match seg.method {
+                // Invalid corners always segment; the cheap gate of Eq. 11 comes
+                // before any back-projection, since most triangles fail it.
+                let flagged = zs.iter().any(|&zz| zz <= 0.0)
+                    || (gate(zs, seg.lambda) && {
+                        let pts = [0, 1, 2].map(|i| s.bp.point(corners[i].0, corners[i].1, zs[i]));
+                        match seg.method {
                             Method::None => false,
                             Method::Orthogonality { .. } => orthogonal(s.camera, pts, sin2),
                             Method::Disparity { .. } => {
@@ -150,7 +150,7 @@ pub(crate) fn leaf_flags(s: &Samples<'_>, seg: &Segmentation) -> Vec<u8> {
                                     || disconnected(s.camera, pts[2], pts[1], n(2), n(1), kappa)
                             }
                         }
-                };
+                    });
                 if flagged {
                     bits |= 1 << half;
                 }
@@ -189,7 +189,7 @@ fn orthogonal(camera: &Camera, p: [DVec3; 3], sin2: f64) -> bool {
 fn disconnected(camera: &Camera, p1: DVec3, p2: DVec3, n1: DVec3, n2: DVec3, kappa: f64) -> bool {
     let edge = p2 - p1;
     let len = edge.length();
-    if !(len > 0.0) {
+    if len <= 0.0 || len.is_nan() {
         return false;
     }
     let w = camera.view_direction(p1);

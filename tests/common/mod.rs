@@ -7,6 +7,9 @@ use dmesh::camera::Camera;
 use dmesh::image::DepthImage;
 use dmesh::mesh::{decode_strips, DepthMesh, Mesh};
 
+/// A grid point in signed coordinates.
+type P = (i64, i64);
+
 /// A perspective camera with a 60-degree-ish field of view, principal point at the centre.
 pub fn camera(w: u32, h: u32) -> Camera {
     let f = f64::from(w.max(h));
@@ -92,7 +95,7 @@ pub fn assert_conforming(mesh: &Mesh) {
         .map(|t| t.map(|v| ij(mesh, v)))
         .collect();
     let used: HashSet<(i64, i64)> = tris.iter().flatten().copied().collect();
-    let mut edges: HashMap<((i64, i64), (i64, i64)), u32> = HashMap::new();
+    let mut edges: HashMap<(P, P), u32> = HashMap::new();
     // Coverage of points at 1/6 pixel resolution: centroids of the finest triangles.
     let mut covered: HashMap<(i64, i64), u32> = HashMap::new();
     for t in &tris {

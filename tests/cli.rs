@@ -1,0 +1,253 @@
+//! The `dmesh` binary: figures as JSON, PLY output, one-line errors.
+
+use std::path::Path;
+use std::process::Command;
+
+use dmesh::image::{encode_exr, encode_pfm};
+
+fn dmesh(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_dmesh"))
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into(),
+        String::from_utf8_lossy(&out.stderr).into(),
+    )
+}
+
+fn scene(dir: &Path) -> (String, String, String) {
+    let (w, h) = (40u32, 30u32);
+    let z: Vec<f32> = (0..w * h)
+        .map(|i| {
+            if i % w < 20 {
+                2.0
+            } else {
+                3.0 + (i / w) as f32 * 0.01
+            }
+        })
+        .collect();
+    let depth = dir.join("depth.exr");
+    std::fs::write(&depth, encode_exr(w, h, &z).unwrap()).unwrap();
+    let pfm = dir.join("depth.pfm");
+    std::fs::write(&pfm, encode_pfm(w, h, &z)).unwrap();
+    let cam = dir.join("cam.json");
+    std::fs::write(&cam, r#"{"width": 40, "height": 30, "projection": {"perspective": {"fx": 40, "fy": 40, "cx": 19.5, "cy": 14.5}}}"#).unwrap();
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    (s(&depth), s(&pfm), s(&cam))
+}
+
+#[test]
+fn json_figures_describe_the_mesh() {
+    let dir = tempfile::tempdir().unwrap();
+    let (depth, pfm, cam) = scene(dir.path());
+    for file in [&depth, &pfm] {
+        let (code, out, err) = dmesh(&[
+            "mesh",
+            "--depth",
+            file,
+            "--camera",
+            &cam,
+            "--epsilon",
+            "0",
+            "--json",
+        ]);
+        assert_eq!(code, 0, "{err}");
+        let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
+        for key in [
+            "width",
+            "height",
+            "grid_vertices",
+            "vertices",
+            "triangles",
+            "strips",
+            "indices",
+            "segmented_triangles",
+            "build_ms",
+            "extract_ms",
+            "peak_bytes",
+        ] {
+            assert!(v.get(key).is_some(), "missing {key} in {out}");
+        }
+        assert_eq!(v["width"], 40);
+        // Full resolution minus the column of cells across the step.
+        let segmented = v["segmented_triangles"].as_u64().unwrap();
+        assert_eq!(segmented, 2 * 29);
+        assert_eq!(v["triangles"].as_u64().unwrap(), 2 * 39 * 29 - segmented);
+    }
+}
+
+#[test]
+fn ply_has_a_header_that_matches_the_figures() {
+    let dir = tempfile::tempdir().unwrap();
+    let (depth, _, cam) = scene(dir.path());
+    let ply = dir.path().join("out.ply");
+    let view = dir.path().join("view.json");
+    std::fs::write(&view, r#"{"width": 64, "height": 48, "projection": {"perspective": {"fx": 60, "fy": 60, "cx": 31.5, "cy": 23.5}}, "pose": {"rotation": [0, 0.05, 0, 0.99875], "translation": [0.2, 0, -1]}}"#).unwrap();
+    let (code, out, err) = dmesh(&[
+        "mesh",
+        "--depth",
+        &depth,
+        "--camera",
+        &cam,
+        "--tau",
+        "0.5",
+        "--view",
+        view.to_str().unwrap(),
+        "--ply",
+        ply.to_str().unwrap(),
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
+    let bytes = std::fs::read(&ply).unwrap();
+    let text = String::from_utf8_lossy(&bytes[..400]);
+    assert!(text.starts_with("ply\nformat binary_little_endian 1.0\n"));
+    assert!(text.contains(&format!("element vertex {}", v["vertices"])));
+    assert!(text.contains(&format!("element face {}", v["triangles"])));
+    assert!(text.contains("property float quality"));
+}
+
+#[test]
+fn bad_input_fails_with_one_line_naming_the_problem() {
+    let dir = tempfile::tempdir().unwrap();
+    let (depth, _, cam) = scene(dir.path());
+    let truncated = dir.path().join("cut.exr");
+    std::fs::write(&truncated, &std::fs::read(&depth).unwrap()[..100]).unwrap();
+    let bad_cam = dir.path().join("bad.json");
+    std::fs::write(&bad_cam, r#"{"width": 40, "height": 30, "projection": {"perspective": {"fx": 0, "fy": 40, "cx": 19.5, "cy": 14.5}}}"#).unwrap();
+    let small_cam = dir.path().join("small.json");
+    std::fs::write(&small_cam, r#"{"width": 4, "height": 3, "projection": {"perspective": {"fx": 4, "fy": 4, "cx": 2, "cy": 1}}}"#).unwrap();
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (
+            vec![
+                "mesh",
+                "--depth",
+                "/nonexistent.exr",
+                "--camera",
+                &cam,
+                "--epsilon",
+                "1",
+            ],
+            "cannot read depth file",
+        ),
+        (
+            vec![
+                "mesh",
+                "--depth",
+                truncated.to_str().unwrap(),
+                "--camera",
+                &cam,
+                "--epsilon",
+                "1",
+            ],
+            "depth EXR",
+        ),
+        (
+            vec![
+                "mesh",
+                "--depth",
+                &depth,
+                "--camera",
+                bad_cam.to_str().unwrap(),
+                "--epsilon",
+                "1",
+            ],
+            "fx",
+        ),
+        (
+            vec![
+                "mesh",
+                "--depth",
+                &depth,
+                "--camera",
+                small_cam.to_str().unwrap(),
+                "--epsilon",
+                "1",
+            ],
+            "must match",
+        ),
+        (
+            vec![
+                "mesh",
+                "--depth",
+                &depth,
+                "--camera",
+                &cam,
+                "--epsilon",
+                "-1",
+            ],
+            "epsilon",
+        ),
+        (
+            vec![
+                "mesh",
+                "--depth",
+                &depth,
+                "--camera",
+                &cam,
+                "--epsilon",
+                "1",
+                "--omega",
+                "120",
+            ],
+            "omega",
+        ),
+        (
+            vec!["mesh", "--depth", &depth, "--camera", &cam, "--tau", "1"],
+            "--view",
+        ),
+        (
+            vec!["mesh", "--depth", &depth, "--camera", &cam],
+            "--epsilon",
+        ),
+        (
+            vec![
+                "mesh",
+                "--depth",
+                &depth,
+                "--camera",
+                &cam,
+                "--epsilon",
+                "1",
+                "--depth-kind",
+                "disparity",
+            ],
+            "focal_baseline",
+        ),
+        (
+            vec![
+                "mesh",
+                "--depth",
+                &depth,
+                "--camera",
+                &cam,
+                "--epsilon",
+                "1",
+                "--max-pixels",
+                "100",
+            ],
+            "limit",
+        ),
+    ];
+    for (args, needle) in cases {
+        let (code, _, err) = dmesh(&args);
+        assert_ne!(code, 0, "{args:?} succeeded");
+        assert_eq!(err.trim().lines().count(), 1, "{args:?}: {err}");
+        assert!(
+            err.contains(needle),
+            "{args:?}: {err:?} does not mention {needle}"
+        );
+    }
+}
+
+#[test]
+fn demo_runs_without_files() {
+    let (code, out, err) = dmesh(&["demo", "--size", "65"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        out.contains("epsilon 1 cm") && out.contains("tau 1 px"),
+        "{out}"
+    );
+}
