@@ -35,6 +35,18 @@ impl BackProject {
         DVec3::new(ax + bx * z, ay + by * z, z)
     }
 
+    /// `(ax, bx)` of column `x`: camera-frame `x = ax + bx * z`.
+    #[inline]
+    pub fn col(&self, x: usize) -> (f64, f64) {
+        self.cols[x]
+    }
+
+    /// `(ay, by)` of row `y`: camera-frame `y = ay + by * z`.
+    #[inline]
+    pub fn row(&self, y: usize) -> (f64, f64) {
+        self.rows[y]
+    }
+
     /// Heap bytes held.
     pub fn heap_bytes(&self) -> usize {
         (self.cols.capacity() + self.rows.capacity()) * std::mem::size_of::<(f64, f64)>()

@@ -160,7 +160,9 @@ impl DepthMesh {
                 *d = if s.is_finite() && s > 0.0 { s } else { 0.0 };
             }
         }
+        let t0 = Instant::now();
         let (normal, rho) = normals_and_quality(&grid, camera, &bp, &z);
+        let t1 = Instant::now();
         let cells = leaf_flags(
             &Samples {
                 grid: &grid,
@@ -171,6 +173,7 @@ impl DepthMesh {
             },
             seg,
         );
+        let t2 = Instant::now();
         let mut segmented = 0;
         for y in 0..depth.height - 1 {
             for x in 0..depth.width - 1 {
@@ -198,20 +201,48 @@ impl DepthMesh {
         };
         mesh.build_peak_bytes = mesh.heap_bytes() + flags.capacity() + 2 * dev.hi.capacity() * 4;
         let zmax = mesh.z.iter().copied().fold(0f32, f32::max);
+        mesh.levels(&mut flags, &mut dev, zmax);
+        mesh.flags = flags;
+        if std::env::var_os("DMESH_PHASES").is_some() {
+            eprintln!(
+                "copy {:?} normals {:?} leaves {:?} levels {:?}",
+                t0 - start,
+                t1 - t0,
+                t2 - t1,
+                t2.elapsed()
+            );
+        }
+        mesh.build_ms = start.elapsed().as_secs_f64() * 1e3;
+        Ok(mesh)
+    }
+
+    #[inline]
+    fn point(&self, (x, y): Pt) -> DVec3 {
+        self.bp.point(x, y, self.z[self.grid.index((x, y))])
+    }
+
+    /// The bottom-up pass over all levels, finest first.
+    #[inline(never)]
+    fn levels(&mut self, flags: &mut [u8], dev: &mut Dev, zmax: f32) {
+        let grid = self.grid;
+        let (gw, gh) = (grid.gw(), grid.gh());
+        // Level 0 edge midpoints are half of all vertices: a dedicated pass.
+        self.finest_edges(flags, dev, zmax, Bisects::Row);
+        self.finest_edges(flags, dev, zmax, Bisects::Column);
         for g in 0..grid.k {
             let h = 1u32 << g;
             let step = 2 * h as usize;
             // Edge midpoints of level g depend on centres of level g - 1,
             // centres of level g on edge midpoints of level g.
-            for y in (0..gh).step_by(step) {
+            for y in (0..gh).step_by(if g == 0 { usize::MAX } else { step }) {
                 for x in (h..gw).step_by(step) {
                     let apex = [
                         (y >= h).then(|| (x, y - h)),
                         (y + h < gh).then_some((x, y + h)),
                     ];
-                    mesh.split_vertex(
-                        &mut flags,
-                        &mut dev,
+                    self.split_vertex(
+                        flags,
+                        dev,
                         zmax,
                         (x, y),
                         (x - h, y),
@@ -221,15 +252,15 @@ impl DepthMesh {
                     );
                 }
             }
-            for y in (h..gh).step_by(step) {
+            for y in (h..gh).step_by(if g == 0 { usize::MAX } else { step }) {
                 for x in (0..gw).step_by(step) {
                     let apex = [
                         (x >= h).then(|| (x - h, y)),
                         (x + h < gw).then_some((x + h, y)),
                     ];
-                    mesh.split_vertex(
-                        &mut flags,
-                        &mut dev,
+                    self.split_vertex(
+                        flags,
+                        dev,
                         zmax,
                         (x, y),
                         (x, y - h),
@@ -257,9 +288,9 @@ impl DepthMesh {
                     } else {
                         [(qx, py), (px, qy)]
                     };
-                    mesh.split_vertex(
-                        &mut flags,
-                        &mut dev,
+                    self.split_vertex(
+                        flags,
+                        dev,
                         zmax,
                         (x, y),
                         (px, py),
@@ -270,14 +301,105 @@ impl DepthMesh {
                 }
             }
         }
-        mesh.flags = flags;
-        mesh.build_ms = start.elapsed().as_secs_f64() * 1e3;
-        Ok(mesh)
     }
 
-    #[inline]
-    fn point(&self, (x, y): Pt) -> DVec3 {
-        self.bp.point(x, y, self.z[self.grid.index((x, y))])
+    /// The edge midpoints of level 0, which bisect an edge of length 2: their
+    /// halves are finest triangles, so there are no children to saturate over,
+    /// the radius is 0 and the deviation interval is the detail itself.
+    /// Same results as [`Self::split_vertex`], in a tight loop.
+    #[inline(never)]
+    fn finest_edges(&mut self, flags: &mut [u8], dev: &mut Dev, zmax: f32, bisects: Bisects) {
+        let (gw, gh) = (self.grid.gw() as usize, self.grid.gh() as usize);
+        let row = bisects == Bisects::Row;
+        // Step between a and v, and between v and an apex, in the flat index.
+        let (along, across) = if row { (1, gw) } else { (gw, 1) };
+        // Cells holding the two finest triangles of each half, and their bits:
+        // half 0 (apex before v across the edge), half 1 (after).
+        let cells: [[(isize, u8); 2]; 2] = if row {
+            let g = gw as isize;
+            [
+                [(-g - 1, cell_bit(1)), (-g, cell_bit(0))],
+                [(-1, cell_bit(1)), (0, cell_bit(0))],
+            ]
+        } else {
+            let g = gw as isize;
+            [
+                [(-g - 1, cell_bit(1)), (-1, cell_bit(1))],
+                [(-g, cell_bit(0)), (0, cell_bit(0))],
+            ]
+        };
+        let (ys, xs) = if row {
+            ((0..gh).step_by(2), 1)
+        } else {
+            ((1..gh).step_by(2), 0)
+        };
+        for y in ys {
+            for x in (xs..gw).step_by(2) {
+                let vi = y * gw + x;
+                let exists = if row {
+                    [y > 0, y + 1 < gh]
+                } else {
+                    [x > 0, x + 1 < gw]
+                };
+                let (za, zv, zb) = (self.z[vi - along], self.z[vi], self.z[vi + along]);
+                let mut bits = flags[vi] & 0xf0;
+                let mut unflagged = false;
+                let mut partial = false;
+                for half in 0..2 {
+                    if !exists[half] {
+                        bits |= or_bit(half) | and_bit(half);
+                        continue;
+                    }
+                    let [(o0, b0), (o1, b1)] = cells[half];
+                    let s0 = flags[(vi as isize + o0) as usize] & b0 != 0;
+                    let s1 = flags[(vi as isize + o1) as usize] & b1 != 0;
+                    if s0 || s1 {
+                        bits |= or_bit(half);
+                    }
+                    if s0 && s1 {
+                        bits |= and_bit(half);
+                    }
+                    unflagged |= !(s0 || s1);
+                    partial |= (s0 || s1) && !(s0 && s1);
+                }
+                flags[vi] = bits;
+                let mut own = 0f64;
+                let (mut hi, mut lo) = (0f32, 0f32);
+                if unflagged {
+                    let detail = f64::from(zv) - 0.5 * (f64::from(za) + f64::from(zb));
+                    (hi, lo) = (round_up(detail.max(0.0)), round_down(detail.min(0.0)));
+                    let (xv, yv) = ((x as u32), (y as u32));
+                    let pv = self.bp.point(xv, yv, zv);
+                    let (pa, pb) = if row {
+                        (self.bp.point(xv - 1, yv, za), self.bp.point(xv + 1, yv, zb))
+                    } else {
+                        (self.bp.point(xv, yv - 1, za), self.bp.point(xv, yv + 1, zb))
+                    };
+                    let eq2 = if row {
+                        point_line_2d_sq((pv.x, pv.z), (pa.x, pa.z), (pb.x, pb.z))
+                    } else {
+                        point_line_2d_sq((pv.y, pv.z), (pa.y, pa.z), (pb.y, pb.z))
+                    };
+                    own = eq2.max(detail * detail);
+                }
+                if partial {
+                    let zapex = match exists {
+                        [true, true] => self.z[vi - across].max(self.z[vi + across]),
+                        [true, false] => self.z[vi - across],
+                        [false, true] => self.z[vi + across],
+                        [false, false] => 0.0,
+                    };
+                    let zref = [za, zb, zv, zapex].into_iter().fold(0f32, f32::max);
+                    let zref = if zref > 0.0 { zref } else { zmax };
+                    let extent = 2.0 * self.camera.pixel_size(f64::from(zref));
+                    own = own.max(extent * extent);
+                }
+                dev.hi[vi] = hi;
+                dev.lo[vi] = lo;
+                self.err2[vi] = round_up(own);
+                self.radius[vi] = 0.0;
+            }
+        }
     }
 
     /// Computes flags, own and saturated error, radius and deviation of the

@@ -48,6 +48,7 @@ pub fn rho_to_byte(rho: f64) -> u8 {
 }
 
 /// Computes the encoded normal and quality byte of every grid vertex.
+#[inline(never)]
 pub fn normals_and_quality(
     grid: &Grid,
     camera: &Camera,
@@ -68,18 +69,52 @@ pub fn normals_and_quality(
         (Some(l), None) => Some(c - l),
         (None, None) => None,
     };
+    let mut finish = |idx: usize, n: DVec3, p: DVec3| {
+        // Neither n nor v needs normalising: the octahedral map divides by
+        // the L1 norm, and rho = |n . p| / (|n| |p|) takes one square root.
+        let v = if ortho { DVec3::Z } else { p };
+        let dot = n.dot(v);
+        let norms = (n.length_squared() * v.length_squared()).sqrt();
+        if norms > 0.0 && norms.is_finite() {
+            normals[idx] = oct_encode(if dot > 0.0 { -n } else { n });
+            rho[idx] = rho_to_byte(dot.abs() / norms);
+        } else {
+            normals[idx] = oct_encode(-v);
+        }
+    };
     for y in 0..h {
         let row = y * gw;
+        let (ay, by) = bp.row(y);
         for x in 0..w {
-            let zz = z[row + x];
+            let idx = row + x;
+            let zz = z[idx];
             if zz <= 0.0 {
                 continue;
+            }
+            let (ax, bx) = bp.col(x);
+            let p = DVec3::new(
+                ax + bx * f64::from(zz),
+                ay + by * f64::from(zz),
+                f64::from(zz),
+            );
+            // Fast path: all four neighbours valid, central differences.
+            if x > 0 && x + 1 < w && y > 0 && y + 1 < h {
+                let (zl, zr, zu, zd) = (z[idx - 1], z[idx + 1], z[idx - gw], z[idx + gw]);
+                if zl > 0.0 && zr > 0.0 && zu > 0.0 && zd > 0.0 {
+                    let (zl, zr, zu, zd) =
+                        (f64::from(zl), f64::from(zr), f64::from(zu), f64::from(zd));
+                    let ((axl, bxl), (axr, bxr)) = (bp.col(x - 1), bp.col(x + 1));
+                    let ((ayu, byu), (ayd, byd)) = (bp.row(y - 1), bp.row(y + 1));
+                    let dx = DVec3::new(axr + bxr * zr - axl - bxl * zl, by * (zr - zl), zr - zl);
+                    let dy = DVec3::new(bx * (zd - zu), ayd + byd * zd - ayu - byu * zu, zd - zu);
+                    finish(idx, dy.cross(dx), p);
+                    continue;
+                }
             }
             let at = |xx: usize, yy: usize| {
                 let d = z[yy * gw + xx];
                 (d > 0.0).then(|| bp.point(xx as u32, yy as u32, d))
             };
-            let p = bp.point(x as u32, y as u32, zz);
             let left = if x > 0 { at(x - 1, y) } else { None };
             let right = if x + 1 < w { at(x + 1, y) } else { None };
             let up = if y > 0 { at(x, y - 1) } else { None };
@@ -88,19 +123,7 @@ pub fn normals_and_quality(
                 (Some(dx), Some(dy)) => dy.cross(dx),
                 _ => DVec3::ZERO,
             };
-            // Neither n nor v needs normalising: the octahedral map divides by
-            // the L1 norm, and rho = |n . p| / (|n| |p|) takes one square root.
-            let v = if ortho { DVec3::Z } else { p };
-            let dot = n.dot(v);
-            let norms = (n.length_squared() * v.length_squared()).sqrt();
-            let idx = row + x;
-            if norms > 0.0 && norms.is_finite() {
-                let n = if dot > 0.0 { -n } else { n };
-                normals[idx] = oct_encode(n);
-                rho[idx] = rho_to_byte(dot.abs() / norms);
-            } else {
-                normals[idx] = oct_encode(-v);
-            }
+            finish(idx, n, p);
         }
     }
     (normals, rho)

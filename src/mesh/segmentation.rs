@@ -106,6 +106,7 @@ pub(crate) struct Samples<'a> {
 
 /// Flags the two finest triangles of every unit cell: bit `h` of the returned
 /// byte per cell (indexed like its min corner) is half `h`.
+#[inline(never)]
 pub(crate) fn leaf_flags(s: &Samples<'_>, seg: &Segmentation) -> Vec<u8> {
     let grid = s.grid;
     let (gw, gh) = (grid.gw(), grid.gh());
@@ -120,6 +121,20 @@ pub(crate) fn leaf_flags(s: &Samples<'_>, seg: &Segmentation) -> Vec<u8> {
     let mut out = vec![0u8; grid.len()];
     for y in 0..gh - 1 {
         for x in 0..gw - 1 {
+            // Fast path: four valid corners spanning too little depth for
+            // Eq. 11 leave both triangles of the cell unsegmented.
+            let i = grid.index((x, y));
+            let q = [
+                s.z[i],
+                s.z[i + 1],
+                s.z[i + gw as usize],
+                s.z[i + gw as usize + 1],
+            ];
+            let lo = q[0].min(q[1]).min(q[2].min(q[3]));
+            let hi = q[0].max(q[1]).max(q[2].max(q[3]));
+            if lo > 0.0 && f64::from(hi) - f64::from(lo) <= seg.lambda * f64::from(lo) {
+                continue;
+            }
             let d: Diamond = grid.cell((x, y));
             let mut bits = 0u8;
             for half in 0..2 {
