@@ -25,7 +25,7 @@ use glam::DVec3;
 
 use super::grid::{cell_half, half_of, Pt};
 use super::hierarchy::{and_bit, cell_bit, or_bit, DepthMesh};
-use super::select::{Select, Static, ViewDependent};
+use super::select::{PlaneMask, Select, Static, ViewDependent, ALL_PLANES};
 use super::strips::{stripify, BREAK};
 use crate::camera::Camera;
 use crate::error::{Error, Result};
@@ -96,11 +96,6 @@ struct Walk<'a, S> {
 }
 
 impl<S: Select> Walk<'_, S> {
-    #[inline]
-    fn point(&self, p: Pt) -> DVec3 {
-        self.mesh.position(p)
-    }
-
     fn skip(&mut self) {
         if self.tris.last().is_some_and(|t| *t != BREAK) {
             self.tris.push(BREAK);
@@ -117,18 +112,16 @@ impl<S: Select> Walk<'_, S> {
         self.tris.push([l, r, a].map(|p| g.index(p) as u32));
     }
 
-    /// Triangle with hypotenuse `l-r` (entered at `l`, left at `r`) and apex `a`.
-    fn tri(&mut self, l: Pt, r: Pt, a: Pt) {
+    /// Triangle with hypotenuse `l-r` (entered at `l`, left at `r`) and apex
+    /// `a`; `mask` holds the frustum planes it may cross.
+    fn tri(&mut self, (l, pl): (Pt, DVec3), (r, pr): (Pt, DVec3), (a, pa): (Pt, DVec3), mask: PlaneMask) {
         let g = self.mesh.grid;
         if l.0.abs_diff(r.0) == 1 && l.1.abs_diff(r.1) == 1 {
             let cell = (l.0.min(r.0), l.1.min(r.1));
             if self.mesh.flags[g.index(cell)] & cell_bit(cell_half(cell, a)) != 0 {
                 self.dropped += 1;
                 self.skip();
-            } else if self
-                .sel
-                .outside([self.point(l), self.point(r), self.point(a)], None)
-            {
+            } else if mask != 0 && self.sel.cull([pl, pr, pa], None, mask).is_none() {
                 self.skip();
             } else {
                 self.emit(l, r, a);
@@ -144,18 +137,22 @@ impl<S: Select> Walk<'_, S> {
             self.skip();
             return;
         }
-        let pm = self.point(m);
+        let pm = self.mesh.position(m);
         let radius = self.mesh.radius[mi];
-        if self.sel.outside(
-            [self.point(l), self.point(r), self.point(a)],
-            Some((pm, radius)),
-        ) {
-            self.skip();
-            return;
-        }
-        if self.sel.active(self.mesh.err2[mi], pm, radius) {
-            self.tri(l, a, m);
-            self.tri(a, r, m);
+        let mask = if mask == 0 {
+            0
+        } else {
+            match self.sel.cull([pl, pr, pa], Some((pm, radius)), mask) {
+                Some(left) => left,
+                None => {
+                    self.skip();
+                    return;
+                }
+            }
+        };
+        if self.sel.active(self.mesh.err2[mi], pm, radius, mask) {
+            self.tri((l, pl), (a, pa), (m, pm), mask);
+            self.tri((a, pa), (r, pr), (m, pm), mask);
         } else if flags & or_bit(half) != 0 {
             self.dropped += 1;
             self.skip();
@@ -192,7 +189,9 @@ impl DepthMesh {
             }
         };
         let (tris, dropped) = tris;
+        let t_walk = start.elapsed();
         let mut mesh = self.assemble(&tris);
+        if std::env::var_os("DMESH_PHASES").is_some() { eprintln!("walk {:?} assemble {:?} tris {}", t_walk, start.elapsed() - t_walk, tris.len()); }
         mesh.dropped_triangles = dropped;
         mesh.extract_ms = start.elapsed().as_secs_f64() * 1e3;
         Ok(mesh)
@@ -216,8 +215,9 @@ impl DepthMesh {
                     let q = (d.b.0 as u32, d.b.1 as u32);
                     let a0 = (d.apex[0].0 as u32, d.apex[0].1 as u32);
                     let a1 = (d.apex[1].0 as u32, d.apex[1].1 as u32);
-                    walk.tri(p, q, a0);
-                    walk.tri(q, p, a1);
+                    let at = |v: Pt| (v, self.position(v));
+                    walk.tri(at(p), at(q), at(a0), ALL_PLANES);
+                    walk.tri(at(q), at(p), at(a1), ALL_PLANES);
                 }
             }
         }
@@ -228,23 +228,32 @@ impl DepthMesh {
     fn assemble(&self, tris: &[[u32; 3]]) -> Mesh {
         let g = &self.grid;
         let gw = g.gw();
-        let mut used: Vec<u32> = tris
-            .iter()
-            .filter(|t| **t != BREAK)
-            .flatten()
-            .copied()
-            .collect();
-        used.sort_unstable();
-        used.dedup();
-        let level = |v: u32| g.level((v % gw, v / gw));
-        // Stable by level keeps row-major order within a level.
-        used.sort_by_key(|&v| level(v));
+        // First sight of each vertex, then a counting sort by level (stable,
+        // so traversal order is kept within a level).
         let mut slot = vec![u32::MAX; g.len()];
-        let vertices = used
+        let mut used: Vec<(u32, u8)> = Vec::with_capacity(tris.len() / 2 + 8);
+        let mut per_level = [0u32; 2 * 16 + 2];
+        for &v in tris.iter().filter(|t| **t != BREAK).flatten() {
+            if slot[v as usize] == u32::MAX {
+                slot[v as usize] = 0;
+                let level = g.level((v % gw, v / gw)) as u8;
+                per_level[usize::from(level) + 1] += 1;
+                used.push((v, level));
+            }
+        }
+        for l in 1..per_level.len() {
+            per_level[l] += per_level[l - 1];
+        }
+        let mut order = vec![0u32; used.len()];
+        for &(v, level) in &used {
+            let at = &mut per_level[usize::from(level)];
+            order[*at as usize] = v;
+            slot[v as usize] = *at;
+            *at += 1;
+        }
+        let vertices = order
             .iter()
-            .enumerate()
-            .map(|(n, &v)| {
-                slot[v as usize] = n as u32;
+            .map(|&v| {
                 let (x, y) = (v % gw, v / gw);
                 MeshVertex {
                     i: x as u16,
@@ -257,25 +266,9 @@ impl DepthMesh {
             .collect();
         let strips = stripify(tris)
             .into_iter()
-            .map(|i| {
-                if i == super::RESTART {
-                    i
-                } else {
-                    slot[i as usize]
-                }
-            })
+            .map(|i| if i == super::RESTART { i } else { slot[i as usize] })
             .collect();
-        let triangles = tris
-            .iter()
-            .filter(|t| **t != BREAK)
-            .map(|t| t.map(|i| slot[i as usize]))
-            .collect();
-        Mesh {
-            vertices,
-            strips,
-            triangles,
-            dropped_triangles: 0,
-            extract_ms: 0.0,
-        }
+        let triangles = tris.iter().filter(|t| **t != BREAK).map(|t| t.map(|i| slot[i as usize])).collect();
+        Mesh { vertices, strips, triangles, dropped_triangles: 0, extract_ms: 0.0 }
     }
 }

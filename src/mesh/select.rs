@@ -21,14 +21,24 @@ use glam::{DMat3, DVec3};
 
 use crate::camera::{Camera, Projection};
 
+/// Frustum planes still to test, one bit each: a triangle entirely inside a
+/// plane has descendants entirely inside it too, so the traversal drops that
+/// plane for them (the answer for it is known), which changes no decision.
+pub(crate) type PlaneMask = u8;
+
+/// Every plane.
+pub(crate) const ALL_PLANES: PlaneMask = 0b1_1111;
+
 /// A selection predicate plus triangle culling.
 pub(crate) trait Select {
     /// True when the vertex with squared error `err2`, position `p` and
-    /// nested radius `r` is to be in the mesh.
-    fn active(&self, err2: f32, p: DVec3, r: f32) -> bool;
-    /// True when a triangle with these corners, whose finer content lies in
-    /// `sphere`, is entirely outside the requesting view.
-    fn outside(&self, corners: [DVec3; 3], sphere: Option<(DVec3, f32)>) -> bool;
+    /// nested radius `r` is to be in the mesh; only planes in `mask` can
+    /// cull it.
+    fn active(&self, err2: f32, p: DVec3, r: f32, mask: PlaneMask) -> bool;
+    /// `None` when a triangle with these corners, whose finer content lies in
+    /// `sphere`, is entirely outside one plane of `mask`; otherwise the planes
+    /// of `mask` it is not entirely inside.
+    fn cull(&self, corners: [DVec3; 3], sphere: Option<(DVec3, f32)>, mask: PlaneMask) -> Option<PlaneMask>;
 }
 
 /// Static selection by an object-space tolerance.
@@ -39,24 +49,22 @@ pub(crate) struct Static {
 
 impl Select for Static {
     #[inline]
-    fn active(&self, err2: f32, _: DVec3, _: f32) -> bool {
+    fn active(&self, err2: f32, _: DVec3, _: f32, _: PlaneMask) -> bool {
         self.all || err2 > self.eps2
     }
 
     #[inline]
-    fn outside(&self, _: [DVec3; 3], _: Option<(DVec3, f32)>) -> bool {
-        false
+    fn cull(&self, _: [DVec3; 3], _: Option<(DVec3, f32)>, _: PlaneMask) -> Option<PlaneMask> {
+        Some(0)
     }
 }
 
 /// View-dependent selection for a requesting camera, in the reference frame.
 pub(crate) struct ViewDependent {
-    /// Reference-frame to view-frame rotation and offset.
-    rot: DMat3,
-    off: DVec3,
     /// Eye position in the reference frame.
     eye: DVec3,
-    /// Frustum planes (unit normal, offset) in the view frame: inside when `n . p + d >= 0`.
+    /// Frustum planes (unit normal, offset) moved into the reference frame,
+    /// so no point needs transforming: inside when `n . p + d >= 0`.
     planes: [(DVec3, f64); 5],
     /// `f^2` (perspective) or `None` (orthographic).
     focal2: Option<f64>,
@@ -105,9 +113,9 @@ impl ViewDependent {
             }
             (None, _) => (None, tau * tau),
         };
+        // n . (R p + o) + d = (R^T n) . p + (n . o + d).
+        let planes = planes.map(|(n, d)| (rot.transpose() * n, n.dot(off) + d));
         Self {
-            rot,
-            off,
             eye,
             planes,
             focal2,
@@ -117,22 +125,19 @@ impl ViewDependent {
     }
 
     #[inline]
-    fn to_view(&self, p: DVec3) -> DVec3 {
-        self.rot * p + self.off
-    }
-
-    #[inline]
-    fn sphere_outside(&self, c: DVec3, r: f64) -> Option<usize> {
-        let c = self.to_view(c);
-        self.planes.iter().position(|&(n, d)| n.dot(c) + d < -r)
+    fn sphere_outside(&self, c: DVec3, r: f64, mask: PlaneMask) -> bool {
+        if mask == 0 {
+            return false;
+        }
+        self.planes.iter().enumerate().any(|(i, &(n, d))| mask & (1 << i) != 0 && n.dot(c) + d < -r)
     }
 }
 
 impl Select for ViewDependent {
     #[inline]
-    fn active(&self, err2: f32, p: DVec3, r: f32) -> bool {
+    fn active(&self, err2: f32, p: DVec3, r: f32, mask: PlaneMask) -> bool {
         let r = f64::from(r);
-        if self.sphere_outside(p, r).is_some() {
+        if self.sphere_outside(p, r, mask) {
             return false;
         }
         if self.all {
@@ -148,12 +153,29 @@ impl Select for ViewDependent {
         }
     }
 
-    fn outside(&self, corners: [DVec3; 3], sphere: Option<(DVec3, f32)>) -> bool {
-        let corners = corners.map(|c| self.to_view(c));
-        let sphere = sphere.map(|(c, r)| (self.to_view(c), f64::from(r)));
-        self.planes.iter().any(|&(n, d)| {
-            corners.iter().all(|&c| n.dot(c) + d < 0.0)
-                && sphere.is_none_or(|(c, r)| n.dot(c) + d < -r)
-        })
+    fn cull(&self, corners: [DVec3; 3], sphere: Option<(DVec3, f32)>, mask: PlaneMask) -> Option<PlaneMask> {
+        if mask == 0 {
+            return Some(0);
+        }
+        let sphere = sphere.map(|(c, r)| (c, f64::from(r)));
+        let mut left = mask;
+        for (i, &(n, d)) in self.planes.iter().enumerate() {
+            if mask & (1 << i) == 0 {
+                continue;
+            }
+            let dist = corners.map(|c| n.dot(c) + d);
+            let (lo, hi) = (dist[0].min(dist[1]).min(dist[2]), dist[0].max(dist[1]).max(dist[2]));
+            let (s_lo, s_hi) = sphere.map_or((lo, hi), |(c, r)| {
+                let e = n.dot(c) + d;
+                (e - r, e + r)
+            });
+            if hi < 0.0 && s_hi < 0.0 {
+                return None;
+            }
+            if lo >= 0.0 && s_lo >= 0.0 {
+                left &= !(1 << i);
+            }
+        }
+        Some(left)
     }
 }
