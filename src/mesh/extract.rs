@@ -114,7 +114,13 @@ impl<S: Select> Walk<'_, S> {
 
     /// Triangle with hypotenuse `l-r` (entered at `l`, left at `r`) and apex
     /// `a`; `mask` holds the frustum planes it may cross.
-    fn tri(&mut self, (l, pl): (Pt, DVec3), (r, pr): (Pt, DVec3), (a, pa): (Pt, DVec3), mask: PlaneMask) {
+    fn tri(
+        &mut self,
+        (l, pl): (Pt, DVec3),
+        (r, pr): (Pt, DVec3),
+        (a, pa): (Pt, DVec3),
+        mask: PlaneMask,
+    ) {
         let g = self.mesh.grid;
         if l.0.abs_diff(r.0) == 1 && l.1.abs_diff(r.1) == 1 {
             let cell = (l.0.min(r.0), l.1.min(r.1));
@@ -191,7 +197,14 @@ impl DepthMesh {
         let (tris, dropped) = tris;
         let t_walk = start.elapsed();
         let mut mesh = self.assemble(&tris);
-        if std::env::var_os("DMESH_PHASES").is_some() { eprintln!("walk {:?} assemble {:?} tris {}", t_walk, start.elapsed() - t_walk, tris.len()); }
+        if std::env::var_os("DMESH_PHASES").is_some() {
+            eprintln!(
+                "walk {:?} assemble {:?} tris {}",
+                t_walk,
+                start.elapsed() - t_walk,
+                tris.len()
+            );
+        }
         mesh.dropped_triangles = dropped;
         mesh.extract_ms = start.elapsed().as_secs_f64() * 1e3;
         Ok(mesh)
@@ -266,9 +279,25 @@ impl DepthMesh {
             .collect();
         let strips = stripify(tris)
             .into_iter()
-            .map(|i| if i == super::RESTART { i } else { slot[i as usize] })
+            .map(|i| {
+                if i == super::RESTART {
+                    i
+                } else {
+                    slot[i as usize]
+                }
+            })
             .collect();
-        let triangles = tris.iter().filter(|t| **t != BREAK).map(|t| t.map(|i| slot[i as usize])).collect();
-        Mesh { vertices, strips, triangles, dropped_triangles: 0, extract_ms: 0.0 }
+        let triangles = tris
+            .iter()
+            .filter(|t| **t != BREAK)
+            .map(|t| t.map(|i| slot[i as usize]))
+            .collect();
+        Mesh {
+            vertices,
+            strips,
+            triangles,
+            dropped_triangles: 0,
+            extract_ms: 0.0,
+        }
     }
 }

@@ -35,6 +35,7 @@ use std::time::Instant;
 use glam::DVec3;
 
 use super::backproject::BackProject;
+use super::deviation::{half_rows, max_deviation};
 use super::error_metric::{point_line_2d_sq, point_line_3d_sq};
 use super::grid::{cell_half, half_of, Grid, Pt};
 use super::normals::normals_and_quality;
@@ -98,12 +99,6 @@ pub struct BuildStats {
     pub build_ms: f64,
 }
 
-/// Per-vertex signed deviation interval, scratch of the build.
-struct Dev {
-    hi: Vec<f32>,
-    lo: Vec<f32>,
-}
-
 /// Which edge a split vertex bisects: Eq. 1 for diagonals, Eq. 2 in the
 /// x,z-plane for an edge along a row and in the y,z-plane along a column.
 #[derive(Clone, Copy, PartialEq, Eq)]
@@ -124,11 +119,6 @@ fn norm_bound(d: DVec3) -> f64 {
 fn round_up(v: f64) -> f32 {
     let f = v as f32;
     if f64::from(f) < v { f.next_up() } else { f }.min(f32::MAX)
-}
-
-fn round_down(v: f64) -> f32 {
-    let f = v as f32;
-    if f64::from(f) > v { f.next_down() } else { f }.max(f32::MIN)
 }
 
 impl DepthMesh {
@@ -195,13 +185,9 @@ impl DepthMesh {
             build_peak_bytes: 0,
             build_ms: 0.0,
         };
-        let mut dev = Dev {
-            hi: vec![0f32; grid.len()],
-            lo: vec![0f32; grid.len()],
-        };
-        mesh.build_peak_bytes = mesh.heap_bytes() + flags.capacity() + 2 * dev.hi.capacity() * 4;
+        mesh.build_peak_bytes = mesh.heap_bytes() + flags.capacity();
         let zmax = mesh.z.iter().copied().fold(0f32, f32::max);
-        mesh.levels(&mut flags, &mut dev, zmax);
+        mesh.levels(&mut flags, zmax);
         mesh.flags = flags;
         if std::env::var_os("DMESH_PHASES").is_some() {
             eprintln!(
@@ -223,12 +209,12 @@ impl DepthMesh {
 
     /// The bottom-up pass over all levels, finest first.
     #[inline(never)]
-    fn levels(&mut self, flags: &mut [u8], dev: &mut Dev, zmax: f32) {
+    fn levels(&mut self, flags: &mut [u8], zmax: f32) {
         let grid = self.grid;
         let (gw, gh) = (grid.gw(), grid.gh());
         // Level 0 edge midpoints are half of all vertices: a dedicated pass.
-        self.finest_edges(flags, dev, zmax, Bisects::Row);
-        self.finest_edges(flags, dev, zmax, Bisects::Column);
+        self.finest_edges(flags, zmax, Bisects::Row);
+        self.finest_edges(flags, zmax, Bisects::Column);
         for g in 0..grid.k {
             let h = 1u32 << g;
             let step = 2 * h as usize;
@@ -242,7 +228,6 @@ impl DepthMesh {
                     ];
                     self.split_vertex(
                         flags,
-                        dev,
                         zmax,
                         (x, y),
                         (x - h, y),
@@ -260,7 +245,6 @@ impl DepthMesh {
                     ];
                     self.split_vertex(
                         flags,
-                        dev,
                         zmax,
                         (x, y),
                         (x, y - h),
@@ -290,7 +274,6 @@ impl DepthMesh {
                     };
                     self.split_vertex(
                         flags,
-                        dev,
                         zmax,
                         (x, y),
                         (px, py),
@@ -308,7 +291,7 @@ impl DepthMesh {
     /// the radius is 0 and the deviation interval is the detail itself.
     /// Same results as [`Self::split_vertex`], in a tight loop.
     #[inline(never)]
-    fn finest_edges(&mut self, flags: &mut [u8], dev: &mut Dev, zmax: f32, bisects: Bisects) {
+    fn finest_edges(&mut self, flags: &mut [u8], zmax: f32, bisects: Bisects) {
         let (gw, gh) = (self.grid.gw() as usize, self.grid.gh() as usize);
         let row = bisects == Bisects::Row;
         // Step between a and v, and between v and an apex, in the flat index.
@@ -364,10 +347,8 @@ impl DepthMesh {
                 }
                 flags[vi] = bits;
                 let mut own = 0f64;
-                let (mut hi, mut lo) = (0f32, 0f32);
                 if unflagged {
                     let detail = f64::from(zv) - 0.5 * (f64::from(za) + f64::from(zb));
-                    (hi, lo) = (round_up(detail.max(0.0)), round_down(detail.min(0.0)));
                     let (xv, yv) = ((x as u32), (y as u32));
                     let pv = self.bp.point(xv, yv, zv);
                     let (pa, pb) = if row {
@@ -394,8 +375,6 @@ impl DepthMesh {
                     let extent = 2.0 * self.camera.pixel_size(f64::from(zref));
                     own = own.max(extent * extent);
                 }
-                dev.hi[vi] = hi;
-                dev.lo[vi] = lo;
                 self.err2[vi] = round_up(own);
                 self.radius[vi] = 0.0;
             }
@@ -410,7 +389,6 @@ impl DepthMesh {
     fn split_vertex(
         &mut self,
         flags: &mut [u8],
-        dev: &mut Dev,
         zmax: f32,
         v: Pt,
         a: Pt,
@@ -429,8 +407,6 @@ impl DepthMesh {
         let mut own = 0f64;
         let mut err = 0f32;
         let mut radius = 0f64;
-        let (mut hi_v, mut lo_v) = (0f64, 0f64);
-        let detail = f64::from(zv) - 0.5 * (f64::from(za) + f64::from(zb));
         let mut eq12_done = false;
         for (half, apex) in apex.into_iter().enumerate() {
             let Some(apex) = apex else {
@@ -440,7 +416,6 @@ impl DepthMesh {
             // The half's children: hypotenuses a-apex and apex-b, both with apex v.
             let mut or = false;
             let mut and = true;
-            let (mut hi_c, mut lo_c) = (0f64, 0f64);
             for (e0, e1) in [(a, apex), (apex, b)] {
                 if leaf_children {
                     let cell = (e0.0.min(e1.0), e0.1.min(e1.1));
@@ -453,8 +428,6 @@ impl DepthMesh {
                     let hh = half_of(c, v);
                     or |= flags[ci] & or_bit(hh) != 0;
                     and &= flags[ci] & and_bit(hh) != 0;
-                    hi_c = hi_c.max(f64::from(dev.hi[ci]));
-                    lo_c = lo_c.min(f64::from(dev.lo[ci]));
                     // Saturation and nesting over the DAG children.
                     err = err.max(self.err2[ci]);
                     let d = (pv - self.bp.point(c.0, c.1, self.z[ci])).abs();
@@ -468,11 +441,15 @@ impl DepthMesh {
                 bits |= and_bit(half);
             }
             if !or {
-                let hi_t = hi_c + detail.max(0.0);
-                let lo_t = lo_c + detail.min(0.0);
-                hi_v = hi_v.max(hi_t);
-                lo_v = lo_v.min(lo_t);
-                own = own.max(hi_t * hi_t).max(lo_t * lo_t);
+                let rows = half_rows(
+                    v,
+                    h,
+                    apex,
+                    bisects == Bisects::Row,
+                    bisects == Bisects::Diagonal,
+                );
+                let dev = max_deviation(&self.z, gw, [a, b, apex], rows);
+                own = own.max(dev * dev);
                 if !eq12_done {
                     eq12_done = true;
                     let (pa, pb) = (self.bp.point(a.0, a.1, za), self.bp.point(b.0, b.1, zb));
@@ -500,8 +477,6 @@ impl DepthMesh {
             }
         }
         flags[vi] = bits;
-        dev.hi[vi] = round_up(hi_v);
-        dev.lo[vi] = round_down(lo_v);
         self.err2[vi] = err.max(round_up(own));
         self.radius[vi] = round_up(radius);
     }

@@ -3,6 +3,7 @@
 //!
 //! - [`grid`]: the forest grid and the 4-8 hierarchy's geometry (Sec. 3, Fig. 1-3);
 //! - [`error_metric`]: Eq. 1 and Eq. 2, squared and division-safe;
+//! - `deviation`: the exact depth deviation of a hierarchy triangle;
 //! - [`normals`]: per-vertex normals and quality rho (Sec. 4.2);
 //! - [`segmentation`]: orthogonality, disparity, connectedness, gated by lambda (Sec. 5.2);
 //! - [`hierarchy`]: the bottom-up build with saturated errors, nested radii
@@ -12,6 +13,7 @@
 //! - [`strips`]: generalised strips with primitive restart (Fig. 13).
 
 mod backproject;
+mod deviation;
 pub mod error_metric;
 pub mod extract;
 pub mod grid;

@@ -38,7 +38,12 @@ pub(crate) trait Select {
     /// `None` when a triangle with these corners, whose finer content lies in
     /// `sphere`, is entirely outside one plane of `mask`; otherwise the planes
     /// of `mask` it is not entirely inside.
-    fn cull(&self, corners: [DVec3; 3], sphere: Option<(DVec3, f32)>, mask: PlaneMask) -> Option<PlaneMask>;
+    fn cull(
+        &self,
+        corners: [DVec3; 3],
+        sphere: Option<(DVec3, f32)>,
+        mask: PlaneMask,
+    ) -> Option<PlaneMask>;
 }
 
 /// Static selection by an object-space tolerance.
@@ -129,7 +134,10 @@ impl ViewDependent {
         if mask == 0 {
             return false;
         }
-        self.planes.iter().enumerate().any(|(i, &(n, d))| mask & (1 << i) != 0 && n.dot(c) + d < -r)
+        self.planes
+            .iter()
+            .enumerate()
+            .any(|(i, &(n, d))| mask & (1 << i) != 0 && n.dot(c) + d < -r)
     }
 }
 
@@ -153,7 +161,12 @@ impl Select for ViewDependent {
         }
     }
 
-    fn cull(&self, corners: [DVec3; 3], sphere: Option<(DVec3, f32)>, mask: PlaneMask) -> Option<PlaneMask> {
+    fn cull(
+        &self,
+        corners: [DVec3; 3],
+        sphere: Option<(DVec3, f32)>,
+        mask: PlaneMask,
+    ) -> Option<PlaneMask> {
         if mask == 0 {
             return Some(0);
         }
@@ -164,7 +177,10 @@ impl Select for ViewDependent {
                 continue;
             }
             let dist = corners.map(|c| n.dot(c) + d);
-            let (lo, hi) = (dist[0].min(dist[1]).min(dist[2]), dist[0].max(dist[1]).max(dist[2]));
+            let (lo, hi) = (
+                dist[0].min(dist[1]).min(dist[2]),
+                dist[0].max(dist[1]).max(dist[2]),
+            );
             let (s_lo, s_hi) = sphere.map_or((lo, hi), |(c, r)| {
                 let e = n.dot(c) + d;
                 (e - r, e + r)
