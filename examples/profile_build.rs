@@ -1,13 +1,16 @@
-//! Builds the synthetic scene repeatedly, for profilers (`perf`, `valgrind
-//! --tool=callgrind`). Usage: `profile_build [SIZE] [ITERATIONS]`.
+//! Builds the synthetic scene repeatedly and prints the minimum and median
+//! time, for profiling. Usage: `profile_build [SIZE] [ITERATIONS]`.
 fn main() {
     let mut args = std::env::args().skip(1);
-    let size: u32 = args.next().and_then(|s| s.parse().ok()).unwrap_or(1025);
-    let iterations: u32 = args.next().and_then(|s| s.parse().ok()).unwrap_or(10);
+    let size: u32 = args.next().and_then(|s| s.parse().ok()).unwrap_or(513);
+    let iterations: usize = args.next().and_then(|s| s.parse().ok()).unwrap_or(20);
     let (d, c) = dmesh::synthetic::terrain_with_boxes(size, size);
-    let t = std::time::Instant::now();
-    for _ in 0..iterations {
+    let mut times = Vec::new();
+    for _ in 0..iterations.max(1) {
+        let t = std::time::Instant::now();
         std::hint::black_box(dmesh::mesh::DepthMesh::build(&d, &c, &Default::default()).unwrap());
+        times.push(t.elapsed());
     }
-    println!("{:?} per build", t.elapsed() / iterations.max(1));
+    times.sort();
+    println!("min {:?} median {:?}", times[0], times[times.len() / 2]);
 }

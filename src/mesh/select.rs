@@ -10,9 +10,11 @@
 //!   of `fx, fy`) and eye `E`, Eq. 4 with nested spheres (Lindstrom and
 //!   Pascucci) reads `(f e)^2 > tau^2 (|p - E| - r)^2`, true outright when the eye
 //!   is inside the sphere (`|p - E| <= r`, which covers the eye on a vertex);
-//!   for an orthographic one with pixel size `s`, `e^2 > tau^2 s^2`. A vertex is
-//!   selected only when its sphere meets the frustum; since spheres are
-//!   nested, a parent's sphere meets it whenever a child's does.
+//!   for an orthographic one with pixel size `s`, `e^2 > tau^2 s^2`. Frustum
+//!   culling acts on triangles, not vertices: a triangle whose bounding sphere
+//!   (its corners and the nested sphere of its split vertex) lies outside a
+//!   frustum plane is skipped with everything below it, so the vertex test
+//!   stays a function of the vertex alone.
 //!
 //! `epsilon = 0` and `tau = 0` mean full resolution: every vertex is selected
 //! (inside the frustum), even where the surface is exactly planar.
@@ -23,7 +25,7 @@ use crate::camera::{Camera, Projection};
 
 /// Frustum planes still to test, one bit each: a triangle entirely inside a
 /// plane has descendants entirely inside it too, so the traversal drops that
-/// plane for them (the answer for it is known), which changes no decision.
+/// plane for them.
 pub(crate) type PlaneMask = u8;
 
 /// Every plane.
@@ -32,18 +34,13 @@ pub(crate) const ALL_PLANES: PlaneMask = 0b1_1111;
 /// A selection predicate plus triangle culling.
 pub(crate) trait Select {
     /// True when the vertex with squared error `err2`, position `p` and
-    /// nested radius `r` is to be in the mesh; only planes in `mask` can
-    /// cull it.
-    fn active(&self, err2: f32, p: DVec3, r: f32, mask: PlaneMask) -> bool;
-    /// `None` when a triangle with these corners, whose finer content lies in
-    /// `sphere`, is entirely outside one plane of `mask`; otherwise the planes
+    /// nested radius `r` is to be in the mesh. Depends on the vertex alone
+    /// and is monotone over the hierarchy.
+    fn active(&self, err2: f32, p: DVec3, r: f32) -> bool;
+    /// `None` when a triangle whose content lies in the sphere `(centre,
+    /// radius)` is entirely outside one plane of `mask`; otherwise the planes
     /// of `mask` it is not entirely inside.
-    fn cull(
-        &self,
-        corners: [DVec3; 3],
-        sphere: Option<(DVec3, f32)>,
-        mask: PlaneMask,
-    ) -> Option<PlaneMask>;
+    fn cull(&self, centre: DVec3, radius: f64, mask: PlaneMask) -> Option<PlaneMask>;
 }
 
 /// Static selection by an object-space tolerance.
@@ -54,12 +51,12 @@ pub(crate) struct Static {
 
 impl Select for Static {
     #[inline]
-    fn active(&self, err2: f32, _: DVec3, _: f32, _: PlaneMask) -> bool {
+    fn active(&self, err2: f32, _: DVec3, _: f32) -> bool {
         self.all || err2 > self.eps2
     }
 
     #[inline]
-    fn cull(&self, _: [DVec3; 3], _: Option<(DVec3, f32)>, _: PlaneMask) -> Option<PlaneMask> {
+    fn cull(&self, _: DVec3, _: f64, _: PlaneMask) -> Option<PlaneMask> {
         Some(0)
     }
 }
@@ -128,67 +125,36 @@ impl ViewDependent {
             all: tau == 0.0,
         }
     }
-
-    #[inline]
-    fn sphere_outside(&self, c: DVec3, r: f64, mask: PlaneMask) -> bool {
-        if mask == 0 {
-            return false;
-        }
-        self.planes
-            .iter()
-            .enumerate()
-            .any(|(i, &(n, d))| mask & (1 << i) != 0 && n.dot(c) + d < -r)
-    }
 }
 
 impl Select for ViewDependent {
     #[inline]
-    fn active(&self, err2: f32, p: DVec3, r: f32, mask: PlaneMask) -> bool {
-        let r = f64::from(r);
-        if self.sphere_outside(p, r, mask) {
-            return false;
-        }
+    fn active(&self, err2: f32, p: DVec3, r: f32) -> bool {
         if self.all {
             return true;
         }
         let e2 = f64::from(err2);
         match self.focal2 {
             Some(f2) => {
-                let dist = (p - self.eye).length() - r;
+                let dist = (p - self.eye).length() - f64::from(r);
                 dist <= 0.0 || f2 * e2 > self.tau2 * dist * dist
             }
             None => e2 > self.tau2,
         }
     }
 
-    fn cull(
-        &self,
-        corners: [DVec3; 3],
-        sphere: Option<(DVec3, f32)>,
-        mask: PlaneMask,
-    ) -> Option<PlaneMask> {
-        if mask == 0 {
-            return Some(0);
-        }
-        let sphere = sphere.map(|(c, r)| (c, f64::from(r)));
+    #[inline]
+    fn cull(&self, centre: DVec3, radius: f64, mask: PlaneMask) -> Option<PlaneMask> {
         let mut left = mask;
         for (i, &(n, d)) in self.planes.iter().enumerate() {
             if mask & (1 << i) == 0 {
                 continue;
             }
-            let dist = corners.map(|c| n.dot(c) + d);
-            let (lo, hi) = (
-                dist[0].min(dist[1]).min(dist[2]),
-                dist[0].max(dist[1]).max(dist[2]),
-            );
-            let (s_lo, s_hi) = sphere.map_or((lo, hi), |(c, r)| {
-                let e = n.dot(c) + d;
-                (e - r, e + r)
-            });
-            if hi < 0.0 && s_hi < 0.0 {
+            let dist = n.dot(centre) + d;
+            if dist < -radius {
                 return None;
             }
-            if lo >= 0.0 && s_lo >= 0.0 {
+            if dist >= radius {
                 left &= !(1 << i);
             }
         }
