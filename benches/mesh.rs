@@ -74,28 +74,12 @@ fn bench(c: &mut Criterion) {
         let h = DepthMesh::build(depth, cam, &Segmentation::default()).unwrap();
         let eps = 0.005 * median_depth(depth);
         let view = side_view(cam, median_depth(depth));
-        row(
-            name,
-            &format!("eps={eps:.4}"),
-            &h.extract(Lod::Epsilon(eps)).unwrap(),
-        );
-        row(
-            name,
-            "tau=1",
-            &h.extract(Lod::Tau {
-                tau: 1.0,
-                view: &view,
-            })
-            .unwrap(),
-        );
+        row(name, &format!("eps={eps:.4}"), &h.extract(Lod::Epsilon(eps)).unwrap());
+        row(name, "tau=1", &h.extract(Lod::Tau { tau: 1.0, view: &view }).unwrap());
         row(
             name,
             "tau=0 (full)",
-            &h.extract(Lod::Tau {
-                tau: 0.0,
-                view: cam,
-            })
-            .unwrap(),
+            &h.extract(Lod::Tau { tau: 0.0, view: cam }).unwrap(),
         );
     }
     let mut g = c.benchmark_group("mesh");

@@ -34,15 +34,7 @@ pub fn middlebury(name: &str) -> Option<(DepthImage, Camera)> {
         w if w < 800 => (0.5, 1870.0),
         _ => (1.0, 3740.0),
     };
-    let cam = Camera::perspective(
-        w,
-        h,
-        focal,
-        focal,
-        f64::from(w - 1) / 2.0,
-        f64::from(h - 1) / 2.0,
-    )
-    .ok()?;
+    let cam = Camera::perspective(w, h, focal, focal, f64::from(w - 1) / 2.0, f64::from(h - 1) / 2.0).ok()?;
     let opts = DepthOptions {
         kind: DepthKind::Disparity,
         scale,
@@ -50,8 +42,5 @@ pub fn middlebury(name: &str) -> Option<(DepthImage, Camera)> {
         focal_baseline: Some(focal * 0.16),
         channel: None,
     };
-    Some((
-        decode_depth(&bytes, &opts, &cam, &Limits::default()).ok()?,
-        cam,
-    ))
+    Some((decode_depth(&bytes, &opts, &cam, &Limits::default()).ok()?, cam))
 }

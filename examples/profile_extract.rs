@@ -18,15 +18,9 @@ fn main() {
     let mut tris = 0;
     for _ in 0..iterations.max(1) {
         let t = std::time::Instant::now();
-        tris = std::hint::black_box(
-            h.extract(dmesh::mesh::Lod::Tau {
-                tau: 1.0,
-                view: &view,
-            })
-            .unwrap(),
-        )
-        .triangles
-        .len();
+        tris = std::hint::black_box(h.extract(dmesh::mesh::Lod::Tau { tau: 1.0, view: &view }).unwrap())
+            .triangles
+            .len();
         times.push(t.elapsed());
     }
     times.sort();

@@ -6,10 +6,7 @@
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
-    let dir = std::path::PathBuf::from(
-        args.next()
-            .ok_or("usage: write_height_field OUT_DIR [SIZE]")?,
-    );
+    let dir = std::path::PathBuf::from(args.next().ok_or("usage: write_height_field OUT_DIR [SIZE]")?);
     let size: u32 = args.next().map_or(Ok(513), |s| s.parse())?;
     let (depth, camera) = dmesh::synthetic::height_field(size);
     std::fs::write(

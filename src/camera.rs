@@ -79,14 +79,7 @@ fn positive(name: &str, value: f64) -> Result<f64> {
 
 impl Camera {
     /// A perspective camera at the world origin looking down +z.
-    pub fn perspective(
-        width: u32,
-        height: u32,
-        fx: f64,
-        fy: f64,
-        cx: f64,
-        cy: f64,
-    ) -> Result<Self> {
+    pub fn perspective(width: u32, height: u32, fx: f64, fy: f64, cx: f64, cy: f64) -> Result<Self> {
         Self::new(
             width,
             height,
@@ -97,14 +90,7 @@ impl Camera {
     }
 
     /// An orthographic camera at the world origin looking down +z.
-    pub fn orthographic(
-        width: u32,
-        height: u32,
-        sx: f64,
-        sy: f64,
-        cx: f64,
-        cy: f64,
-    ) -> Result<Self> {
+    pub fn orthographic(width: u32, height: u32, sx: f64, sy: f64, cx: f64, cy: f64) -> Result<Self> {
         Self::new(
             width,
             height,
@@ -116,13 +102,7 @@ impl Camera {
 
     /// Validates every field; the quaternion must be within 1e-3 of unit
     /// length and is renormalised.
-    pub fn new(
-        width: u32,
-        height: u32,
-        projection: Projection,
-        rotation: DQuat,
-        translation: DVec3,
-    ) -> Result<Self> {
+    pub fn new(width: u32, height: u32, projection: Projection, rotation: DQuat, translation: DVec3) -> Result<Self> {
         if width == 0 || height == 0 {
             return Err(Error::invalid(format!(
                 "camera is {width}x{height}; width and height must be at least 1"
@@ -269,12 +249,8 @@ impl TryFrom<&dmesh_proto::Camera> for Camera {
 
     fn try_from(c: &dmesh_proto::Camera) -> Result<Self> {
         let projection = match c.projection {
-            dmesh_proto::Projection::Perspective { fx, fy, cx, cy } => {
-                Projection::Perspective { fx, fy, cx, cy }
-            }
-            dmesh_proto::Projection::Orthographic { sx, sy, cx, cy } => {
-                Projection::Orthographic { sx, sy, cx, cy }
-            }
+            dmesh_proto::Projection::Perspective { fx, fy, cx, cy } => Projection::Perspective { fx, fy, cx, cy },
+            dmesh_proto::Projection::Orthographic { sx, sy, cx, cy } => Projection::Orthographic { sx, sy, cx, cy },
         };
         let [x, y, z, w] = c.pose.rotation;
         let [tx, ty, tz] = c.pose.translation;
@@ -291,12 +267,8 @@ impl TryFrom<&dmesh_proto::Camera> for Camera {
 impl From<&Camera> for dmesh_proto::Camera {
     fn from(c: &Camera) -> Self {
         let projection = match c.projection {
-            Projection::Perspective { fx, fy, cx, cy } => {
-                dmesh_proto::Projection::Perspective { fx, fy, cx, cy }
-            }
-            Projection::Orthographic { sx, sy, cx, cy } => {
-                dmesh_proto::Projection::Orthographic { sx, sy, cx, cy }
-            }
+            Projection::Perspective { fx, fy, cx, cy } => dmesh_proto::Projection::Perspective { fx, fy, cx, cy },
+            Projection::Orthographic { sx, sy, cx, cy } => dmesh_proto::Projection::Orthographic { sx, sy, cx, cy },
         };
         let q = c.rotation;
         let t = c.translation;
@@ -340,9 +312,7 @@ mod tests {
 
     #[test]
     fn bad_values_are_refused_with_the_field_named() {
-        let e = Camera::perspective(4, 4, 0.0, 1.0, 0.0, 0.0)
-            .unwrap_err()
-            .to_string();
+        let e = Camera::perspective(4, 4, 0.0, 1.0, 0.0, 0.0).unwrap_err().to_string();
         assert!(e.contains("fx"), "{e}");
         let e = Camera::perspective(4, 4, 1.0, f64::NAN, 0.0, 0.0)
             .unwrap_err()

@@ -13,7 +13,7 @@ use anyhow::{anyhow, bail, Context, Result};
 use clap::{ArgGroup, Parser, Subcommand, ValueEnum};
 use dmesh::camera::{camera_from_json, Camera};
 use dmesh::image::{decode_color, decode_depth, ColorImage, DepthKind, DepthOptions, Limits};
-use dmesh::mesh::{DepthMesh, Lod, Mesh, Method, Segmentation};
+use dmesh::mesh::{DepthMesh, Lod, Mesh, Method, Segmentation, StripOrder};
 
 #[derive(Parser)]
 #[command(
@@ -48,6 +48,12 @@ enum KindArg {
     Disparity,
     #[value(alias = "inverse_depth")]
     Inverse,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum StripsArg {
+    Traversal,
+    Greedy,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -109,6 +115,9 @@ struct MeshArgs {
     /// Depth-range gate dz / z (Eq. 11).
     #[arg(long, default_value_t = 0.02, allow_negative_numbers = true)]
     lambda: f64,
+    /// Strip order: the traversal's (fastest) or greedy (fewer indices).
+    #[arg(long, value_enum, default_value = "traversal")]
+    strips: StripsArg,
     /// Largest accepted image, in pixels.
     #[arg(long, default_value_t = 64 << 20)]
     max_pixels: u64,
@@ -126,8 +135,7 @@ fn read(path: &Path, what: &str) -> Result<Vec<u8>> {
 
 fn read_camera(path: &Path, what: &str) -> Result<Camera> {
     let bytes = read(path, what)?;
-    let text = String::from_utf8(bytes)
-        .map_err(|_| anyhow!("{what} file {} is not UTF-8 text", path.display()))?;
+    let text = String::from_utf8(bytes).map_err(|_| anyhow!("{what} file {} is not UTF-8 text", path.display()))?;
     camera_from_json(&text).with_context(|| format!("{what} file {}", path.display()))
 }
 
@@ -169,8 +177,8 @@ fn run_mesh(a: &MeshArgs) -> Result<()> {
         .with_context(|| format!("depth file {}", a.depth.display()))?;
     let color = match &a.color {
         Some(p) => {
-            let c = decode_color(&read(p, "colour")?, &limits)
-                .with_context(|| format!("colour file {}", p.display()))?;
+            let c =
+                decode_color(&read(p, "colour")?, &limits).with_context(|| format!("colour file {}", p.display()))?;
             if (c.width, c.height) != (depth.width, depth.height) {
                 bail!(
                     "colour image is {}x{} but the depth image is {}x{}; they must match",
@@ -194,17 +202,17 @@ fn run_mesh(a: &MeshArgs) -> Result<()> {
         lambda: a.lambda,
     };
     let hierarchy = DepthMesh::build(&depth, &camera, &seg)?;
-    let view = a
-        .view
-        .as_deref()
-        .map(|p| read_camera(p, "view camera"))
-        .transpose()?;
+    let view = a.view.as_deref().map(|p| read_camera(p, "view camera")).transpose()?;
     let lod = match (a.epsilon, a.tau, &view) {
         (Some(e), None, _) => Lod::Epsilon(e),
         (None, Some(t), Some(v)) => Lod::Tau { tau: t, view: v },
         _ => bail!("give either --epsilon E or --tau T with --view VIEWCAM.json"),
     };
-    let mesh = hierarchy.extract(lod)?;
+    let order = match a.strips {
+        StripsArg::Traversal => StripOrder::Traversal,
+        StripsArg::Greedy => StripOrder::Greedy,
+    };
+    let mesh = hierarchy.extract_with(lod, order)?;
     if let Some(p) = &a.ply {
         write_ply(p, &mesh, &camera, color.as_ref())?;
     }
@@ -258,8 +266,12 @@ fn run_demo(size: u32, ply: Option<&Path>) -> Result<()> {
         stats.grid_vertices, stats.heap_bytes, stats.segmented_triangles, stats.build_ms
     );
     println!(
-        "{:<26} {:>10} {:>10} {:>9} {:>11}",
-        "level of detail", "triangles", "vertices", "idx/tri", "extract ms"
+        "{:<22} {:>10} {:>9} | {:^19} | {:^19}",
+        "", "", "", "traversal strips", "greedy strips"
+    );
+    println!(
+        "{:<22} {:>10} {:>9} | {:>8} {:>10} | {:>8} {:>10}",
+        "level of detail", "triangles", "vertices", "idx/tri", "extract ms", "idx/tri", "extract ms"
     );
     let side = Camera::new(
         size,
@@ -280,29 +292,21 @@ fn run_demo(size: u32, ply: Option<&Path>) -> Result<()> {
         ("epsilon 1 mm", Lod::Epsilon(0.001)),
         ("epsilon 1 cm", Lod::Epsilon(0.01)),
         ("epsilon 10 cm", Lod::Epsilon(0.1)),
-        (
-            "tau 1 px, side view",
-            Lod::Tau {
-                tau: 1.0,
-                view: &side,
-            },
-        ),
-        (
-            "tau 1 px, 20 m back",
-            Lod::Tau {
-                tau: 1.0,
-                view: &far,
-            },
-        ),
+        ("tau 1 px, side view", Lod::Tau { tau: 1.0, view: &side }),
+        ("tau 1 px, 20 m back", Lod::Tau { tau: 1.0, view: &far }),
     ];
     for (name, lod) in lods {
         let m = hierarchy.extract(lod)?;
-        let ipt = m.strips.len() as f64 / m.triangles.len().max(1) as f64;
+        let g = hierarchy.extract_with(lod, StripOrder::Greedy)?;
+        let ipt = |m: &Mesh| m.strips.len() as f64 / m.triangles.len().max(1) as f64;
         println!(
-            "{name:<26} {:>10} {:>10} {ipt:>9.3} {:>11.3}",
+            "{name:<22} {:>10} {:>9} | {:>8.3} {:>10.3} | {:>8.3} {:>10.3}",
             m.triangles.len(),
             m.vertices.len(),
-            m.extract_ms
+            ipt(&m),
+            m.extract_ms,
+            ipt(&g),
+            g.extract_ms
         );
     }
     if let Some(p) = ply {

@@ -26,8 +26,7 @@ pub fn encode_ply(mesh: &Mesh, camera: &Camera, color: Option<&ColorImage>) -> V
         mesh.vertices.len(),
         mesh.triangles.len()
     );
-    let mut out =
-        Vec::with_capacity(header.len() + mesh.vertices.len() * 28 + mesh.triangles.len() * 13);
+    let mut out = Vec::with_capacity(header.len() + mesh.vertices.len() * 28 + mesh.triangles.len() * 13);
     out.extend_from_slice(header.as_bytes());
     for v in &mesh.vertices {
         let p = camera.back_project(f64::from(v.i), f64::from(v.j), f64::from(v.depth));
@@ -69,11 +68,7 @@ mod tests {
             rgb: vec![7; 36],
         };
         let bytes = encode_ply(&mesh, &cam, Some(&color));
-        let end = bytes
-            .windows(11)
-            .position(|w| w == b"end_header\n")
-            .unwrap()
-            + 11;
+        let end = bytes.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;
         let header = std::str::from_utf8(&bytes[..end]).unwrap();
         assert!(header.contains(&format!("element vertex {}", mesh.vertices.len())));
         assert!(header.contains(&format!("element face {}", mesh.triangles.len())));

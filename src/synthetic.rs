@@ -8,9 +8,7 @@ use crate::camera::Camera;
 use crate::image::DepthImage;
 
 fn terrain(u: f64, v: f64) -> f64 {
-    5.0 + 0.6 * (5.0 * u).sin() * (3.0 * v).cos()
-        + 0.15 * (23.0 * u + 7.0 * v).sin()
-        + 0.04 * (71.0 * v).sin()
+    5.0 + 0.6 * (5.0 * u).sin() * (3.0 * v).cos() + 0.15 * (23.0 * u + 7.0 * v).sin() + 0.04 * (71.0 * v).sin()
 }
 
 /// The terrain-and-boxes scene at `width x height` (both >= 2) and its camera.
@@ -24,11 +22,7 @@ pub fn terrain_with_boxes(width: u32, height: u32) -> (DepthImage, Camera) {
         for x in 0..w {
             let (u, v) = (f64::from(x) / f64::from(w), f64::from(y) / f64::from(h));
             let mut d = terrain(u, v);
-            for (cx, cy, r, zb) in [
-                (0.3, 0.4, 0.12, 2.0),
-                (0.7, 0.6, 0.15, 2.5),
-                (0.5, 0.8, 0.08, 3.0),
-            ] {
+            for (cx, cy, r, zb) in [(0.3, 0.4, 0.12, 2.0), (0.7, 0.6, 0.15, 2.5), (0.5, 0.8, 0.08, 3.0)] {
                 if (u - cx).abs() < r && (v - cy).abs() < r {
                     d = zb + 0.5 * (u - cx);
                 }
@@ -36,8 +30,7 @@ pub fn terrain_with_boxes(width: u32, height: u32) -> (DepthImage, Camera) {
             z.push(d as f32);
         }
     }
-    let depth = DepthImage::from_z(w, h, z)
-        .unwrap_or_else(|_| unreachable!("size matches and is at least 2x2"));
+    let depth = DepthImage::from_z(w, h, z).unwrap_or_else(|_| unreachable!("size matches and is at least 2x2"));
     (depth, cam)
 }
 
@@ -45,17 +38,11 @@ pub fn terrain_with_boxes(width: u32, height: u32) -> (DepthImage, Camera) {
 /// of 1 m cells (orthographic camera, `sx = sy = 1`), relief about 50 m.
 pub fn height_field(size: u32) -> (DepthImage, Camera) {
     let s = size.max(2);
-    let cam = Camera::orthographic(s, s, 1.0, 1.0, 0.0, 0.0)
-        .unwrap_or_else(|_| unreachable!("unit scales"));
+    let cam = Camera::orthographic(s, s, 1.0, 1.0, 0.0, 0.0).unwrap_or_else(|_| unreachable!("unit scales"));
     let z = (0..s)
         .flat_map(|y| (0..s).map(move |x| (x, y)))
-        .map(|(x, y)| {
-            (100.0
-                + 40.0 * (terrain(f64::from(x) / f64::from(s), f64::from(y) / f64::from(s)) - 5.0))
-                as f32
-        })
+        .map(|(x, y)| (100.0 + 40.0 * (terrain(f64::from(x) / f64::from(s), f64::from(y) / f64::from(s)) - 5.0)) as f32)
         .collect();
-    let depth = DepthImage::from_z(s, s, z)
-        .unwrap_or_else(|_| unreachable!("size matches and is at least 2x2"));
+    let depth = DepthImage::from_z(s, s, z).unwrap_or_else(|_| unreachable!("size matches and is at least 2x2"));
     (depth, cam)
 }

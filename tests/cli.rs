@@ -6,10 +6,7 @@ use std::process::Command;
 use dmesh::image::{encode_exr, encode_pfm};
 
 fn dmesh(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_dmesh"))
-        .args(args)
-        .output()
-        .unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_dmesh")).args(args).output().unwrap();
     (
         out.status.code().unwrap_or(-1),
         String::from_utf8_lossy(&out.stdout).into(),
@@ -20,20 +17,18 @@ fn dmesh(args: &[&str]) -> (i32, String, String) {
 fn scene(dir: &Path) -> (String, String, String) {
     let (w, h) = (40u32, 30u32);
     let z: Vec<f32> = (0..w * h)
-        .map(|i| {
-            if i % w < 20 {
-                2.0
-            } else {
-                3.0 + (i / w) as f32 * 0.01
-            }
-        })
+        .map(|i| if i % w < 20 { 2.0 } else { 3.0 + (i / w) as f32 * 0.01 })
         .collect();
     let depth = dir.join("depth.exr");
     std::fs::write(&depth, encode_exr(w, h, &z).unwrap()).unwrap();
     let pfm = dir.join("depth.pfm");
     std::fs::write(&pfm, encode_pfm(w, h, &z)).unwrap();
     let cam = dir.join("cam.json");
-    std::fs::write(&cam, r#"{"width": 40, "height": 30, "projection": {"perspective": {"fx": 40, "fy": 40, "cx": 19.5, "cy": 14.5}}}"#).unwrap();
+    std::fs::write(
+        &cam,
+        r#"{"width": 40, "height": 30, "projection": {"perspective": {"fx": 40, "fy": 40, "cx": 19.5, "cy": 14.5}}}"#,
+    )
+    .unwrap();
     let s = |p: &Path| p.to_str().unwrap().to_string();
     (s(&depth), s(&pfm), s(&cam))
 }
@@ -43,16 +38,7 @@ fn json_figures_describe_the_mesh() {
     let dir = tempfile::tempdir().unwrap();
     let (depth, pfm, cam) = scene(dir.path());
     for file in [&depth, &pfm] {
-        let (code, out, err) = dmesh(&[
-            "mesh",
-            "--depth",
-            file,
-            "--camera",
-            &cam,
-            "--epsilon",
-            "0",
-            "--json",
-        ]);
+        let (code, out, err) = dmesh(&["mesh", "--depth", file, "--camera", &cam, "--epsilon", "0", "--json"]);
         assert_eq!(code, 0, "{err}");
         let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
         for key in [
@@ -116,9 +102,17 @@ fn bad_input_fails_with_one_line_naming_the_problem() {
     let truncated = dir.path().join("cut.exr");
     std::fs::write(&truncated, &std::fs::read(&depth).unwrap()[..100]).unwrap();
     let bad_cam = dir.path().join("bad.json");
-    std::fs::write(&bad_cam, r#"{"width": 40, "height": 30, "projection": {"perspective": {"fx": 0, "fy": 40, "cx": 19.5, "cy": 14.5}}}"#).unwrap();
+    std::fs::write(
+        &bad_cam,
+        r#"{"width": 40, "height": 30, "projection": {"perspective": {"fx": 0, "fy": 40, "cx": 19.5, "cy": 14.5}}}"#,
+    )
+    .unwrap();
     let small_cam = dir.path().join("small.json");
-    std::fs::write(&small_cam, r#"{"width": 4, "height": 3, "projection": {"perspective": {"fx": 4, "fy": 4, "cx": 2, "cy": 1}}}"#).unwrap();
+    std::fs::write(
+        &small_cam,
+        r#"{"width": 4, "height": 3, "projection": {"perspective": {"fx": 4, "fy": 4, "cx": 2, "cy": 1}}}"#,
+    )
+    .unwrap();
     let cases: Vec<(Vec<&str>, &str)> = vec![
         (
             vec![
@@ -169,15 +163,7 @@ fn bad_input_fails_with_one_line_naming_the_problem() {
             "must match",
         ),
         (
-            vec![
-                "mesh",
-                "--depth",
-                &depth,
-                "--camera",
-                &cam,
-                "--epsilon",
-                "-1",
-            ],
+            vec!["mesh", "--depth", &depth, "--camera", &cam, "--epsilon", "-1"],
             "epsilon",
         ),
         (
@@ -198,10 +184,7 @@ fn bad_input_fails_with_one_line_naming_the_problem() {
             vec!["mesh", "--depth", &depth, "--camera", &cam, "--tau", "1"],
             "--view",
         ),
-        (
-            vec!["mesh", "--depth", &depth, "--camera", &cam],
-            "--epsilon",
-        ),
+        (vec!["mesh", "--depth", &depth, "--camera", &cam], "--epsilon"),
         (
             vec![
                 "mesh",
@@ -235,10 +218,7 @@ fn bad_input_fails_with_one_line_naming_the_problem() {
         let (code, _, err) = dmesh(&args);
         assert_ne!(code, 0, "{args:?} succeeded");
         assert_eq!(err.trim().lines().count(), 1, "{args:?}: {err}");
-        assert!(
-            err.contains(needle),
-            "{args:?}: {err:?} does not mention {needle}"
-        );
+        assert!(err.contains(needle), "{args:?}: {err:?} does not mention {needle}");
     }
 }
 
@@ -246,8 +226,5 @@ fn bad_input_fails_with_one_line_naming_the_problem() {
 fn demo_runs_without_files() {
     let (code, out, err) = dmesh(&["demo", "--size", "65"]);
     assert_eq!(code, 0, "{err}");
-    assert!(
-        out.contains("epsilon 1 cm") && out.contains("tau 1 px"),
-        "{out}"
-    );
+    assert!(out.contains("epsilon 1 cm") && out.contains("tau 1 px"), "{out}");
 }

@@ -23,12 +23,9 @@ fn views(reference: &Camera, on_vertex: DVec3) -> Vec<Camera> {
     let pose = |q: DQuat, t: DVec3| Camera::new(64, 48, p, q, t).unwrap();
     vec![
         *reference,
-        pose(DQuat::IDENTITY, on_vertex), // eye exactly on a vertex
+        pose(DQuat::IDENTITY, on_vertex),                  // eye exactly on a vertex
         pose(DQuat::IDENTITY, DVec3::new(0.0, 0.0, -5.0)), // behind the reference camera
-        pose(
-            DQuat::from_rotation_y(std::f64::consts::PI),
-            DVec3::new(0.0, 0.0, -5.0),
-        ), // behind, looking back
+        pose(DQuat::from_rotation_y(std::f64::consts::PI), DVec3::new(0.0, 0.0, -5.0)), // behind, looking back
         pose(DQuat::from_rotation_x(1.2), DVec3::new(0.3, -2.0, 1.0)), // steep, from above
         Camera::new(
             64,
@@ -88,8 +85,7 @@ fn check(name: &str, depth: &DepthImage, cam: &Camera) {
             lambda: 0.0,
         },
     ] {
-        let h = DepthMesh::build(depth, cam, &seg)
-            .unwrap_or_else(|e| panic!("{name}: build failed: {e}"));
+        let h = DepthMesh::build(depth, cam, &seg).unwrap_or_else(|e| panic!("{name}: build failed: {e}"));
         let g = *h.grid();
         for y in 0..g.gh() {
             for x in 0..g.gw() {
@@ -99,10 +95,7 @@ fn check(name: &str, depth: &DepthImage, cam: &Camera) {
                     h.error((x, y))
                 );
                 assert!(h.radius((x, y)).is_finite(), "{name}: radius at ({x},{y})");
-                assert!(
-                    h.position((x, y)).is_finite(),
-                    "{name}: position at ({x},{y})"
-                );
+                assert!(h.position((x, y)).is_finite(), "{name}: position at ({x},{y})");
             }
         }
         assert_monotone(&h);
@@ -114,14 +107,10 @@ fn check(name: &str, depth: &DepthImage, cam: &Camera) {
             assert_epsilon_bound(&m, depth, eps);
         }
         // A vertex that exists in every mesh: the first valid sample.
-        let first = depth
-            .z
-            .iter()
-            .position(|&z| z > 0.0)
-            .map_or(DVec3::ZERO, |i| {
-                let (u, v) = ((i as u32 % W) as f64, (i as u32 / W) as f64);
-                cam.to_world(cam.back_project(u, v, f64::from(depth.z[i])))
-            });
+        let first = depth.z.iter().position(|&z| z > 0.0).map_or(DVec3::ZERO, |i| {
+            let (u, v) = ((i as u32 % W) as f64, (i as u32 / W) as f64);
+            cam.to_world(cam.back_project(u, v, f64::from(depth.z[i])))
+        });
         for view in views(cam, first) {
             for tau in [0.0, 0.25, 1.0, 1e6] {
                 let m = h
@@ -146,11 +135,7 @@ fn grazing_plane_at_89_9_degrees() {
     let a = 0.1f64.to_radians();
     let n = DVec3::new(a.cos(), 0.0, a.sin());
     let depth = depth_from(W, H, |x, y| {
-        let r = DVec3::new(
-            (f64::from(x) - 16.0) / 30.0,
-            (f64::from(y) - 8.0) / 30.0,
-            1.0,
-        );
+        let r = DVec3::new((f64::from(x) - 16.0) / 30.0, (f64::from(y) - 8.0) / 30.0, 1.0);
         (0.5 / n.dot(r)) as f32
     });
     check("grazing perspective", &depth, &cam);

@@ -7,7 +7,7 @@ mod common;
 use common::*;
 use dmesh::camera::Camera;
 use dmesh::image::DepthImage;
-use dmesh::mesh::{DepthMesh, Lod, Method, Segmentation};
+use dmesh::mesh::{DepthMesh, Lod, Method, Segmentation, StripOrder};
 use proptest::prelude::*;
 
 fn check_all(depth: &DepthImage, cam: &Camera, seg: &Segmentation, eps: f64) {
@@ -17,6 +17,9 @@ fn check_all(depth: &DepthImage, cam: &Camera, seg: &Segmentation, eps: f64) {
     assert_conforming(&mesh);
     assert_strips_match(&mesh);
     assert_epsilon_bound(&mesh, depth, eps);
+    let greedy = h.extract_with(Lod::Epsilon(eps), StripOrder::Greedy).unwrap();
+    assert_eq!(greedy.triangles, mesh.triangles);
+    assert_strips_match(&greedy);
 }
 
 #[test]
@@ -30,17 +33,19 @@ fn smooth_surface_at_several_tolerances() {
         let mesh = h.extract(Lod::Epsilon(eps)).unwrap();
         assert_conforming(&mesh);
         assert_strips_match(&mesh);
+        let greedy = h.extract_with(Lod::Epsilon(eps), StripOrder::Greedy).unwrap();
+        assert_strips_match(&greedy);
+        if eps < 0.1 {
+            assert!(
+                greedy.strips.len() < mesh.strips.len(),
+                "greedy strips should be shorter at {eps}"
+            );
+        }
         assert_epsilon_bound(&mesh, &depth, eps);
-        assert!(
-            mesh.triangles.len() <= last,
-            "coarser tolerance gave more triangles"
-        );
+        assert!(mesh.triangles.len() <= last, "coarser tolerance gave more triangles");
         last = mesh.triangles.len();
     }
-    assert!(
-        last < 100,
-        "a 1 m tolerance should leave a coarse mesh, got {last}"
-    );
+    assert!(last < 100, "a 1 m tolerance should leave a coarse mesh, got {last}");
 }
 
 #[test]
@@ -75,13 +80,7 @@ fn tau_zero_is_full_resolution_minus_segmented_triangles() {
     });
     let cam = camera(w, h);
     let hier = DepthMesh::build(&depth, &cam, &Segmentation::default()).unwrap();
-    for lod in [
-        Lod::Tau {
-            tau: 0.0,
-            view: &cam,
-        },
-        Lod::Epsilon(0.0),
-    ] {
+    for lod in [Lod::Tau { tau: 0.0, view: &cam }, Lod::Epsilon(0.0)] {
         let mesh = hier.extract(lod).unwrap();
         let mut want = 0;
         for y in 0..h - 1 {
@@ -122,25 +121,15 @@ fn step_edge_has_no_rubber_sheet_with_orthogonality_at_5_degrees() {
         Lod::Epsilon(0.0),
         Lod::Epsilon(0.01),
         Lod::Epsilon(10.0),
-        Lod::Tau {
-            tau: 1.0,
-            view: &view,
-        },
-        Lod::Tau {
-            tau: 50.0,
-            view: &view,
-        },
+        Lod::Tau { tau: 1.0, view: &view },
+        Lod::Tau { tau: 50.0, view: &view },
     ] {
         let mesh = hier.extract(lod).unwrap();
         assert!(!mesh.triangles.is_empty());
         for t in &mesh.triangles {
             let z = t.map(|v| mesh.vertices[v as usize].depth);
-            let spread = z.iter().copied().fold(f32::MIN, f32::max)
-                - z.iter().copied().fold(f32::MAX, f32::min);
-            assert!(
-                spread < 0.5,
-                "rubber sheet {t:?} with depths {z:?} at {lod:?}"
-            );
+            let spread = z.iter().copied().fold(f32::MIN, f32::max) - z.iter().copied().fold(f32::MAX, f32::min);
+            assert!(spread < 0.5, "rubber sheet {t:?} with depths {z:?} at {lod:?}");
         }
         assert_conforming(&mesh);
     }
@@ -163,15 +152,7 @@ fn every_segmentation_method_cuts_the_step() {
         Method::Disparity { sigma: 0.1 },
         Method::Connectedness { kappa: 1.0 },
     ] {
-        let hier = DepthMesh::build(
-            &depth,
-            &cam,
-            &Segmentation {
-                method,
-                lambda: 0.02,
-            },
-        )
-        .unwrap();
+        let hier = DepthMesh::build(&depth, &cam, &Segmentation { method, lambda: 0.02 }).unwrap();
         let segmented = hier.stats().segmented_triangles;
         assert!(
             segmented >= 2 * (h as usize - 1),
@@ -198,11 +179,7 @@ fn every_segmentation_method_cuts_the_step() {
 fn lambda_gate_keeps_small_relief() {
     // A 1 mm bump on a 2 m wall is rough surface, not a discontinuity.
     let (w, h) = (32, 32);
-    let depth = depth_from(
-        w,
-        h,
-        |x, y| if (x / 4 + y / 4) % 2 == 0 { 2.0 } else { 2.001 },
-    );
+    let depth = depth_from(w, h, |x, y| if (x / 4 + y / 4) % 2 == 0 { 2.0 } else { 2.001 });
     let cam = camera(w, h);
     let gated = DepthMesh::build(
         &depth,
@@ -241,18 +218,8 @@ fn view_dependent_meshes_are_conforming_and_coarsen_with_distance() {
         glam::DVec3::new(0.0, 0.0, -20.0),
     )
     .unwrap();
-    let m_near = hier
-        .extract(Lod::Tau {
-            tau: 1.0,
-            view: &near,
-        })
-        .unwrap();
-    let m_far = hier
-        .extract(Lod::Tau {
-            tau: 1.0,
-            view: &far,
-        })
-        .unwrap();
+    let m_near = hier.extract(Lod::Tau { tau: 1.0, view: &near }).unwrap();
+    let m_far = hier.extract(Lod::Tau { tau: 1.0, view: &far }).unwrap();
     for m in [&m_near, &m_far] {
         assert_conforming(m);
         assert_strips_match(m);
@@ -269,10 +236,7 @@ fn view_dependent_meshes_are_conforming_and_coarsen_with_distance() {
     )
     .unwrap();
     assert!(hier
-        .extract(Lod::Tau {
-            tau: 1.0,
-            view: &away
-        })
+        .extract(Lod::Tau { tau: 1.0, view: &away })
         .unwrap()
         .triangles
         .is_empty());
@@ -336,5 +300,6 @@ proptest! {
         assert_finite(&mesh, w, h);
         assert_conforming(&mesh);
         assert_strips_match(&mesh);
+        assert_strips_match(&hier.extract_with(Lod::Tau { tau, view: &view }, StripOrder::Greedy).unwrap());
     }
 }

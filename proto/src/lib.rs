@@ -99,9 +99,7 @@ mod tests {
     fn unknown_fields_are_named_in_the_error() {
         let text = r#"{"width": 4, "height": 4, "fov": 3,
             "projection": {"orthographic": {"sx": 1, "sy": 1, "cx": 0, "cy": 0}}}"#;
-        let err = serde_json::from_str::<Camera>(text)
-            .unwrap_err()
-            .to_string();
+        let err = serde_json::from_str::<Camera>(text).unwrap_err().to_string();
         assert!(err.contains("fov"), "{err}");
     }
 }

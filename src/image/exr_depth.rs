@@ -7,11 +7,7 @@ use exr::prelude::*;
 use super::{Limits, RawSamples};
 use crate::error::{Error as EngineError, Result as EngineResult};
 
-pub(crate) fn decode(
-    bytes: &[u8],
-    channel: Option<&str>,
-    limits: &Limits,
-) -> EngineResult<RawSamples> {
+pub(crate) fn decode(bytes: &[u8], channel: Option<&str>, limits: &Limits) -> EngineResult<RawSamples> {
     let bad = |e: exr::error::Error| EngineError::decode(format!("depth EXR: {e}"));
     // Header first: refuse oversized layers before any pixel is allocated.
     let meta = MetaData::read_from_buffered(Cursor::new(bytes), false).map_err(bad)?;
@@ -40,15 +36,10 @@ pub(crate) fn decode(
     let list = &layer.channel_data.list;
     let is_float = |c: &&AnyChannel<FlatSamples>| !matches!(c.sample_data, FlatSamples::U32(_));
     let chosen = match channel {
-        Some(name) => list
-            .iter()
-            .find(|c| c.name.to_string() == name)
-            .ok_or_else(|| {
-                let names: Vec<String> = list.iter().map(|c| c.name.to_string()).collect();
-                EngineError::decode(format!(
-                    "depth EXR has no channel {name:?}; it has {names:?}"
-                ))
-            })?,
+        Some(name) => list.iter().find(|c| c.name.to_string() == name).ok_or_else(|| {
+            let names: Vec<String> = list.iter().map(|c| c.name.to_string()).collect();
+            EngineError::decode(format!("depth EXR has no channel {name:?}; it has {names:?}"))
+        })?,
         None => list
             .iter()
             .find(is_float)
@@ -112,10 +103,7 @@ mod tests {
     fn truncated_exr_is_an_error() {
         let bytes = encode_exr(8, 8, &[1.0; 64]).unwrap();
         for cut in [4, 10, 50, bytes.len() / 2, bytes.len() - 1] {
-            assert!(
-                decode(&bytes[..cut], None, &Limits::default()).is_err(),
-                "cut at {cut}"
-            );
+            assert!(decode(&bytes[..cut], None, &Limits::default()).is_err(), "cut at {cut}");
         }
     }
 }

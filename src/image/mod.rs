@@ -31,9 +31,7 @@ pub struct Limits {
 impl Default for Limits {
     /// 64 Mpx, the server's default.
     fn default() -> Self {
-        Self {
-            max_pixels: 64 << 20,
-        }
+        Self { max_pixels: 64 << 20 }
     }
 }
 
@@ -213,12 +211,7 @@ pub fn sniff(bytes: &[u8]) -> Option<Format> {
 
 /// Decodes a depth image (EXR, PNG 8/16-bit grey, PFM) and converts it to `z`
 /// for `camera`, whose size must match the image.
-pub fn decode_depth(
-    bytes: &[u8],
-    options: &DepthOptions,
-    camera: &Camera,
-    limits: &Limits,
-) -> Result<DepthImage> {
+pub fn decode_depth(bytes: &[u8], options: &DepthOptions, camera: &Camera, limits: &Limits) -> Result<DepthImage> {
     let raw = match sniff(bytes) {
         Some(Format::Png) => png_depth::decode(bytes, limits)?,
         Some(Format::Exr) => exr_depth::decode(bytes, options.channel.as_deref(), limits)?,
@@ -256,19 +249,20 @@ fn to_z(raw: RawSamples, options: &DepthOptions, camera: &Camera) -> Result<Dept
             options.offset
         )));
     }
-    let fb =
-        match (options.kind, options.focal_baseline) {
-            (DepthKind::Disparity, Some(fb)) if fb.is_finite() && fb > 0.0 => fb,
-            (DepthKind::Disparity, Some(fb)) => {
-                return Err(Error::invalid(format!(
-                    "focal_baseline is {fb}; it must be a finite number greater than 0"
-                )))
-            }
-            (DepthKind::Disparity, None) => return Err(Error::invalid(
+    let fb = match (options.kind, options.focal_baseline) {
+        (DepthKind::Disparity, Some(fb)) if fb.is_finite() && fb > 0.0 => fb,
+        (DepthKind::Disparity, Some(fb)) => {
+            return Err(Error::invalid(format!(
+                "focal_baseline is {fb}; it must be a finite number greater than 0"
+            )))
+        }
+        (DepthKind::Disparity, None) => {
+            return Err(Error::invalid(
                 "depth kind disparity needs focal_baseline (focal length in pixels times baseline)",
-            )),
-            _ => 0.0,
-        };
+            ))
+        }
+        _ => 0.0,
+    };
     let RawSamples {
         width,
         height,

@@ -30,11 +30,7 @@ pub(crate) fn decode(bytes: &[u8], limits: &Limits) -> Result<RawSamples> {
     let channels = match token(bytes, &mut pos)? {
         "Pf" => 1usize,
         "PF" => 3,
-        other => {
-            return Err(Error::decode(format!(
-                "PFM magic is {other:?}; expected Pf or PF"
-            )))
-        }
+        other => return Err(Error::decode(format!("PFM magic is {other:?}; expected Pf or PF"))),
     };
     let w: u64 = token(bytes, &mut pos)?
         .parse()
@@ -111,10 +107,7 @@ mod tests {
     fn truncated_and_huge_are_errors_not_panics() {
         let bytes = encode_pfm(3, 2, &[1.0; 6]);
         for cut in 0..bytes.len() {
-            assert!(
-                decode(&bytes[..cut], &Limits::default()).is_err(),
-                "cut at {cut}"
-            );
+            assert!(decode(&bytes[..cut], &Limits::default()).is_err(), "cut at {cut}");
         }
         let huge = b"Pf\n100000 100000\n-1.0\n";
         let e = decode(huge, &Limits::default()).unwrap_err();

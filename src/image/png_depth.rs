@@ -25,9 +25,7 @@ pub(crate) fn decode_with_limits(
     // Four bytes per channel of RGBA 16-bit is the most any decoder here needs.
     image_limits.max_alloc = Some(limits.max_pixels.saturating_mul(8).max(1 << 20));
     reader.limits(image_limits);
-    reader
-        .decode()
-        .map_err(|e| Error::decode(format!("{what}: {e}")))
+    reader.decode().map_err(|e| Error::decode(format!("{what}: {e}")))
 }
 
 pub(crate) fn decode(bytes: &[u8], limits: &Limits) -> Result<RawSamples> {
@@ -36,16 +34,8 @@ pub(crate) fn decode(bytes: &[u8], limits: &Limits) -> Result<RawSamples> {
     let values: Vec<f32> = match image {
         DynamicImage::ImageLuma8(img) => img.into_raw().into_iter().map(f32::from).collect(),
         DynamicImage::ImageLuma16(img) => img.into_raw().into_iter().map(f32::from).collect(),
-        DynamicImage::ImageLumaA8(img) => img
-            .into_raw()
-            .chunks_exact(2)
-            .map(|p| f32::from(p[0]))
-            .collect(),
-        DynamicImage::ImageLumaA16(img) => img
-            .into_raw()
-            .chunks_exact(2)
-            .map(|p| f32::from(p[0]))
-            .collect(),
+        DynamicImage::ImageLumaA8(img) => img.into_raw().chunks_exact(2).map(|p| f32::from(p[0])).collect(),
+        DynamicImage::ImageLumaA16(img) => img.into_raw().chunks_exact(2).map(|p| f32::from(p[0])).collect(),
         other => {
             return Err(Error::decode(format!(
                 "depth PNG has colour type {:?}; it must be 8- or 16-bit greyscale",
@@ -53,11 +43,7 @@ pub(crate) fn decode(bytes: &[u8], limits: &Limits) -> Result<RawSamples> {
             )))
         }
     };
-    Ok(RawSamples {
-        width,
-        height,
-        values,
-    })
+    Ok(RawSamples { width, height, values })
 }
 
 #[cfg(test)]
@@ -66,8 +52,7 @@ mod tests {
     use image::{ImageBuffer, Luma};
 
     fn png16(w: u32, h: u32) -> Vec<u8> {
-        let img: ImageBuffer<Luma<u16>, Vec<u16>> =
-            ImageBuffer::from_fn(w, h, |x, y| Luma([(x * 1000 + y) as u16]));
+        let img: ImageBuffer<Luma<u16>, Vec<u16>> = ImageBuffer::from_fn(w, h, |x, y| Luma([(x * 1000 + y) as u16]));
         let mut out = Vec::new();
         DynamicImage::ImageLuma16(img)
             .write_to(&mut Cursor::new(&mut out), ImageFormat::Png)
@@ -86,10 +71,7 @@ mod tests {
         let bytes = png16(16, 16);
         // Cuts inside the header and the pixel data (a missing IEND alone is harmless).
         for cut in [8, 20, 33, bytes.len() / 2, bytes.len() - 20] {
-            assert!(
-                decode(&bytes[..cut], &Limits::default()).is_err(),
-                "cut at {cut}"
-            );
+            assert!(decode(&bytes[..cut], &Limits::default()).is_err(), "cut at {cut}");
         }
     }
 

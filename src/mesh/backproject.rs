@@ -19,9 +19,7 @@ impl BackProject {
     /// Factors for `gw` columns and `gh` rows (padding included).
     pub fn new(camera: &Camera, gw: u32, gh: u32) -> Self {
         Self {
-            cols: (0..gw)
-                .map(|u| camera.column_factors(f64::from(u)))
-                .collect(),
+            cols: (0..gw).map(|u| camera.column_factors(f64::from(u))).collect(),
             rows: (0..gh).map(|v| camera.row_factors(f64::from(v))).collect(),
         }
     }

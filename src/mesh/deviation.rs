@@ -43,11 +43,7 @@ pub(crate) fn half_rows(v: Pt, h: u32, apex: Pt, along_row: bool, diagonal: bool
         Shape::Column
     };
     let h = i64::from(h);
-    let count = if matches!(shape, Shape::Row) {
-        h + 1
-    } else {
-        2 * h + 1
-    };
+    let count = if matches!(shape, Shape::Row) { h + 1 } else { 2 * h + 1 };
     HalfRows {
         shape,
         h,
@@ -144,9 +140,7 @@ mod tests {
         z[6 * 9 + 2] += 3.0; // inside that half
         z[9 + 6] += 7.0; // in the other half
         assert!((max_deviation(&z, gw, [(0, 0), (8, 8), (0, 8)], lower_left()) - 3.0).abs() < 1e-9);
-        assert!(
-            (max_deviation(&z, gw, [(0, 0), (8, 8), (8, 0)], upper_right()) - 7.0).abs() < 1e-9
-        );
+        assert!((max_deviation(&z, gw, [(0, 0), (8, 8), (8, 0)], upper_right()) - 7.0).abs() < 1e-9);
     }
 
     #[test]

@@ -63,11 +63,7 @@ mod tests {
 
     #[test]
     fn eq1_is_the_perpendicular_distance() {
-        let d = point_line_3d_sq(
-            DVec3::new(1.0, 2.0, 0.0),
-            DVec3::ZERO,
-            DVec3::new(4.0, 0.0, 0.0),
-        );
+        let d = point_line_3d_sq(DVec3::new(1.0, 2.0, 0.0), DVec3::ZERO, DVec3::new(4.0, 0.0, 0.0));
         assert!((d - 4.0).abs() < 1e-12);
     }
 }

@@ -26,7 +26,7 @@ use glam::DVec3;
 use super::grid::{cell_half, half_of, Pt};
 use super::hierarchy::{and_bit, cell_bit, or_bit, DepthMesh};
 use super::select::{PlaneMask, Select, Static, ViewDependent, ALL_PLANES};
-use super::strips::{stripify, BREAK};
+use super::strips::{stripify, stripify_greedy, StripOrder, BREAK};
 use crate::camera::Camera;
 use crate::error::{Error, Result};
 
@@ -114,13 +114,7 @@ impl<S: Select> Walk<'_, S> {
 
     /// Triangle with hypotenuse `l-r` (entered at `l`, left at `r`) and apex
     /// `a`, with their positions; `mask` holds the frustum planes it may cross.
-    fn tri(
-        &mut self,
-        (l, pl): (Pt, DVec3),
-        (r, pr): (Pt, DVec3),
-        (a, pa): (Pt, DVec3),
-        mask: PlaneMask,
-    ) {
+    fn tri(&mut self, (l, pl): (Pt, DVec3), (r, pr): (Pt, DVec3), (a, pa): (Pt, DVec3), mask: PlaneMask) {
         let g = self.mesh.grid;
         if l.0.abs_diff(r.0) == 1 && l.1.abs_diff(r.1) == 1 {
             let cell = (l.0.min(r.0), l.1.min(r.1));
@@ -188,8 +182,13 @@ fn norm_bound(d: DVec3) -> f64 {
 }
 
 impl DepthMesh {
-    /// Extracts the mesh at level of detail `lod`.
+    /// Extracts the mesh at level of detail `lod`, strips in traversal order.
     pub fn extract(&self, lod: Lod<'_>) -> Result<Mesh> {
+        self.extract_with(lod, StripOrder::Traversal)
+    }
+
+    /// Extracts the mesh at level of detail `lod` with strips built in `strips` order.
+    pub fn extract_with(&self, lod: Lod<'_>, strips: StripOrder) -> Result<Mesh> {
         let start = Instant::now();
         let tris = match lod {
             Lod::Epsilon(eps) => {
@@ -214,16 +213,7 @@ impl DepthMesh {
             }
         };
         let (tris, dropped) = tris;
-        let t_walk = start.elapsed();
-        let mut mesh = self.assemble(&tris);
-        if std::env::var_os("DMESH_PHASES").is_some() {
-            eprintln!(
-                "walk {:?} assemble {:?} tris {}",
-                t_walk,
-                start.elapsed() - t_walk,
-                tris.len()
-            );
-        }
+        let mut mesh = self.assemble(&tris, strips);
         mesh.dropped_triangles = dropped;
         mesh.extract_ms = start.elapsed().as_secs_f64() * 1e3;
         Ok(mesh)
@@ -257,7 +247,7 @@ impl DepthMesh {
     }
 
     /// Numbers the used vertices coarse to fine and rewrites the indices.
-    fn assemble(&self, tris: &[[u32; 3]]) -> Mesh {
+    fn assemble(&self, tris: &[[u32; 3]], order_kind: StripOrder) -> Mesh {
         let g = &self.grid;
         let gw = g.gw();
         // First sight of each vertex, then a counting sort by level (stable,
@@ -296,21 +286,20 @@ impl DepthMesh {
                 }
             })
             .collect();
-        let strips = stripify(tris)
-            .into_iter()
-            .map(|i| {
-                if i == super::RESTART {
-                    i
-                } else {
-                    slot[i as usize]
-                }
-            })
-            .collect();
-        let triangles = tris
+        let triangles: Vec<[u32; 3]> = tris
             .iter()
             .filter(|t| **t != BREAK)
             .map(|t| t.map(|i| slot[i as usize]))
             .collect();
+        let strips = if order_kind == StripOrder::Traversal {
+            stripify(tris)
+                .into_iter()
+                .map(|i| if i == super::RESTART { i } else { slot[i as usize] })
+                .collect()
+        } else {
+            stripify_greedy(&triangles, order.len())
+        };
+
         Mesh {
             vertices,
             strips,

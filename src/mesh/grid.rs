@@ -76,11 +76,7 @@ impl Grid {
         let chosen = (1..=kmax)
             .rev()
             .find(|&k| padded(k) * 10 <= area * 11)
-            .unwrap_or_else(|| {
-                (1..=kmax)
-                    .min_by_key(|&k| (padded(k), u32::MAX - k))
-                    .unwrap_or(1)
-            });
+            .unwrap_or_else(|| (1..=kmax).min_by_key(|&k| (padded(k), u32::MAX - k)).unwrap_or(1));
         let s = 1u32 << chosen;
         Self {
             width,
@@ -154,10 +150,7 @@ impl Grid {
         if tx == ty {
             Kind::Centre { h }
         } else {
-            Kind::Edge {
-                h,
-                horizontal: tx < ty,
-            }
+            Kind::Edge { h, horizontal: tx < ty }
         }
     }
 
@@ -178,10 +171,7 @@ impl Grid {
         let (x, y) = (i64::from(v.0), i64::from(v.1));
         let d = match self.kind(v) {
             Kind::Root => return None,
-            Kind::Edge {
-                h,
-                horizontal: true,
-            } => {
+            Kind::Edge { h, horizontal: true } => {
                 let h = i64::from(h);
                 Diamond {
                     a: (x - h, y),
@@ -189,10 +179,7 @@ impl Grid {
                     apex: [(x, y - h), (x, y + h)],
                 }
             }
-            Kind::Edge {
-                h,
-                horizontal: false,
-            } => {
+            Kind::Edge { h, horizontal: false } => {
                 let h = i64::from(h);
                 Diamond {
                     a: (x, y - h),

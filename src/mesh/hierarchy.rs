@@ -150,9 +150,7 @@ impl DepthMesh {
                 *d = if s.is_finite() && s > 0.0 { s } else { 0.0 };
             }
         }
-        let t0 = Instant::now();
         let (normal, rho) = normals_and_quality(&grid, camera, &bp, &z);
-        let t1 = Instant::now();
         let cells = leaf_flags(
             &Samples {
                 grid: &grid,
@@ -163,7 +161,6 @@ impl DepthMesh {
             },
             seg,
         );
-        let t2 = Instant::now();
         let mut segmented = 0;
         for y in 0..depth.height - 1 {
             for x in 0..depth.width - 1 {
@@ -189,15 +186,6 @@ impl DepthMesh {
         let zmax = mesh.z.iter().copied().fold(0f32, f32::max);
         mesh.levels(&mut flags, zmax);
         mesh.flags = flags;
-        if std::env::var_os("DMESH_PHASES").is_some() {
-            eprintln!(
-                "copy {:?} normals {:?} leaves {:?} levels {:?}",
-                t0 - start,
-                t1 - t0,
-                t2 - t1,
-                t2.elapsed()
-            );
-        }
         mesh.build_ms = start.elapsed().as_secs_f64() * 1e3;
         Ok(mesh)
     }
@@ -222,50 +210,20 @@ impl DepthMesh {
             // centres of level g on edge midpoints of level g.
             for y in (0..gh).step_by(if g == 0 { usize::MAX } else { step }) {
                 for x in (h..gw).step_by(step) {
-                    let apex = [
-                        (y >= h).then(|| (x, y - h)),
-                        (y + h < gh).then_some((x, y + h)),
-                    ];
-                    self.split_vertex(
-                        flags,
-                        zmax,
-                        (x, y),
-                        (x - h, y),
-                        (x + h, y),
-                        apex,
-                        Bisects::Row,
-                    );
+                    let apex = [(y >= h).then(|| (x, y - h)), (y + h < gh).then_some((x, y + h))];
+                    self.split_vertex(flags, zmax, (x, y), (x - h, y), (x + h, y), apex, Bisects::Row);
                 }
             }
             for y in (h..gh).step_by(if g == 0 { usize::MAX } else { step }) {
                 for x in (0..gw).step_by(step) {
-                    let apex = [
-                        (x >= h).then(|| (x - h, y)),
-                        (x + h < gw).then_some((x + h, y)),
-                    ];
-                    self.split_vertex(
-                        flags,
-                        zmax,
-                        (x, y),
-                        (x, y - h),
-                        (x, y + h),
-                        apex,
-                        Bisects::Column,
-                    );
+                    let apex = [(x >= h).then(|| (x - h, y)), (x + h < gw).then_some((x + h, y))];
+                    self.split_vertex(flags, zmax, (x, y), (x, y - h), (x, y + h), apex, Bisects::Column);
                 }
             }
             for y in (h..gh).step_by(step) {
-                let py = if ((y - h) / (2 * h)) % 2 == 1 {
-                    y - h
-                } else {
-                    y + h
-                };
+                let py = if ((y - h) / (2 * h)) % 2 == 1 { y - h } else { y + h };
                 for x in (h..gw).step_by(step) {
-                    let px = if ((x - h) / (2 * h)) % 2 == 1 {
-                        x - h
-                    } else {
-                        x + h
-                    };
+                    let px = if ((x - h) / (2 * h)) % 2 == 1 { x - h } else { x + h };
                     let (qx, qy) = (2 * x - px, 2 * y - py);
                     let apex = if px < qx {
                         [(px, qy), (qx, py)]
@@ -319,11 +277,7 @@ impl DepthMesh {
         for y in ys {
             for x in (xs..gw).step_by(2) {
                 let vi = y * gw + x;
-                let exists = if row {
-                    [y > 0, y + 1 < gh]
-                } else {
-                    [x > 0, x + 1 < gw]
-                };
+                let exists = if row { [y > 0, y + 1 < gh] } else { [x > 0, x + 1 < gw] };
                 let (za, zv, zb) = (self.z[vi - along], self.z[vi], self.z[vi + along]);
                 let mut bits = flags[vi] & 0xf0;
                 let mut unflagged = false;
@@ -441,13 +395,7 @@ impl DepthMesh {
                 bits |= and_bit(half);
             }
             if !or {
-                let rows = half_rows(
-                    v,
-                    h,
-                    apex,
-                    bisects == Bisects::Row,
-                    bisects == Bisects::Diagonal,
-                );
+                let rows = half_rows(v, h, apex, bisects == Bisects::Row, bisects == Bisects::Diagonal);
                 let dev = max_deviation(&self.z, gw, [a, b, apex], rows);
                 own = own.max(dev * dev);
                 if !eq12_done {
@@ -456,15 +404,11 @@ impl DepthMesh {
                     own = own.max(match bisects {
                         Bisects::Diagonal => point_line_3d_sq(pv, pa, pb),
                         Bisects::Row => point_line_2d_sq((pv.x, pv.z), (pa.x, pa.z), (pb.x, pb.z)),
-                        Bisects::Column => {
-                            point_line_2d_sq((pv.y, pv.z), (pa.y, pa.z), (pb.y, pb.z))
-                        }
+                        Bisects::Column => point_line_2d_sq((pv.y, pv.z), (pa.y, pa.z), (pb.y, pb.z)),
                     });
                 }
             } else if !and {
-                let zref = [za, zb, zv, self.z[at(apex)]]
-                    .into_iter()
-                    .fold(0f32, f32::max);
+                let zref = [za, zb, zv, self.z[at(apex)]].into_iter().fold(0f32, f32::max);
                 let zref = if zref > 0.0 { zref } else { zmax };
                 let len = f64::from(2 * h)
                     * if bisects == Bisects::Diagonal {

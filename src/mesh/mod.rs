@@ -27,4 +27,4 @@ pub use extract::{Lod, Mesh, MeshVertex};
 pub use grid::Grid;
 pub use hierarchy::{BuildStats, DepthMesh};
 pub use segmentation::{Method, Segmentation};
-pub use strips::{decode_strips, RESTART};
+pub use strips::{decode_strips, StripOrder, RESTART};

@@ -49,12 +49,7 @@ pub fn rho_to_byte(rho: f64) -> u8 {
 
 /// Computes the encoded normal and quality byte of every grid vertex.
 #[inline(never)]
-pub fn normals_and_quality(
-    grid: &Grid,
-    camera: &Camera,
-    bp: &BackProject,
-    z: &[f32],
-) -> (Vec<[u8; 2]>, Vec<u8>) {
+pub fn normals_and_quality(grid: &Grid, camera: &Camera, bp: &BackProject, z: &[f32]) -> (Vec<[u8; 2]>, Vec<u8>) {
     let gw = grid.gw() as usize;
     let (w, h) = (grid.width as usize, grid.height as usize);
     let facing = oct_encode(DVec3::NEG_Z);
@@ -92,17 +87,12 @@ pub fn normals_and_quality(
                 continue;
             }
             let (ax, bx) = bp.col(x);
-            let p = DVec3::new(
-                ax + bx * f64::from(zz),
-                ay + by * f64::from(zz),
-                f64::from(zz),
-            );
+            let p = DVec3::new(ax + bx * f64::from(zz), ay + by * f64::from(zz), f64::from(zz));
             // Fast path: all four neighbours valid, central differences.
             if x > 0 && x + 1 < w && y > 0 && y + 1 < h {
                 let (zl, zr, zu, zd) = (z[idx - 1], z[idx + 1], z[idx - gw], z[idx + gw]);
                 if zl > 0.0 && zr > 0.0 && zu > 0.0 && zd > 0.0 {
-                    let (zl, zr, zu, zd) =
-                        (f64::from(zl), f64::from(zr), f64::from(zu), f64::from(zd));
+                    let (zl, zr, zu, zd) = (f64::from(zl), f64::from(zr), f64::from(zu), f64::from(zd));
                     let ((axl, bxl), (axr, bxr)) = (bp.col(x - 1), bp.col(x + 1));
                     let ((ayu, byu), (ayd, byd)) = (bp.row(y - 1), bp.row(y + 1));
                     let dx = DVec3::new(axr + bxr * zr - axl - bxl * zl, by * (zr - zl), zr - zl);

@@ -124,12 +124,7 @@ pub(crate) fn leaf_flags(s: &Samples<'_>, seg: &Segmentation) -> Vec<u8> {
             // Fast path: four valid corners spanning too little depth for
             // Eq. 11 leave both triangles of the cell unsegmented.
             let i = grid.index((x, y));
-            let q = [
-                s.z[i],
-                s.z[i + 1],
-                s.z[i + gw as usize],
-                s.z[i + gw as usize + 1],
-            ];
+            let q = [s.z[i], s.z[i + 1], s.z[i + gw as usize], s.z[i + gw as usize + 1]];
             let lo = q[0].min(q[1]).min(q[2].min(q[3]));
             let hi = q[0].max(q[1]).max(q[2].max(q[3]));
             if lo > 0.0 && f64::from(hi) - f64::from(lo) <= seg.lambda * f64::from(lo) {
@@ -152,9 +147,7 @@ pub(crate) fn leaf_flags(s: &Samples<'_>, seg: &Segmentation) -> Vec<u8> {
                                 let marks = disparity_marks.as_deref().unwrap_or_default();
                                 corners
                                     .iter()
-                                    .filter(|&&c| {
-                                        marks.get(grid.index(c)).copied().unwrap_or(false)
-                                    })
+                                    .filter(|&&c| marks.get(grid.index(c)).copied().unwrap_or(false))
                                     .count()
                                     >= 2
                             }

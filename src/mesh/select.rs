@@ -110,9 +110,7 @@ impl ViewDependent {
         };
         let (focal2, tau2) = match (view.focal_pixels(), view.projection) {
             (Some(f), _) => (Some(f * f), tau * tau),
-            (None, Projection::Orthographic { sx, sy, .. }) => {
-                (None, tau * tau * sx.min(sy).powi(2))
-            }
+            (None, Projection::Orthographic { sx, sy, .. }) => (None, tau * tau * sx.min(sy).powi(2)),
             (None, _) => (None, tau * tau),
         };
         // n . (R p + o) + d = (R^T n) . p + (n . o + d).

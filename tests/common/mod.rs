@@ -61,11 +61,7 @@ pub fn assert_strips_match(mesh: &Mesh) {
 /// Everything in the mesh is finite, positive where it must be, inside the image.
 pub fn assert_finite(mesh: &Mesh, w: u32, h: u32) {
     for v in &mesh.vertices {
-        assert!(
-            v.depth.is_finite() && v.depth > 0.0,
-            "vertex depth {}",
-            v.depth
-        );
+        assert!(v.depth.is_finite() && v.depth > 0.0, "vertex depth {}", v.depth);
         assert!(
             u32::from(v.i) < w && u32::from(v.j) < h,
             "vertex ({}, {}) outside {w}x{h}",
@@ -89,21 +85,14 @@ fn twice_area(a: (i64, i64), b: (i64, i64), c: (i64, i64)) -> i64 {
 /// T-junction), every edge used at most twice, and an edge used once has
 /// nothing covered on its other side.
 pub fn assert_conforming(mesh: &Mesh) {
-    let tris: Vec<[(i64, i64); 3]> = mesh
-        .triangles
-        .iter()
-        .map(|t| t.map(|v| ij(mesh, v)))
-        .collect();
+    let tris: Vec<[(i64, i64); 3]> = mesh.triangles.iter().map(|t| t.map(|v| ij(mesh, v))).collect();
     let used: HashSet<(i64, i64)> = tris.iter().flatten().copied().collect();
     let mut edges: HashMap<(P, P), u32> = HashMap::new();
     // Coverage of points at 1/6 pixel resolution: centroids of the finest triangles.
     let mut covered: HashMap<(i64, i64), u32> = HashMap::new();
     for t in &tris {
         let a2 = twice_area(t[0], t[1], t[2]);
-        assert!(
-            a2 < 0,
-            "triangle {t:?} is degenerate or wound the wrong way"
-        );
+        assert!(a2 < 0, "triangle {t:?} is degenerate or wound the wrong way");
         for k in 0..3 {
             let (p, q) = (t[k], t[(k + 1) % 3]);
             let key = if p < q { (p, q) } else { (q, p) };
@@ -113,10 +102,7 @@ pub fn assert_conforming(mesh: &Mesh) {
             let g = gcd(dx.abs(), dy.abs());
             for s in 1..g {
                 let r = (p.0 + dx / g * s, p.1 + dy / g * s);
-                assert!(
-                    !used.contains(&r),
-                    "T-junction: vertex {r:?} inside edge {p:?}-{q:?}"
-                );
+                assert!(!used.contains(&r), "T-junction: vertex {r:?} inside edge {p:?}-{q:?}");
             }
         }
         let (x0, x1) = (
@@ -161,9 +147,8 @@ pub fn assert_conforming(mesh: &Mesh) {
 }
 
 fn contains6(t: [(i64, i64); 3], p6: (i64, i64)) -> bool {
-    let s = |a: (i64, i64), b: (i64, i64)| {
-        (6 * b.0 - 6 * a.0) * (p6.1 - 6 * a.1) - (6 * b.1 - 6 * a.1) * (p6.0 - 6 * a.0)
-    };
+    let s =
+        |a: (i64, i64), b: (i64, i64)| (6 * b.0 - 6 * a.0) * (p6.1 - 6 * a.1) - (6 * b.1 - 6 * a.1) * (p6.0 - 6 * a.0);
     let (d0, d1, d2) = (s(t[0], t[1]), s(t[1], t[2]), s(t[2], t[0]));
     (d0 > 0 && d1 > 0 && d2 > 0) || (d0 < 0 && d1 < 0 && d2 < 0)
 }
@@ -202,10 +187,7 @@ pub fn assert_epsilon_bound(mesh: &Mesh, depth: &DepthImage, eps: f64) {
                     continue;
                 }
                 let zs = f64::from(depth.z[(y * w + x) as usize]);
-                assert!(
-                    zs > 0.0,
-                    "invalid sample ({x}, {y}) under an emitted triangle"
-                );
+                assert!(zs > 0.0, "invalid sample ({x}, {y}) under an emitted triangle");
                 let lin = b0 * z[0] + b1 * z[1] + b2 * z[2];
                 let dev = (zs - lin).abs();
                 assert!(
@@ -234,12 +216,8 @@ pub fn assert_monotone(h: &DepthMesh) {
                         continue; // leaf children have no vertex
                     }
                     let c = (cx as u32, cy as u32);
-                    assert!(
-                        h.error((x, y)) >= h.error(c),
-                        "error of ({x},{y}) below child {c:?}"
-                    );
-                    let gap =
-                        (h.position((x, y)) - h.position(c)).length() + f64::from(h.radius(c));
+                    assert!(h.error((x, y)) >= h.error(c), "error of ({x},{y}) below child {c:?}");
+                    let gap = (h.position((x, y)) - h.position(c)).length() + f64::from(h.radius(c));
                     assert!(
                         f64::from(h.radius((x, y))) >= gap * (1.0 - 1e-6),
                         "sphere of ({x},{y}) misses child {c:?}"
