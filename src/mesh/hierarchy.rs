@@ -395,8 +395,18 @@ impl DepthMesh {
                 bits |= and_bit(half);
             }
             if !or {
-                let rows = half_rows(v, h, apex, bisects == Bisects::Row, bisects == Bisects::Diagonal);
-                let dev = max_deviation(&self.z, gw, [a, b, apex], rows);
+                let dev = if h == 1 {
+                    // A half of a 2 x 2 square holds its corners (deviation
+                    // 0), v and the two leg midpoints: three details.
+                    let detail = |m: Pt, e0: Pt, e1: Pt| {
+                        (f64::from(self.z[at(m)]) - 0.5 * (f64::from(self.z[at(e0)]) + f64::from(self.z[at(e1)]))).abs()
+                    };
+                    let mid = |p: Pt, q: Pt| ((p.0 + q.0) / 2, (p.1 + q.1) / 2);
+                    detail(v, a, b).max(detail(mid(a, apex), a, apex)).max(detail(mid(apex, b), apex, b))
+                } else {
+                    let rows = half_rows(v, h, apex, bisects == Bisects::Row, bisects == Bisects::Diagonal);
+                    max_deviation(&self.z, gw, [a, b, apex], rows)
+                };
                 own = own.max(dev * dev);
                 if !eq12_done {
                     eq12_done = true;
