@@ -144,7 +144,10 @@ impl<S: Select> Walk<'_, S> {
         }
         let pm = self.mesh.position(m);
         let radius = self.mesh.radius[mi];
-        let mask = if mask == 0 {
+        // Culling stops at triangles 8 samples across: below that a
+        // straddling triangle's fringe outside the view costs less to send
+        // than to test (the client clips it).
+        let mask = if mask == 0 || l.0.abs_diff(r.0).max(l.1.abs_diff(r.1)) < CULL_MIN_SPAN {
             0
         } else {
             // A sphere around the split vertex holding the corners and, by
@@ -172,6 +175,10 @@ impl<S: Select> Walk<'_, S> {
         }
     }
 }
+
+/// Triangles whose hypotenuse spans fewer grid steps than this are not
+/// tested against the frustum (their parent straddled it).
+const CULL_MIN_SPAN: u32 = 8;
 
 /// An upper bound of a vector's length without a square root (at most 15 % over).
 #[inline]
@@ -248,11 +255,31 @@ impl DepthMesh {
 
     /// Numbers the used vertices coarse to fine and rewrites the indices.
     fn assemble(&self, tris: &[[u32; 3]], order_kind: StripOrder) -> Mesh {
+        // The grid-sized vertex map is kept per thread between extractions
+        // and only its touched entries are reset, so a small mesh from a big
+        // hierarchy does not pay for clearing the whole grid.
+        thread_local! {
+            static SLOT: std::cell::RefCell<Vec<u32>> = const { std::cell::RefCell::new(Vec::new()) };
+        }
+        SLOT.with(|cell| {
+            let mut slot = cell.borrow_mut();
+            if slot.len() < self.grid.len() {
+                slot.clear();
+                slot.resize(self.grid.len(), u32::MAX);
+            }
+            let mesh = self.assemble_with(tris, order_kind, &mut slot);
+            for v in &mesh.vertices {
+                slot[self.grid.index((u32::from(v.i), u32::from(v.j)))] = u32::MAX;
+            }
+            mesh
+        })
+    }
+
+    fn assemble_with(&self, tris: &[[u32; 3]], order_kind: StripOrder, slot: &mut [u32]) -> Mesh {
         let g = &self.grid;
         let gw = g.gw();
         // First sight of each vertex, then a counting sort by level (stable,
         // so traversal order is kept within a level).
-        let mut slot = vec![u32::MAX; g.len()];
         let mut used: Vec<(u32, u8)> = Vec::with_capacity(tris.len() / 2 + 8);
         let mut per_level = [0u32; 2 * 16 + 2];
         for &v in tris.iter().filter(|t| **t != BREAK).flatten() {
