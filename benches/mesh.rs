@@ -19,7 +19,7 @@ use std::time::Duration;
 use criterion::{criterion_group, criterion_main, Criterion};
 use dmesh::camera::Camera;
 use dmesh::image::DepthImage;
-use dmesh::mesh::{DepthMesh, Lod, Mesh, Segmentation};
+use dmesh::mesh::{DepthMesh, Lod, Mesh, Segmentation, StripOrder};
 
 fn all_scenes() -> Vec<(String, DepthImage, Camera)> {
     let mut out: Vec<(String, DepthImage, Camera)> = Vec::new();
@@ -54,33 +54,33 @@ fn side_view(c: &Camera, depth: f64) -> Camera {
     .unwrap()
 }
 
-fn row(name: &str, what: &str, m: &Mesh) {
+fn row(name: &str, what: &str, h: &DepthMesh, lod: Lod<'_>) {
+    let m = h.extract(lod).unwrap();
+    let g = h.extract_with(lod, StripOrder::Greedy).unwrap();
     let tris = m.triangles.len();
-    let ipt = m.strips.len() as f64 / tris.max(1) as f64;
+    let ipt = |m: &Mesh| m.strips.len() as f64 / tris.max(1) as f64;
     println!(
-        "{name:<22} {what:<16} {tris:>10} {ipt:>9.3} {:>8} {:>10}",
-        m.strip_count(),
-        m.vertices.len()
+        "{name:<22} {what:<14} {tris:>10} {:>10} {:>9.3} {:>9.3} {:>8}",
+        m.vertices.len(),
+        ipt(&m),
+        ipt(&g),
+        m.strip_count()
     );
 }
 
 fn bench(c: &mut Criterion) {
     let scenes = all_scenes();
     println!(
-        "{:<22} {:<16} {:>10} {:>9} {:>8} {:>10}",
-        "scene", "extraction", "triangles", "idx/tri", "strips", "vertices"
+        "{:<22} {:<14} {:>10} {:>10} {:>9} {:>9} {:>8}",
+        "scene", "extraction", "triangles", "vertices", "idx/tri", "greedy", "strips"
     );
     for (name, depth, cam) in &scenes {
         let h = DepthMesh::build(depth, cam, &Segmentation::default()).unwrap();
         let eps = 0.005 * median_depth(depth);
         let view = side_view(cam, median_depth(depth));
-        row(name, &format!("eps={eps:.4}"), &h.extract(Lod::Epsilon(eps)).unwrap());
-        row(name, "tau=1", &h.extract(Lod::Tau { tau: 1.0, view: &view }).unwrap());
-        row(
-            name,
-            "tau=0 (full)",
-            &h.extract(Lod::Tau { tau: 0.0, view: cam }).unwrap(),
-        );
+        row(name, &format!("eps={eps:.4}"), &h, Lod::Epsilon(eps));
+        row(name, "tau=1", &h, Lod::Tau { tau: 1.0, view: &view });
+        row(name, "tau=0 (full)", &h, Lod::Tau { tau: 0.0, view: cam });
     }
     let mut g = c.benchmark_group("mesh");
     g.sample_size(20)

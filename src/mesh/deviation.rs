@@ -113,7 +113,11 @@ pub(crate) fn max_deviation(
     for (y, lo, hi) in rows {
         let start = y as usize * gw;
         let base = za + gy * (f64::from(y) - ay) + gx * (f64::from(lo) - ax);
-        worst = worst.max(row_max_deviation(&z[start + lo as usize..=start + hi as usize], base, gx));
+        worst = worst.max(row_max_deviation(
+            &z[start + lo as usize..=start + hi as usize],
+            base,
+            gx,
+        ));
     }
     worst
 }

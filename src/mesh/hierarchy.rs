@@ -402,7 +402,9 @@ impl DepthMesh {
                         (f64::from(self.z[at(m)]) - 0.5 * (f64::from(self.z[at(e0)]) + f64::from(self.z[at(e1)]))).abs()
                     };
                     let mid = |p: Pt, q: Pt| ((p.0 + q.0) / 2, (p.1 + q.1) / 2);
-                    detail(v, a, b).max(detail(mid(a, apex), a, apex)).max(detail(mid(apex, b), apex, b))
+                    detail(v, a, b)
+                        .max(detail(mid(a, apex), a, apex))
+                        .max(detail(mid(apex, b), apex, b))
                 } else {
                     let rows = half_rows(v, h, apex, bisects == Bisects::Row, bisects == Bisects::Diagonal);
                     max_deviation(&self.z, gw, [a, b, apex], rows)
