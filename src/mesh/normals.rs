@@ -16,20 +16,26 @@ use super::grid::Grid;
 use crate::camera::Camera;
 
 /// Octahedral encoding of the direction of `n` (any length) into two bytes.
+#[inline]
 pub fn oct_encode(n: DVec3) -> [u8; 2] {
     let l1 = n.x.abs() + n.y.abs() + n.z.abs();
     if !(l1 > 0.0 && l1.is_finite()) {
-        return oct_encode(DVec3::NEG_Z);
+        return OCT_FACING;
     }
-    let mut p = DVec2::new(n.x, n.y) / l1;
+    let inv = 1.0 / l1;
+    let (mut px, mut py) = (n.x * inv, n.y * inv);
     if n.z < 0.0 {
-        let sign = |v: f64| if v >= 0.0 { 1.0 } else { -1.0 };
-        p = DVec2::new((1.0 - p.y.abs()) * sign(p.x), (1.0 - p.x.abs()) * sign(p.y));
+        let (ax, ay) = (px.abs(), py.abs());
+        (px, py) = ((1.0 - ay).copysign(px), (1.0 - ax).copysign(py));
     }
-    // Adding 0.5 then truncating rounds; `as` saturates, so this cannot wrap.
-    let q = |v: f64| ((v.clamp(-1.0, 1.0) * 0.5 + 0.5) * 255.0 + 0.5) as u8;
-    [q(p.x), q(p.y)]
+    // [-1, 1] to [0.5, 255.5], truncated: rounds to the nearest of 256 steps.
+    // `as` saturates, so nothing can wrap.
+    let q = |v: f64| (v * 127.5 + 128.0) as u8;
+    [q(px), q(py)]
 }
+
+/// The encoding of -z, the normal facing the reference camera.
+const OCT_FACING: [u8; 2] = [128, 128];
 
 /// Inverse of [`oct_encode`]: a unit vector.
 pub fn oct_decode(e: [u8; 2]) -> DVec3 {
@@ -44,7 +50,7 @@ pub fn oct_decode(e: [u8; 2]) -> DVec3 {
 
 /// Quantises `rho` in `[0, 1]` to a byte.
 pub fn rho_to_byte(rho: f64) -> u8 {
-    (rho.clamp(0.0, 1.0) * 255.0 + 0.5) as u8
+    (rho * 255.0 + 0.5) as u8
 }
 
 /// Computes the encoded normal and quality byte of every grid vertex.
@@ -52,7 +58,7 @@ pub fn rho_to_byte(rho: f64) -> u8 {
 pub fn normals_and_quality(grid: &Grid, camera: &Camera, bp: &BackProject, z: &[f32]) -> (Vec<[u8; 2]>, Vec<u8>) {
     let gw = grid.gw() as usize;
     let (w, h) = (grid.width as usize, grid.height as usize);
-    let facing = oct_encode(DVec3::NEG_Z);
+    let facing = OCT_FACING;
     let mut normals = vec![facing; grid.len()];
     let mut rho = vec![0u8; grid.len()];
     let ortho = camera.is_orthographic();
@@ -80,6 +86,10 @@ pub fn normals_and_quality(grid: &Grid, camera: &Camera, bp: &BackProject, z: &[
     for y in 0..h {
         let row = y * gw;
         let (ay, by) = bp.row(y);
+        // Row factors of the neighbours, hoisted (any row when off the image:
+        // only the interior fast path reads them).
+        let ((ayu, byu), (ayd, byd)) = (bp.row(y.saturating_sub(1)), bp.row((y + 1).min(h - 1)));
+        let interior_row = y > 0 && y + 1 < h;
         for x in 0..w {
             let idx = row + x;
             let zz = z[idx];
@@ -87,14 +97,14 @@ pub fn normals_and_quality(grid: &Grid, camera: &Camera, bp: &BackProject, z: &[
                 continue;
             }
             let (ax, bx) = bp.col(x);
-            let p = DVec3::new(ax + bx * f64::from(zz), ay + by * f64::from(zz), f64::from(zz));
+            let zf = f64::from(zz);
+            let p = DVec3::new(ax + bx * zf, ay + by * zf, zf);
             // Fast path: all four neighbours valid, central differences.
-            if x > 0 && x + 1 < w && y > 0 && y + 1 < h {
+            if interior_row && x > 0 && x + 1 < w {
                 let (zl, zr, zu, zd) = (z[idx - 1], z[idx + 1], z[idx - gw], z[idx + gw]);
                 if zl > 0.0 && zr > 0.0 && zu > 0.0 && zd > 0.0 {
                     let (zl, zr, zu, zd) = (f64::from(zl), f64::from(zr), f64::from(zu), f64::from(zd));
                     let ((axl, bxl), (axr, bxr)) = (bp.col(x - 1), bp.col(x + 1));
-                    let ((ayu, byu), (ayd, byd)) = (bp.row(y - 1), bp.row(y + 1));
                     let dx = DVec3::new(axr + bxr * zr - axl - bxl * zl, by * (zr - zl), zr - zl);
                     let dy = DVec3::new(bx * (zd - zu), ayd + byd * zd - ayu - byu * zu, zd - zu);
                     finish(idx, dy.cross(dx), p);
