@@ -187,7 +187,18 @@ pub(crate) fn stripify_greedy(tris: &[[u32; 3]], vertex_count: usize) -> Vec<u32
             take(n, used, degree, buckets);
             cur = n;
             let w = third(&tris[n], p, q);
-            if free(used, across(n, q, w)) || !free(used, across(n, p, w)) {
+            let (straight, turn) = (across(n, q, w), across(n, p, w));
+            // Between the two ways on, take the one into the triangle with fewer
+            // free neighbours (it would otherwise be stranded), a swap costing
+            // one index more.
+            let score = |m: u32| if free(used, m) { Some(degree[m as usize]) } else { None };
+            let go_straight = match (score(straight), score(turn)) {
+                (Some(a), Some(b)) => a <= b + 1,
+                (Some(_), None) => true,
+                (None, Some(_)) => false,
+                (None, None) => true,
+            };
+            if go_straight {
                 out.push(w);
                 (p, q) = (q, w);
             } else {
