@@ -9,7 +9,7 @@
 //! `rho = 0` (nothing is known of its orientation). Normals travel
 //! octahedron-encoded in two bytes, `rho` in one.
 
-use glam::{DVec2, DVec3};
+use glam::DVec3;
 
 use super::backproject::BackProject;
 use super::grid::Grid;
