@@ -40,6 +40,16 @@ pub fn point_line_2d_sq(p: (f64, f64), a: (f64, f64), b: (f64, f64)) -> f64 {
     }
 }
 
+/// An upper bound of `|d|` without a square root: `max + (mid + min) / 2` of
+/// the absolute components, at most 15 % over (used for nested radii and
+/// culling spheres, which may grow but never shrink).
+#[inline]
+pub(crate) fn norm_bound(d: DVec3) -> f64 {
+    let d = d.abs();
+    let m = d.max_element();
+    m + 0.5 * (d.x + d.y + d.z - m)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -59,6 +69,22 @@ mod tests {
         assert_eq!(d, 1.0);
         assert_eq!(point_line_2d_sq((3.0, 4.0), (0.0, 0.0), (0.0, 0.0)), 25.0);
         assert_eq!(point_line_3d_sq(DVec3::ONE, DVec3::ZERO, DVec3::ZERO), 3.0);
+    }
+
+    #[test]
+    fn norm_bound_never_undershoots() {
+        for d in [
+            DVec3::ONE,
+            DVec3::new(3.0, -4.0, 0.0),
+            DVec3::new(-1e-3, 2.0, 1e6),
+            DVec3::ZERO,
+        ] {
+            let b = norm_bound(d);
+            assert!(
+                b >= d.length() && b <= 1.16 * d.length() + f64::MIN_POSITIVE,
+                "{d}: {b}"
+            );
+        }
     }
 
     #[test]

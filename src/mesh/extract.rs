@@ -23,6 +23,7 @@ use std::time::Instant;
 
 use glam::DVec3;
 
+use super::error_metric::norm_bound;
 use super::grid::{cell_half, half_of, Pt};
 use super::hierarchy::{and_bit, cell_bit, or_bit, DepthMesh};
 use super::select::{PlaneMask, Select, Static, ViewDependent, ALL_PLANES};
@@ -179,14 +180,6 @@ impl<S: Select> Walk<'_, S> {
 /// Triangles whose hypotenuse spans fewer grid steps than this are not
 /// tested against the frustum (their parent straddled it).
 const CULL_MIN_SPAN: u32 = 8;
-
-/// An upper bound of a vector's length without a square root (at most 15 % over).
-#[inline]
-fn norm_bound(d: DVec3) -> f64 {
-    let d = d.abs();
-    let m = d.max_element();
-    m + 0.5 * (d.x + d.y + d.z - m)
-}
 
 impl DepthMesh {
     /// Extracts the mesh at level of detail `lod`, strips in traversal order.

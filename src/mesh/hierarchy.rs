@@ -11,13 +11,11 @@
 //!   centre of that node;
 //! - its **own error**, the larger of
 //!   - Eq. 1 (centres) or Eq. 2 (edge midpoints): distance of `v` to the edge it bisects;
-//!   - the depth deviation bound `dev`: over every sample inside an unsegmented
-//!     half, `|z - z_lin|` where `z_lin` interpolates the half's three corner
-//!     depths affinely over the grid. With `d = z_v - (z_a + z_b) / 2`, a half's
-//!     signed deviation lies in `[lo_1 + min(d, 0), hi_1 + max(d, 0)]` joined with the
-//!     same for its second child (the interpolant of a child differs from the
-//!     parent's by `d` times a barycentric in `[0, 1]`), so the bound is exact to
-//!     compute and never below the truth;
+//!   - the exact depth deviation of each unsegmented half: the largest
+//!     `|z - z_lin|` over its samples, `z_lin` interpolating the half's three
+//!     corner depths affinely over the grid (`deviation.rs`). This is what
+//!     makes the static tolerance hold at every sample, not only at the
+//!     refinement points that Eq. 1-2 measure;
 //!   - for a half that is segmented but not fully (dropping it would drop
 //!     valid, unsegmented samples), its footprint: hypotenuse length in pixels
 //!     times the pixel size at its deepest valid corner. Refining it shrinks
@@ -25,8 +23,12 @@
 //! - the **saturated error** `e(v) = max(own(v), e(children))` (nested, as in
 //!   Lindstrom and Pascucci), so a vertex's error is at least every dependent's
 //!   and the selection `e > threshold` always brings a vertex's dependencies;
-//! - the **nested bounding radius** `r(v) = max(|p_v - p_c| + r(c))` over children,
-//!   which keeps the view-dependent test of Eq. 4 monotone.
+//! - the **nested bounding radius** `r(v) = max(|p_v - p_c| + r(c))` over children
+//!   (the distance bounded from above without a square root), which keeps the
+//!   view-dependent test of Eq. 4 monotone.
+//!
+//! Edge midpoints of the finest level (half of all vertices) have no
+//! children and a three-sample deviation; they get a dedicated loop.
 //!
 //! Errors are stored squared (Eq. 3) in f32, rounded up, saturated at `f32::MAX`.
 
@@ -36,7 +38,7 @@ use glam::DVec3;
 
 use super::backproject::BackProject;
 use super::deviation::{half_rows, max_deviation};
-use super::error_metric::{point_line_2d_sq, point_line_3d_sq};
+use super::error_metric::{norm_bound, point_line_2d_sq, point_line_3d_sq};
 use super::grid::{cell_half, half_of, Grid, Pt};
 use super::normals::normals_and_quality;
 use super::segmentation::{leaf_flags, Samples, Segmentation};
@@ -106,14 +108,6 @@ enum Bisects {
     Diagonal,
     Row,
     Column,
-}
-
-/// An upper bound of the length of a vector of absolute values without a
-/// square root: `max + (mid + min) / 2` (at most 15 % over).
-#[inline]
-fn norm_bound(d: DVec3) -> f64 {
-    let m = d.max_element();
-    m + 0.5 * (d.x + d.y + d.z - m)
 }
 
 fn round_up(v: f64) -> f32 {
@@ -384,7 +378,7 @@ impl DepthMesh {
                     and &= flags[ci] & and_bit(hh) != 0;
                     // Saturation and nesting over the DAG children.
                     err = err.max(self.err2[ci]);
-                    let d = (pv - self.bp.point(c.0, c.1, self.z[ci])).abs();
+                    let d = pv - self.bp.point(c.0, c.1, self.z[ci]);
                     radius = radius.max(norm_bound(d) + f64::from(self.radius[ci]));
                 }
             }
