@@ -12,7 +12,7 @@ use std::process::ExitCode;
 use anyhow::{anyhow, bail, Context, Result};
 use clap::{ArgGroup, Parser, Subcommand, ValueEnum};
 use dmesh::camera::{camera_from_json, Camera};
-use dmesh::image::{decode_color, decode_depth, ColorImage, DepthKind, DepthOptions, Limits};
+use dmesh::image::{decode_color, decode_depth, decode_mask, ColorImage, DepthKind, DepthOptions, Limits};
 use dmesh::mesh::{DepthMesh, Lod, Mesh, Method, Segmentation, StripOrder};
 
 #[derive(Parser)]
@@ -88,6 +88,9 @@ struct MeshArgs {
     /// Reference camera JSON.
     #[arg(long)]
     camera: PathBuf,
+    /// Validity mask (PNG of the same size, non-zero = valid).
+    #[arg(long)]
+    mask: Option<PathBuf>,
     /// Colour image (PNG or JPEG) of the same size; adds vertex colours to the PLY.
     #[arg(long)]
     color: Option<PathBuf>,
@@ -173,8 +176,13 @@ fn run_mesh(a: &MeshArgs) -> Result<()> {
         focal_baseline: a.focal_baseline,
         channel: a.channel.clone(),
     };
-    let depth = decode_depth(&read(&a.depth, "depth")?, &options, &camera, &limits)
+    let mut depth = decode_depth(&read(&a.depth, "depth")?, &options, &camera, &limits)
         .with_context(|| format!("depth file {}", a.depth.display()))?;
+    if let Some(p) = &a.mask {
+        let mask = decode_mask(&read(p, "mask")?, depth.width, depth.height, &limits)
+            .with_context(|| format!("mask file {}", p.display()))?;
+        depth.apply_mask(&mask)?;
+    }
     let color = match &a.color {
         Some(p) => {
             let c =

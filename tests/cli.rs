@@ -223,6 +223,47 @@ fn bad_input_fails_with_one_line_naming_the_problem() {
 }
 
 #[test]
+fn a_mask_invalidates_samples() {
+    let dir = tempfile::tempdir().unwrap();
+    let (depth, _, cam) = scene(dir.path());
+    // Left half valid, right half masked out.
+    let mask = image::GrayImage::from_fn(40, 30, |x, _| image::Luma([if x < 20 { 255 } else { 0 }]));
+    let mask_path = dir.path().join("mask.png");
+    mask.save(&mask_path).unwrap();
+    let (code, out, err) = dmesh(&[
+        "mesh",
+        "--depth",
+        &depth,
+        "--camera",
+        &cam,
+        "--epsilon",
+        "0",
+        "--mask",
+        mask_path.to_str().unwrap(),
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
+    // Only the 19 x 29 cells of the left half remain.
+    assert_eq!(v["triangles"].as_u64().unwrap(), 2 * 19 * 29);
+    let small = image::GrayImage::new(4, 4);
+    small.save(&mask_path).unwrap();
+    let (code, _, err) = dmesh(&[
+        "mesh",
+        "--depth",
+        &depth,
+        "--camera",
+        &cam,
+        "--epsilon",
+        "0",
+        "--mask",
+        mask_path.to_str().unwrap(),
+    ]);
+    assert_ne!(code, 0);
+    assert!(err.contains("mask is 4x4"), "{err}");
+}
+
+#[test]
 fn demo_runs_without_files() {
     let (code, out, err) = dmesh(&["demo", "--size", "65"]);
     assert_eq!(code, 0, "{err}");

@@ -173,6 +173,23 @@ impl DepthImage {
     }
 }
 
+/// Decodes a validity mask: a PNG (8- or 16-bit greyscale) of the depth
+/// image's size whose non-zero samples mark valid depth.
+pub fn decode_mask(bytes: &[u8], width: u32, height: u32, limits: &Limits) -> Result<Vec<bool>> {
+    if sniff(bytes) != Some(Format::Png) {
+        return Err(Error::decode("mask is not a PNG (unrecognised magic bytes)"));
+    }
+    let raw =
+        png_depth::decode(bytes, limits).map_err(|e| Error::decode(e.to_string().replace("depth PNG", "mask PNG")))?;
+    if (raw.width, raw.height) != (width, height) {
+        return Err(Error::invalid(format!(
+            "mask is {}x{} but the depth image is {width}x{height}; they must match",
+            raw.width, raw.height
+        )));
+    }
+    Ok(raw.values.iter().map(|&v| v != 0.0).collect())
+}
+
 /// Raw samples as decoded, before conversion to `z`.
 #[derive(Debug)]
 pub(crate) struct RawSamples {

@@ -75,6 +75,44 @@ mod tests {
         }
     }
 
+    /// A PNG whose header declares `w x h` and which holds no pixel data.
+    fn header_only(w: u32, h: u32) -> Vec<u8> {
+        fn crc32(bytes: &[u8]) -> u32 {
+            let mut crc = !0u32;
+            for &b in bytes {
+                crc ^= u32::from(b);
+                for _ in 0..8 {
+                    crc = if crc & 1 != 0 {
+                        (crc >> 1) ^ 0xedb8_8320
+                    } else {
+                        crc >> 1
+                    };
+                }
+            }
+            !crc
+        }
+        let mut ihdr = b"IHDR".to_vec();
+        ihdr.extend_from_slice(&w.to_be_bytes());
+        ihdr.extend_from_slice(&h.to_be_bytes());
+        ihdr.extend_from_slice(&[16, 0, 0, 0, 0]);
+        let mut out = b"\x89PNG\r\n\x1a\n".to_vec();
+        out.extend_from_slice(&13u32.to_be_bytes());
+        out.extend_from_slice(&ihdr);
+        out.extend_from_slice(&crc32(&ihdr).to_be_bytes());
+        // An empty IDAT: the header is complete, the pixels are missing.
+        out.extend_from_slice(&0u32.to_be_bytes());
+        out.extend_from_slice(b"IDAT");
+        out.extend_from_slice(&crc32(b"IDAT").to_be_bytes());
+        out
+    }
+
+    #[test]
+    fn a_100000_square_header_is_refused_before_reading_pixels() {
+        let e = decode(&header_only(100_000, 100_000), &Limits::default()).unwrap_err();
+        assert!(matches!(e, Error::TooLarge(_)), "{e}");
+        assert!(e.to_string().contains("100000x100000"), "{e}");
+    }
+
     #[test]
     fn over_the_pixel_limit_is_refused_before_decoding() {
         let e = decode(&png16(64, 64), &Limits { max_pixels: 100 }).unwrap_err();

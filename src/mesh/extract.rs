@@ -79,6 +79,17 @@ pub struct Mesh {
 }
 
 impl Mesh {
+    /// The strips as 16-bit indices with `u16::MAX` as the restart marker, when
+    /// the mesh has fewer than 65,535 vertices (so no index collides with it).
+    pub fn strips_u16(&self) -> Option<Vec<u16>> {
+        (self.vertices.len() < usize::from(u16::MAX)).then(|| {
+            self.strips
+                .iter()
+                .map(|&i| if i == super::RESTART { u16::MAX } else { i as u16 })
+                .collect()
+        })
+    }
+
     /// Number of strips in [`Mesh::strips`].
     pub fn strip_count(&self) -> usize {
         if self.strips.is_empty() {
