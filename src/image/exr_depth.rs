@@ -100,6 +100,18 @@ mod tests {
     }
 
     #[test]
+    fn a_100000_square_data_window_is_refused_before_reading_pixels() {
+        let mut bytes = encode_exr(2, 2, &[1.0; 4]).unwrap();
+        // dataWindow is a box2i: name, type name, size 16, then xmin ymin xmax ymax.
+        let at = bytes.windows(10).position(|w| w == b"dataWindow").unwrap();
+        let values = at + b"dataWindow\0box2i\0".len() + 4;
+        bytes[values + 8..values + 12].copy_from_slice(&99_999i32.to_le_bytes());
+        bytes[values + 12..values + 16].copy_from_slice(&99_999i32.to_le_bytes());
+        let e = decode(&bytes, None, &Limits::default()).unwrap_err();
+        assert!(matches!(e, EngineError::TooLarge(_)), "{e}");
+    }
+
+    #[test]
     fn truncated_exr_is_an_error() {
         let bytes = encode_exr(8, 8, &[1.0; 64]).unwrap();
         for cut in [4, 10, 50, bytes.len() / 2, bytes.len() - 1] {
