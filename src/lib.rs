@@ -5,7 +5,9 @@
 //! - [`camera`]: intrinsics, pose, projection and back-projection;
 //! - [`image`]: decoding depth (EXR, PNG, PFM) and colour, conversion to `z`;
 //! - [`mesh`]: the hierarchy, its error metric, segmentation and extraction;
-//! - [`ply`]: binary PLY output of an extracted mesh.
+//! - [`ply`]: binary PLY output of an extracted mesh;
+//! - [`synthetic`]: built-in synthetic depth maps;
+//! - [`wire`]: extracted meshes as `dmesh-proto` strip responses.
 //!
 //! ```
 //! use dmesh::{camera::Camera, image::DepthImage, mesh::{DepthMesh, Lod, Segmentation}};
@@ -23,5 +25,6 @@ pub mod image;
 pub mod mesh;
 pub mod ply;
 pub mod synthetic;
+pub mod wire;
 
 pub use error::{Error, Result};

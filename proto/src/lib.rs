@@ -1,105 +1,75 @@
-//! Wire types of dmesh: every value that crosses a process boundary.
+//! Wire types of dmesh: every value that crosses a process boundary, with
+//! serde derives for JSON and bincode 2.
 //!
-//! For now this is the camera, in the one JSON form used everywhere (files,
-//! multipart parts, request bodies):
+//! - [`camera`]: the camera, in the one JSON form used everywhere:
+//!   `{"width": 640, "height": 480, "projection": {"perspective": {"fx": 525.0,
+//!   "fy": 525.0, "cx": 319.5, "cy": 239.5}}, "pose": {"rotation": [0, 0, 0, 1],
+//!   "translation": [0, 0, 0]}}`, or `{"orthographic": {"sx", "sy", "cx", "cy"}}`
+//!   (metres per pixel); `pose` maps camera to world and may be omitted;
+//!   unknown fields are refused;
+//! - [`strips`]: one view's extracted mesh: vertices and strip indices;
+//! - [`view`]: the summary of a stored reference view;
+//! - [`render`]: a novel-view request and its per-view answer;
+//! - [`error`]: the one error body.
 //!
-//! ```json
-//! {"width": 640, "height": 480,
-//!  "projection": {"perspective": {"fx": 525.0, "fy": 525.0, "cx": 319.5, "cy": 239.5}},
-//!  "pose": {"rotation": [0, 0, 0, 1], "translation": [0, 0, 0]}}
-//! ```
-//!
-//! `projection` may instead be `{"orthographic": {"sx": 1.0, "sy": 1.0, "cx": 0.0, "cy": 0.0}}`
-//! (metres per pixel). `rotation` is a unit quaternion `[x, y, z, w]` and the
-//! pose maps camera coordinates to world coordinates; `pose` may be omitted
-//! (identity). Unknown fields are rejected with a message naming them.
-//!
-//! These types carry no validation beyond their shape: the engine
-//! (`dmesh::camera::Camera::try_from`) checks values and explains what it accepts.
+//! These types check shape only; the engine validates values. Binary bodies
+//! use [`to_bincode`] / [`from_bincode`]: bincode 2 with fixed-size
+//! little-endian integers, laid out byte by byte in `PROTOCOL.md`. Every
+//! response carries `version` = [`PROTOCOL_VERSION`].
 
-use serde::{Deserialize, Serialize};
+pub mod camera;
+pub mod error;
+pub mod render;
+pub mod strips;
+pub mod view;
 
-/// A camera as it travels on the wire: image size, projection and pose.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Camera {
-    /// Image width in pixels.
-    pub width: u32,
-    /// Image height in pixels.
-    pub height: u32,
-    /// Intrinsics.
-    pub projection: Projection,
-    /// Camera-to-world transform; identity when omitted.
-    #[serde(default)]
-    pub pose: Pose,
+pub use camera::{Camera, Pose, Projection};
+pub use error::{ErrorBody, ErrorDetail};
+pub use render::{RenderRequest, RenderResponse, RenderedView, Selection, Timings};
+pub use strips::{Indices, Lod, StripResponse, WireVertex};
+pub use view::ViewSummary;
+
+/// Version of the wire format, sent in every response.
+pub const PROTOCOL_VERSION: u16 = 1;
+
+/// Media type of bincode bodies.
+pub const BINCODE_MEDIA_TYPE: &str = "application/x-bincode";
+
+/// The bincode configuration of the wire: fixed-size little-endian integers,
+/// `u64` lengths, `u32` enum variant indices (see `PROTOCOL.md`).
+pub fn wire_config() -> bincode::config::Configuration<bincode::config::LittleEndian, bincode::config::Fixint> {
+    bincode::config::standard()
+        .with_little_endian()
+        .with_fixed_int_encoding()
 }
 
-/// Perspective or orthographic intrinsics.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase", deny_unknown_fields)]
-pub enum Projection {
-    /// Pinhole camera: `u = fx * x / z + cx`, `v = fy * y / z + cy`.
-    Perspective {
-        /// Focal length along x, in pixels.
-        fx: f64,
-        /// Focal length along y, in pixels.
-        fy: f64,
-        /// Principal point x, in pixel coordinates (pixel centres are integers).
-        cx: f64,
-        /// Principal point y, in pixel coordinates.
-        cy: f64,
-    },
-    /// Parallel projection: `x = (u - cx) * sx`, `y = (v - cy) * sy`, `z = depth`.
-    Orthographic {
-        /// Metres per pixel along x.
-        sx: f64,
-        /// Metres per pixel along y.
-        sy: f64,
-        /// Pixel x of the optical axis.
-        cx: f64,
-        /// Pixel y of the optical axis.
-        cy: f64,
-    },
+/// Encodes a wire value as bincode.
+pub fn to_bincode<T: serde::Serialize>(value: &T) -> Result<Vec<u8>, bincode::error::EncodeError> {
+    bincode::serde::encode_to_vec(value, wire_config())
 }
 
-/// Camera-to-world rigid transform.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Pose {
-    /// Unit quaternion `[x, y, z, w]`.
-    pub rotation: [f64; 4],
-    /// Camera centre in world coordinates.
-    pub translation: [f64; 3],
-}
-
-impl Default for Pose {
-    fn default() -> Self {
-        Self {
-            rotation: [0.0, 0.0, 0.0, 1.0],
-            translation: [0.0, 0.0, 0.0],
-        }
+/// Decodes a wire value from bincode; trailing bytes are an error.
+pub fn from_bincode<T: serde::de::DeserializeOwned>(bytes: &[u8]) -> Result<T, bincode::error::DecodeError> {
+    let (value, read) = bincode::serde::decode_from_slice(bytes, wire_config())?;
+    if read != bytes.len() {
+        return Err(bincode::error::DecodeError::OtherString(format!(
+            "{} trailing bytes after the value",
+            bytes.len() - read
+        )));
     }
+    Ok(value)
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
+pub(crate) mod round_trip {
+    use serde::{de::DeserializeOwned, Serialize};
+    use std::fmt::Debug;
 
-    #[test]
-    fn camera_json_round_trips_and_pose_defaults_to_identity() {
-        let text = r#"{"width": 640, "height": 480,
-            "projection": {"perspective": {"fx": 525.0, "fy": 525.0, "cx": 319.5, "cy": 239.5}}}"#;
-        let cam: Camera = serde_json::from_str(text).unwrap();
-        assert_eq!(cam.pose, Pose::default());
-        let again: Camera = serde_json::from_str(&serde_json::to_string(&cam).unwrap()).unwrap();
-        assert_eq!(cam, again);
-    }
-
-    #[test]
-    fn unknown_fields_are_named_in_the_error() {
-        let text = r#"{"width": 4, "height": 4, "fov": 3,
-            "projection": {"orthographic": {"sx": 1, "sy": 1, "cx": 0, "cy": 0}}}"#;
-        let err = serde_json::from_str::<Camera>(text).unwrap_err().to_string();
-        assert!(err.contains("fov"), "{err}");
+    /// Asserts that `value` survives JSON and bincode unchanged.
+    pub fn both<T: Serialize + DeserializeOwned + PartialEq + Debug>(value: &T) {
+        let json = serde_json::to_string(value).unwrap();
+        assert_eq!(&serde_json::from_str::<T>(&json).unwrap(), value, "JSON: {json}");
+        let bin = super::to_bincode(value).unwrap();
+        assert_eq!(&super::from_bincode::<T>(&bin).unwrap(), value, "bincode");
     }
 }
