@@ -6,6 +6,7 @@
 //! - [`image`]: decoding depth (EXR, PNG, PFM) and colour, conversion to `z`;
 //! - [`mesh`]: the hierarchy, its error metric, segmentation and extraction;
 //! - [`ply`]: binary PLY output of an extracted mesh;
+//! - [`scene`]: reference-view selection and weights for a novel camera;
 //! - [`synthetic`]: built-in synthetic depth maps;
 //! - [`wire`]: extracted meshes as `dmesh-proto` strip responses.
 //!
@@ -24,6 +25,7 @@ mod error;
 pub mod image;
 pub mod mesh;
 pub mod ply;
+pub mod scene;
 pub mod synthetic;
 pub mod wire;
 
