@@ -1,0 +1,121 @@
+//! Durable storage of reference views.
+//!
+//! The service keeps what users uploaded (camera, depth as `z`, colour bytes,
+//! segmentation settings) behind [`ViewStore`]; hierarchies are rebuilt from
+//! it on demand. [`file::FileStore`] is the embedded default. An
+//! S3-compatible object store (the `object_store` crate) can implement the
+//! same trait for stateless replicas.
+
+pub mod file;
+mod ids;
+
+pub use file::FileStore;
+pub use ids::validate_id;
+
+use serde::{Deserialize, Serialize};
+
+/// Segmentation settings as stored and sent.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SegmentationSpec {
+    /// `orthogonality`, `disparity`, `connectedness` or `none`.
+    pub method: SegmentMethod,
+    /// Orthogonality angle in degrees.
+    pub omega: f64,
+    /// Disparity threshold.
+    pub sigma: f64,
+    /// Connectedness threshold.
+    pub kappa: f64,
+    /// Depth-range gate.
+    pub lambda: f64,
+}
+
+/// The rubber-sheet test of a view.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SegmentMethod {
+    /// DMesh Eq. 10.
+    Orthogonality,
+    /// DMesh Eq. 9.
+    Disparity,
+    /// DMesh Eq. 6.
+    Connectedness,
+    /// Invalid samples only.
+    None,
+}
+
+impl Default for SegmentationSpec {
+    fn default() -> Self {
+        Self {
+            method: SegmentMethod::Orthogonality,
+            omega: 5.0,
+            sigma: 0.05,
+            kappa: 1.0,
+            lambda: 0.02,
+        }
+    }
+}
+
+impl SegmentationSpec {
+    /// The engine's form.
+    pub fn to_engine(&self) -> crate::mesh::Segmentation {
+        use crate::mesh::Method;
+        let method = match self.method {
+            SegmentMethod::Orthogonality => Method::Orthogonality { omega_deg: self.omega },
+            SegmentMethod::Disparity => Method::Disparity { sigma: self.sigma },
+            SegmentMethod::Connectedness => Method::Connectedness { kappa: self.kappa },
+            SegmentMethod::None => Method::None,
+        };
+        crate::mesh::Segmentation {
+            method,
+            lambda: self.lambda,
+        }
+    }
+}
+
+/// Everything stored for one view.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StoredView {
+    /// The reference camera, wire form.
+    pub camera: dmesh_proto::Camera,
+    /// Segmentation settings.
+    pub segmentation: SegmentationSpec,
+    /// Depth as `z`, row-major, 0 for invalid.
+    pub z: Vec<f32>,
+    /// The colour image as uploaded (PNG or JPEG bytes).
+    pub color: Vec<u8>,
+}
+
+/// Store failures: bad ids, or the storage itself.
+#[derive(Debug, thiserror::Error)]
+pub enum StoreError {
+    /// A scene or view id outside `[A-Za-z0-9._-]{1,64}` (or `.`, `..`).
+    #[error("{0}")]
+    BadId(String),
+    /// Stored bytes that do not parse: the file was damaged outside dmesh.
+    #[error("stored view {0} is damaged: {1}")]
+    Damaged(String, String),
+    /// The file system failed.
+    #[error("storage: {0}")]
+    Io(#[from] std::io::Error),
+}
+
+/// Where views live. Implementations must make `put` durable and atomic:
+/// once it returns, the view survives a crash, and a reader sees either the
+/// previous version or the new one, never a mix.
+pub trait ViewStore: Send + Sync {
+    /// Stores (or atomically replaces) a view.
+    fn put(&self, scene: &str, view: &str, v: &StoredView) -> Result<(), StoreError>;
+    /// Reads a view, `None` when absent.
+    fn get(&self, scene: &str, view: &str) -> Result<Option<StoredView>, StoreError>;
+    /// Scene ids, sorted.
+    fn scenes(&self) -> Result<Vec<String>, StoreError>;
+    /// View ids of a scene, sorted; `None` when the scene does not exist.
+    fn views(&self, scene: &str) -> Result<Option<Vec<String>>, StoreError>;
+    /// Deletes a view; false when it did not exist.
+    fn delete_view(&self, scene: &str, view: &str) -> Result<bool, StoreError>;
+    /// Deletes a scene and its views; false when it did not exist.
+    fn delete_scene(&self, scene: &str) -> Result<bool, StoreError>;
+    /// Bytes held.
+    fn bytes_stored(&self) -> Result<u64, StoreError>;
+}
