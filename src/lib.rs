@@ -1,8 +1,10 @@
 //! dmesh: multiresolution depth-meshes from depth images (Pajarola, Sainz and
 //! Meng, "DMesh: fast depth-image meshing and warping", 2003).
 //!
-//! The engine is pure: no HTTP, no async, no file system.
+//! The engine (`camera`, `image`, `mesh`, `scene`) is pure: no HTTP, no async,
+//! no file system; `store` and `http` are the service around it.
 //! - [`camera`]: intrinsics, pose, projection and back-projection;
+//! - [`http`]: the axum service;
 //! - [`image`]: decoding depth (EXR, PNG, PFM) and colour, conversion to `z`;
 //! - [`mesh`]: the hierarchy, its error metric, segmentation and extraction;
 //! - [`ply`]: binary PLY output of an extracted mesh;
@@ -23,6 +25,7 @@
 
 pub mod camera;
 mod error;
+pub mod http;
 pub mod image;
 pub mod mesh;
 pub mod ply;

@@ -30,6 +30,8 @@ struct Cli {
 enum Command {
     /// Mesh one depth image.
     Mesh(Box<MeshArgs>),
+    /// Serve views over HTTP from the embedded store.
+    Serve(ServeArgs),
     /// Mesh a built-in synthetic scene (terrain with boxes) at several tolerances.
     Demo {
         /// Image width and height of the scene.
@@ -39,6 +41,31 @@ enum Command {
         #[arg(long)]
         ply: Option<PathBuf>,
     },
+}
+
+#[derive(clap::Args)]
+struct ServeArgs {
+    /// Address to listen on.
+    #[arg(long, default_value = "127.0.0.1:8080")]
+    listen: std::net::SocketAddr,
+    /// Data directory of the embedded store.
+    #[arg(long, default_value = "./dmesh-data")]
+    data: PathBuf,
+    /// Bytes of built hierarchies kept in memory.
+    #[arg(long, default_value_t = 1 << 30)]
+    cache_bytes: usize,
+    /// Largest request body, bytes.
+    #[arg(long, default_value_t = 256 << 20)]
+    max_upload_bytes: usize,
+    /// Largest decoded image, pixels.
+    #[arg(long, default_value_t = 64 << 20)]
+    max_pixels: u64,
+    /// Requests served at once; more are answered 503 with Retry-After.
+    #[arg(long, default_value_t = 64)]
+    max_concurrency: usize,
+    /// Request timeout, seconds.
+    #[arg(long, default_value_t = 30)]
+    timeout_secs: u64,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -324,6 +351,28 @@ fn run_demo(size: u32, ply: Option<&Path>) -> Result<()> {
     Ok(())
 }
 
+fn run_serve(a: &ServeArgs) -> Result<()> {
+    use dmesh::http::{serve, AppState, Pipeline, Settings};
+    let store =
+        dmesh::store::FileStore::open(&a.data).with_context(|| format!("data directory {}", a.data.display()))?;
+    let settings = Settings {
+        max_upload_bytes: a.max_upload_bytes,
+        limits: Limits {
+            max_pixels: a.max_pixels,
+        },
+        cache_bytes: a.cache_bytes,
+    };
+    let state = std::sync::Arc::new(AppState::new(std::sync::Arc::new(store), settings));
+    let pipeline = Pipeline {
+        max_concurrency: a.max_concurrency,
+        timeout: std::time::Duration::from_secs(a.timeout_secs),
+    };
+    let runtime = tokio::runtime::Runtime::new().context("starting the async runtime")?;
+    runtime
+        .block_on(serve(a.listen, state, pipeline))
+        .with_context(|| format!("serving on {}", a.listen))
+}
+
 fn main() -> ExitCode {
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
@@ -349,6 +398,7 @@ fn main() -> ExitCode {
     let result = match &cli.command {
         Command::Mesh(a) => run_mesh(a),
         Command::Demo { size, ply } => run_demo(*size, ply.as_deref()),
+        Command::Serve(a) => run_serve(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,0 +1,100 @@
+//! The service's one error type: every failure, extractor rejections
+//! included, answers `{"error": {"code", "message"}}` with the right status.
+
+use axum::http::{header, HeaderValue, StatusCode};
+use axum::response::{IntoResponse, Response};
+use dmesh_proto::ErrorBody;
+
+use crate::store::StoreError;
+
+/// A failed request.
+#[derive(Debug)]
+pub enum AppError {
+    /// 400: a bad field; the message names it and what is accepted.
+    BadRequest(String),
+    /// 404: no such scene or view.
+    NotFound(String),
+    /// 413: body or image over a limit.
+    TooLarge(String),
+    /// 415: a body or part of a type the endpoint does not take.
+    UnsupportedMedia(String),
+    /// 422: image bytes that do not decode.
+    Undecodable(String),
+    /// 408: the request took longer than the configured timeout.
+    Timeout,
+    /// 503: shed under overload; retry after the given seconds.
+    Overloaded(u64),
+    /// 500: logged in full, reported briefly.
+    Internal(String),
+}
+
+impl AppError {
+    fn parts(&self) -> (StatusCode, &'static str, String) {
+        match self {
+            Self::BadRequest(m) => (StatusCode::BAD_REQUEST, "bad_request", m.clone()),
+            Self::NotFound(m) => (StatusCode::NOT_FOUND, "not_found", m.clone()),
+            Self::TooLarge(m) => (StatusCode::PAYLOAD_TOO_LARGE, "too_large", m.clone()),
+            Self::UnsupportedMedia(m) => (StatusCode::UNSUPPORTED_MEDIA_TYPE, "unsupported_media_type", m.clone()),
+            Self::Undecodable(m) => (StatusCode::UNPROCESSABLE_ENTITY, "undecodable_image", m.clone()),
+            Self::Overloaded(_) => (
+                StatusCode::SERVICE_UNAVAILABLE,
+                "overloaded",
+                "the server is at capacity; retry shortly".into(),
+            ),
+            Self::Internal(_) => (StatusCode::INTERNAL_SERVER_ERROR, "internal", "internal error".into()),
+        }
+    }
+}
+
+impl IntoResponse for AppError {
+    fn into_response(self) -> Response {
+        if let Self::Internal(detail) = &self {
+            eprintln!("internal error: {detail}");
+        }
+        let (status, code, message) = self.parts();
+        let body = serde_json::to_vec(&ErrorBody::new(code, message)).unwrap_or_default();
+        let mut response = (status, [(header::CONTENT_TYPE, "application/json")], body).into_response();
+        if let Self::Overloaded(secs) = self {
+            if let Ok(v) = HeaderValue::from_str(&secs.to_string()) {
+                response.headers_mut().insert(header::RETRY_AFTER, v);
+            }
+        }
+        response
+    }
+}
+
+impl From<crate::Error> for AppError {
+    fn from(e: crate::Error) -> Self {
+        match e {
+            crate::Error::InvalidInput(m) => Self::BadRequest(m),
+            crate::Error::TooLarge(m) => Self::TooLarge(m),
+            crate::Error::Decode(m) => Self::Undecodable(m),
+            crate::Error::Internal(m) => Self::Internal(m),
+        }
+    }
+}
+
+impl From<StoreError> for AppError {
+    fn from(e: StoreError) -> Self {
+        match e {
+            StoreError::BadId(m) => Self::BadRequest(m),
+            other => Self::Internal(other.to_string()),
+        }
+    }
+}
+
+impl From<axum::extract::multipart::MultipartError> for AppError {
+    fn from(e: axum::extract::multipart::MultipartError) -> Self {
+        if e.status() == StatusCode::PAYLOAD_TOO_LARGE {
+            Self::TooLarge(format!("upload: {}", e.body_text()))
+        } else {
+            Self::BadRequest(format!("upload: {}", e.body_text()))
+        }
+    }
+}
+
+impl From<tokio::task::JoinError> for AppError {
+    fn from(e: tokio::task::JoinError) -> Self {
+        Self::Internal(format!("worker task failed: {e}"))
+    }
+}

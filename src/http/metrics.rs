@@ -1,0 +1,122 @@
+//! Prometheus text metrics: request latency histograms per route, extraction
+//! time, triangles per response, views loaded, bytes stored.
+
+use std::collections::BTreeMap;
+use std::fmt::Write;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Mutex;
+
+const BUCKETS_MS: [f64; 12] = [
+    0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 200.0, 500.0, 1000.0, 5000.0,
+];
+const BUCKETS_TRIANGLES: [f64; 8] = [100.0, 1e3, 1e4, 3e4, 1e5, 3e5, 1e6, 1e7];
+
+#[derive(Clone, Default)]
+struct Histogram {
+    counts: Vec<u64>,
+    sum: f64,
+    count: u64,
+}
+
+impl Histogram {
+    fn observe(&mut self, buckets: &[f64], v: f64) {
+        if self.counts.is_empty() {
+            self.counts = vec![0; buckets.len()];
+        }
+        for (c, &b) in self.counts.iter_mut().zip(buckets) {
+            if v <= b {
+                *c += 1;
+            }
+        }
+        self.sum += v;
+        self.count += 1;
+    }
+
+    fn render(&self, out: &mut String, name: &str, labels: &str, buckets: &[f64]) {
+        let sep = if labels.is_empty() { "" } else { "," };
+        for (c, b) in self.counts.iter().zip(buckets) {
+            let _ = writeln!(out, "{name}_bucket{{{labels}{sep}le=\"{b}\"}} {c}");
+        }
+        let _ = writeln!(out, "{name}_bucket{{{labels}{sep}le=\"+Inf\"}} {}", self.count);
+        let braces = if labels.is_empty() {
+            String::new()
+        } else {
+            format!("{{{labels}}}")
+        };
+        let _ = writeln!(out, "{name}_sum{braces} {}", self.sum);
+        let _ = writeln!(out, "{name}_count{braces} {}", self.count);
+    }
+}
+
+/// The service's metrics.
+#[derive(Default)]
+pub struct Metrics {
+    requests: Mutex<BTreeMap<(String, u16), Histogram>>,
+    extract: Mutex<Histogram>,
+    triangles: Mutex<Histogram>,
+    views_loaded: AtomicU64,
+}
+
+impl Metrics {
+    /// Records one request's latency.
+    pub fn request(&self, route: &str, status: u16, ms: f64) {
+        let mut r = self.requests.lock().unwrap_or_else(|p| p.into_inner());
+        r.entry((route.to_string(), status))
+            .or_default()
+            .observe(&BUCKETS_MS, ms);
+    }
+
+    /// Records one extraction.
+    pub fn extraction(&self, ms: f64, triangles: usize) {
+        self.extract
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .observe(&BUCKETS_MS, ms);
+        self.triangles
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .observe(&BUCKETS_TRIANGLES, triangles as f64);
+    }
+
+    /// Sets the number of hierarchies in memory.
+    pub fn set_views_loaded(&self, n: usize) {
+        self.views_loaded.store(n as u64, Ordering::Relaxed);
+    }
+
+    /// The Prometheus text exposition.
+    pub fn render(&self, bytes_stored: u64) -> String {
+        let mut out = String::new();
+        out.push_str("# HELP dmesh_request_duration_ms Request latency by route and status.\n");
+        out.push_str("# TYPE dmesh_request_duration_ms histogram\n");
+        for ((route, status), h) in self.requests.lock().unwrap_or_else(|p| p.into_inner()).iter() {
+            h.render(
+                &mut out,
+                "dmesh_request_duration_ms",
+                &format!("route=\"{route}\",status=\"{status}\""),
+                &BUCKETS_MS,
+            );
+        }
+        out.push_str("# HELP dmesh_extract_ms Mesh extraction time.\n# TYPE dmesh_extract_ms histogram\n");
+        self.extract
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .render(&mut out, "dmesh_extract_ms", "", &BUCKETS_MS);
+        out.push_str("# HELP dmesh_response_triangles Triangles per extracted mesh.\n# TYPE dmesh_response_triangles histogram\n");
+        self.triangles.lock().unwrap_or_else(|p| p.into_inner()).render(
+            &mut out,
+            "dmesh_response_triangles",
+            "",
+            &BUCKETS_TRIANGLES,
+        );
+        let _ = writeln!(
+            out,
+            "# HELP dmesh_views_loaded Hierarchies in memory.\n# TYPE dmesh_views_loaded gauge\ndmesh_views_loaded {}",
+            self.views_loaded.load(Ordering::Relaxed)
+        );
+        let _ = writeln!(
+            out,
+            "# HELP dmesh_bytes_stored Bytes in the view store.\n# TYPE dmesh_bytes_stored gauge\ndmesh_bytes_stored {bytes_stored}"
+        );
+        out
+    }
+}

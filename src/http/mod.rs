@@ -1,0 +1,143 @@
+//! The HTTP service: a thin axum layer over the engine and the store.
+//!
+//! `app(state)` builds the router (tests drive it without a socket);
+//! [`serve`] binds and runs it. The tower stack, outermost first:
+//! compression (gzip, zstd), metrics, error handling that turns shedding into
+//! 503 + `Retry-After` and timeouts into 408, load shedding, a concurrency
+//! limit (so excess requests are refused at once instead of queueing without
+//! bound), a request timeout, and the body-size limit. CPU-bound work
+//! (decoding, building, extracting) runs on the blocking pool, never on the
+//! async workers.
+
+pub mod error;
+pub mod metrics;
+pub mod negotiate;
+pub mod state;
+pub mod strips;
+pub mod views;
+
+use std::net::SocketAddr;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use axum::error_handling::HandleErrorLayer;
+use axum::extract::{DefaultBodyLimit, MatchedPath, Request, State};
+use axum::middleware::{self, Next};
+use axum::response::{IntoResponse, Response};
+use axum::routing::{get, post};
+use axum::{BoxError, Router};
+use tower::ServiceBuilder;
+use tower_http::compression::CompressionLayer;
+
+pub use error::AppError;
+pub use state::{AppState, Settings};
+
+/// Concurrency and timeout of the request pipeline.
+#[derive(Clone, Copy, Debug)]
+pub struct Pipeline {
+    /// Requests served at once; more are shed with 503.
+    pub max_concurrency: usize,
+    /// Longest a request may take.
+    pub timeout: Duration,
+}
+
+impl Default for Pipeline {
+    fn default() -> Self {
+        Self {
+            max_concurrency: 64,
+            timeout: Duration::from_secs(30),
+        }
+    }
+}
+
+async fn overload(error: BoxError) -> AppError {
+    if error.is::<tower::timeout::error::Elapsed>() {
+        AppError::Timeout
+    } else if error.is::<tower::load_shed::error::Overloaded>() {
+        AppError::Overloaded(1)
+    } else {
+        AppError::Internal(format!("middleware: {error}"))
+    }
+}
+
+async fn record(State(state): State<Arc<AppState>>, request: Request, next: Next) -> Response {
+    let route = request
+        .extensions()
+        .get::<MatchedPath>()
+        .map_or_else(|| "unmatched".to_string(), |p| p.as_str().to_string());
+    let start = Instant::now();
+    let response = next.run(request).await;
+    state
+        .metrics
+        .request(&route, response.status().as_u16(), start.elapsed().as_secs_f64() * 1e3);
+    response
+}
+
+async fn healthz() -> &'static str {
+    "ok\n"
+}
+
+async fn metrics_text(State(state): State<Arc<AppState>>) -> Result<Response, AppError> {
+    let st = state.clone();
+    let bytes = tokio::task::spawn_blocking(move || st.store.bytes_stored()).await??;
+    Ok((
+        [(axum::http::header::CONTENT_TYPE, "text/plain; version=0.0.4")],
+        state.metrics.render(bytes),
+    )
+        .into_response())
+}
+
+/// The router over `state`.
+pub fn app(state: Arc<AppState>, pipeline: Pipeline) -> Router {
+    let api = Router::new()
+        .route("/v1/scenes", get(views::list_scenes))
+        .route("/v1/scenes/{scene}", axum::routing::delete(views::delete_scene))
+        .route("/v1/scenes/{scene}/views", get(views::list_views))
+        .route(
+            "/v1/scenes/{scene}/views/{view}",
+            get(views::get_view).put(views::put_view).delete(views::delete_view),
+        )
+        .route("/v1/scenes/{scene}/views/{view}/color", get(views::get_color))
+        .route(
+            "/v1/scenes/{scene}/views/{view}/strips",
+            get(strips::get_strips).post(strips::post_strips),
+        )
+        .route("/v1/scenes/{scene}/render", post(strips::render))
+        .route("/healthz", get(healthz))
+        .route("/metrics", get(metrics_text))
+        .fallback(|| async { AppError::NotFound("no such endpoint; see proto/openapi.yaml".into()) })
+        .method_not_allowed_fallback(|| async {
+            AppError::BadRequest("method not allowed on this endpoint; see proto/openapi.yaml".into())
+        })
+        .layer(DefaultBodyLimit::max(state.settings.max_upload_bytes))
+        .layer(
+            ServiceBuilder::new()
+                .layer(HandleErrorLayer::new(overload))
+                .load_shed()
+                .concurrency_limit(pipeline.max_concurrency.max(1))
+                .timeout(pipeline.timeout),
+        );
+    api.route_layer(middleware::from_fn_with_state(state.clone(), record))
+        .layer(CompressionLayer::new())
+        .with_state(state)
+}
+
+/// Binds `addr` and serves until Ctrl-C.
+pub async fn serve(addr: SocketAddr, state: Arc<AppState>, pipeline: Pipeline) -> std::io::Result<()> {
+    let listener = tokio::net::TcpListener::bind(addr).await?;
+    eprintln!("dmesh listening on http://{}", listener.local_addr()?);
+    serve_on(listener, state, pipeline).await
+}
+
+/// Serves on a bound listener until Ctrl-C (tests bind 127.0.0.1:0).
+pub async fn serve_on(
+    listener: tokio::net::TcpListener,
+    state: Arc<AppState>,
+    pipeline: Pipeline,
+) -> std::io::Result<()> {
+    axum::serve(listener, app(state, pipeline))
+        .with_graceful_shutdown(async {
+            let _ = tokio::signal::ctrl_c().await;
+        })
+        .await
+}

@@ -1,0 +1,177 @@
+//! Shared state: the store, a memory-bounded cache of built hierarchies, limits.
+
+use std::collections::HashMap;
+use std::hash::{Hash, Hasher};
+use std::sync::{Arc, Mutex};
+
+use crate::camera::Camera;
+use crate::image::{DepthImage, Limits};
+use crate::mesh::DepthMesh;
+use crate::store::{StoredView, ViewStore};
+
+use super::error::AppError;
+use super::metrics::Metrics;
+
+/// A view ready to serve: its hierarchy and what responses need.
+#[derive(Debug)]
+pub struct Loaded {
+    /// The hierarchy.
+    pub hierarchy: DepthMesh,
+    /// The reference camera.
+    pub camera: Camera,
+    /// The colour image as uploaded.
+    pub color: Vec<u8>,
+    /// `image/png` or `image/jpeg`.
+    pub color_type: &'static str,
+    /// Strong validator of the stored view (depth, camera, segmentation, colour).
+    pub etag: String,
+    /// Valid depth samples.
+    pub valid_samples: u64,
+}
+
+impl Loaded {
+    /// Bytes this entry keeps in memory.
+    pub fn bytes(&self) -> usize {
+        self.hierarchy.heap_bytes() + self.color.len()
+    }
+
+    /// Builds from a stored view.
+    pub fn from_stored(v: &StoredView) -> Result<Self, AppError> {
+        let camera = Camera::try_from(&v.camera)?;
+        let depth = DepthImage::from_z(camera.width, camera.height, v.z.clone())?;
+        let hierarchy = DepthMesh::build(&depth, &camera, &v.segmentation.to_engine())?;
+        let color_type = if v.color.starts_with(b"\x89PNG") {
+            "image/png"
+        } else {
+            "image/jpeg"
+        };
+        let mut h = std::collections::hash_map::DefaultHasher::new();
+        for z in &v.z {
+            z.to_bits().hash(&mut h);
+        }
+        v.color.hash(&mut h);
+        serde_json::to_string(&v.camera).unwrap_or_default().hash(&mut h);
+        serde_json::to_string(&v.segmentation).unwrap_or_default().hash(&mut h);
+        Ok(Self {
+            valid_samples: depth.valid_count() as u64,
+            hierarchy,
+            camera,
+            color: v.color.clone(),
+            color_type,
+            etag: format!("\"{:016x}\"", h.finish()),
+        })
+    }
+}
+
+/// Server settings.
+#[derive(Clone, Debug)]
+pub struct Settings {
+    /// Largest request body, bytes.
+    pub max_upload_bytes: usize,
+    /// Decoded-pixel limit.
+    pub limits: Limits,
+    /// Bytes of hierarchies kept in memory.
+    pub cache_bytes: usize,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Self {
+            max_upload_bytes: 256 << 20,
+            limits: Limits::default(),
+            cache_bytes: 1 << 30,
+        }
+    }
+}
+
+#[derive(Default)]
+struct Cache {
+    entries: HashMap<(String, String), (Arc<Loaded>, u64)>,
+    bytes: usize,
+    clock: u64,
+}
+
+/// Everything handlers share.
+pub struct AppState {
+    /// Durable views.
+    pub store: Arc<dyn ViewStore>,
+    /// Settings.
+    pub settings: Settings,
+    /// Prometheus metrics.
+    pub metrics: Metrics,
+    cache: Mutex<Cache>,
+}
+
+impl AppState {
+    /// State over `store`.
+    pub fn new(store: Arc<dyn ViewStore>, settings: Settings) -> Self {
+        Self {
+            store,
+            settings,
+            metrics: Metrics::default(),
+            cache: Mutex::new(Cache::default()),
+        }
+    }
+
+    fn cache(&self) -> std::sync::MutexGuard<'_, Cache> {
+        // A panic while holding the lock leaves a consistent map: recover it.
+        self.cache.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// Puts a view in the cache, evicting the least recently used over the budget.
+    pub fn remember(&self, scene: &str, view: &str, loaded: Arc<Loaded>) {
+        let mut c = self.cache();
+        c.clock += 1;
+        let clock = c.clock;
+        if let Some((old, _)) = c.entries.insert((scene.into(), view.into()), (loaded.clone(), clock)) {
+            c.bytes -= old.bytes();
+        }
+        c.bytes += loaded.bytes();
+        while c.bytes > self.settings.cache_bytes && c.entries.len() > 1 {
+            let Some(oldest) = c.entries.iter().min_by_key(|(_, (_, t))| *t).map(|(k, _)| k.clone()) else {
+                break;
+            };
+            if let Some((gone, _)) = c.entries.remove(&oldest) {
+                c.bytes -= gone.bytes();
+            }
+        }
+        self.metrics.set_views_loaded(c.entries.len());
+    }
+
+    /// Drops a view (or, with `view = None`, a whole scene) from the cache.
+    pub fn forget(&self, scene: &str, view: Option<&str>) {
+        let mut c = self.cache();
+        let keys: Vec<_> = c
+            .entries
+            .keys()
+            .filter(|(s, v)| s == scene && view.is_none_or(|w| w == v))
+            .cloned()
+            .collect();
+        for k in keys {
+            if let Some((gone, _)) = c.entries.remove(&k) {
+                c.bytes -= gone.bytes();
+            }
+        }
+        self.metrics.set_views_loaded(c.entries.len());
+    }
+
+    /// The loaded view, from the cache or rebuilt from the store (blocking: call off the async workers).
+    pub fn load(&self, scene: &str, view: &str) -> Result<Arc<Loaded>, AppError> {
+        {
+            let mut c = self.cache();
+            c.clock += 1;
+            let clock = c.clock;
+            if let Some((hit, t)) = c.entries.get_mut(&(scene.to_string(), view.to_string())) {
+                *t = clock;
+                return Ok(hit.clone());
+            }
+        }
+        let stored = self
+            .store
+            .get(scene, view)?
+            .ok_or_else(|| AppError::NotFound(format!("scene {scene:?} has no view {view:?}")))?;
+        let loaded = Arc::new(Loaded::from_stored(&stored)?);
+        self.remember(scene, view, loaded.clone());
+        Ok(loaded)
+    }
+}

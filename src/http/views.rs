@@ -1,0 +1,267 @@
+//! Views: upload, list, summary, colour, delete.
+
+use std::sync::Arc;
+
+use axum::body::Bytes;
+use axum::extract::{Multipart, Path, State};
+use axum::http::{header, HeaderMap, StatusCode};
+use axum::response::{IntoResponse, Response};
+use dmesh_proto::{ViewSummary, PROTOCOL_VERSION};
+
+use crate::camera::{camera_from_json, Camera};
+use crate::image::{decode_color, decode_depth, decode_mask, sniff, DepthOptions, Format};
+use crate::store::{validate_id, SegmentMethod, SegmentationSpec, StoredView};
+
+use super::error::AppError;
+use super::negotiate::encode;
+use super::state::{AppState, Loaded};
+
+/// `/v1/scenes/{scene}/views/{view}/color`.
+pub fn color_url(scene: &str, view: &str) -> String {
+    format!("/v1/scenes/{scene}/views/{view}/color")
+}
+
+pub(crate) fn summary(scene: &str, view: &str, l: &Loaded) -> ViewSummary {
+    let stats = l.hierarchy.stats();
+    ViewSummary {
+        version: PROTOCOL_VERSION,
+        scene: scene.into(),
+        view: view.into(),
+        camera: (&l.camera).into(),
+        grid_vertices: stats.grid_vertices as u64,
+        segmented_triangles: stats.segmented_triangles as u64,
+        valid_samples: l.valid_samples,
+        build_ms: stats.build_ms,
+        color_url: color_url(scene, view),
+    }
+}
+
+fn number(name: &str, text: &str) -> Result<f64, AppError> {
+    text.trim()
+        .parse::<f64>()
+        .ok()
+        .filter(|v| v.is_finite())
+        .ok_or_else(|| AppError::BadRequest(format!("field {name} is {text:?}; it must be a finite number")))
+}
+
+#[derive(Default)]
+struct Upload {
+    camera: Option<String>,
+    depth: Option<Bytes>,
+    color: Option<Bytes>,
+    mask: Option<Bytes>,
+    options: DepthOptions,
+    segmentation: SegmentationSpec,
+}
+
+async fn read_upload(mut multipart: Multipart) -> Result<Upload, AppError> {
+    let mut u = Upload::default();
+    while let Some(field) = multipart.next_field().await? {
+        let name = field.name().unwrap_or_default().to_string();
+        let data = field.bytes().await?;
+        let text = || {
+            String::from_utf8(data.to_vec())
+                .map_err(|_| AppError::BadRequest(format!("field {name} is not UTF-8 text")))
+        };
+        match name.as_str() {
+            "camera" => u.camera = Some(text()?),
+            "depth" => u.depth = Some(data.clone()),
+            "color" => u.color = Some(data.clone()),
+            "mask" => u.mask = Some(data.clone()),
+            "depth_kind" => u.options.kind = text()?.trim().parse()?,
+            "scale" => u.options.scale = number(&name, &text()?)?,
+            "offset" => u.options.offset = number(&name, &text()?)?,
+            "focal_baseline" => u.options.focal_baseline = Some(number(&name, &text()?)?),
+            "channel" => u.options.channel = Some(text()?),
+            "segment" => {
+                u.segmentation.method = match text()?.trim() {
+                    "orthogonality" => SegmentMethod::Orthogonality,
+                    "disparity" => SegmentMethod::Disparity,
+                    "connectedness" => SegmentMethod::Connectedness,
+                    "none" => SegmentMethod::None,
+                    other => {
+                        return Err(AppError::BadRequest(format!(
+                            "field segment is {other:?}; use orthogonality, disparity, connectedness or none"
+                        )))
+                    }
+                }
+            }
+            "omega" => u.segmentation.omega = number(&name, &text()?)?,
+            "sigma" => u.segmentation.sigma = number(&name, &text()?)?,
+            "kappa" => u.segmentation.kappa = number(&name, &text()?)?,
+            "lambda" => u.segmentation.lambda = number(&name, &text()?)?,
+            other => {
+                return Err(AppError::BadRequest(format!(
+                    "unknown field {other:?}; accepted: camera, depth, color, mask, depth_kind, scale, offset, \
+                     focal_baseline, channel, segment, omega, sigma, kappa, lambda"
+                )))
+            }
+        }
+    }
+    Ok(u)
+}
+
+/// `PUT /v1/scenes/{scene}/views/{view}` (multipart).
+pub async fn put_view(
+    State(state): State<Arc<AppState>>,
+    Path((scene, view)): Path<(String, String)>,
+    headers: HeaderMap,
+    multipart: Result<Multipart, axum::extract::multipart::MultipartRejection>,
+) -> Result<Response, AppError> {
+    validate_id("scene", &scene)?;
+    validate_id("view", &view)?;
+    let multipart =
+        multipart.map_err(|e| AppError::UnsupportedMedia(format!("upload must be multipart/form-data: {e}")))?;
+    let u = read_upload(multipart).await?;
+    let camera_text = u
+        .camera
+        .ok_or_else(|| AppError::BadRequest("field camera (JSON) is missing".into()))?;
+    let depth_bytes = u
+        .depth
+        .ok_or_else(|| AppError::BadRequest("field depth (EXR, PNG or PFM) is missing".into()))?;
+    let color_bytes = u
+        .color
+        .ok_or_else(|| AppError::BadRequest("field color (PNG or JPEG) is missing".into()))?;
+    let st = state.clone();
+    let (sc, vw) = (scene.clone(), view.clone());
+    let loaded = tokio::task::spawn_blocking(move || -> Result<Arc<Loaded>, AppError> {
+        let limits = st.settings.limits;
+        let camera: Camera = camera_from_json(&camera_text)?;
+        let mut depth = decode_depth(&depth_bytes, &u.options, &camera, &limits)?;
+        if let Some(m) = &u.mask {
+            depth.apply_mask(&decode_mask(m, depth.width, depth.height, &limits)?)?;
+        }
+        if !matches!(sniff(&color_bytes), Some(Format::Png | Format::Jpeg)) {
+            return Err(AppError::Undecodable(
+                "field color is not PNG or JPEG (unrecognised magic bytes)".into(),
+            ));
+        }
+        let color = decode_color(&color_bytes, &limits)?;
+        if (color.width, color.height) != (depth.width, depth.height) {
+            return Err(AppError::BadRequest(format!(
+                "colour image is {}x{} but the depth image is {}x{}; they must match",
+                color.width, color.height, depth.width, depth.height
+            )));
+        }
+        u.segmentation.to_engine().validate()?;
+        let stored = StoredView {
+            camera: (&camera).into(),
+            segmentation: u.segmentation,
+            z: depth.z,
+            color: color_bytes.to_vec(),
+        };
+        // Build before storing: a view that cannot be meshed is not kept.
+        let loaded = Arc::new(Loaded::from_stored(&stored)?);
+        st.store.put(&sc, &vw, &stored)?;
+        Ok(loaded)
+    })
+    .await??;
+    state.remember(&scene, &view, loaded.clone());
+    let mut response = encode(&headers, &summary(&scene, &view, &loaded))?;
+    *response.status_mut() = StatusCode::CREATED;
+    Ok(response)
+}
+
+/// `GET /v1/scenes`.
+pub async fn list_scenes(State(state): State<Arc<AppState>>, headers: HeaderMap) -> Result<Response, AppError> {
+    let st = state.clone();
+    let scenes = tokio::task::spawn_blocking(move || st.store.scenes()).await??;
+    encode(
+        &headers,
+        &serde_json::json!({ "version": PROTOCOL_VERSION, "scenes": scenes }),
+    )
+}
+
+/// `GET /v1/scenes/{scene}/views`.
+pub async fn list_views(
+    State(state): State<Arc<AppState>>,
+    Path(scene): Path<String>,
+    headers: HeaderMap,
+) -> Result<Response, AppError> {
+    validate_id("scene", &scene)?;
+    let (st, sc) = (state.clone(), scene.clone());
+    let views = tokio::task::spawn_blocking(move || st.store.views(&sc))
+        .await??
+        .ok_or_else(|| AppError::NotFound(format!("no scene {scene:?}")))?;
+    encode(
+        &headers,
+        &serde_json::json!({ "version": PROTOCOL_VERSION, "scene": scene, "views": views }),
+    )
+}
+
+/// Loads a view off the async workers.
+pub async fn load(state: &Arc<AppState>, scene: &str, view: &str) -> Result<Arc<Loaded>, AppError> {
+    validate_id("scene", scene)?;
+    validate_id("view", view)?;
+    let (st, sc, vw) = (state.clone(), scene.to_string(), view.to_string());
+    tokio::task::spawn_blocking(move || st.load(&sc, &vw)).await?
+}
+
+/// `GET /v1/scenes/{scene}/views/{view}`.
+pub async fn get_view(
+    State(state): State<Arc<AppState>>,
+    Path((scene, view)): Path<(String, String)>,
+    headers: HeaderMap,
+) -> Result<Response, AppError> {
+    let loaded = load(&state, &scene, &view).await?;
+    encode(&headers, &summary(&scene, &view, &loaded))
+}
+
+/// `GET /v1/scenes/{scene}/views/{view}/color`: the stored image, strong ETag.
+pub async fn get_color(
+    State(state): State<Arc<AppState>>,
+    Path((scene, view)): Path<(String, String)>,
+    headers: HeaderMap,
+) -> Result<Response, AppError> {
+    let loaded = load(&state, &scene, &view).await?;
+    let etag = loaded.etag.clone();
+    if headers
+        .get(header::IF_NONE_MATCH)
+        .and_then(|v| v.to_str().ok())
+        .is_some_and(|v| v.split(',').any(|t| t.trim() == etag))
+    {
+        return Ok((StatusCode::NOT_MODIFIED, [(header::ETAG, etag)]).into_response());
+    }
+    Ok((
+        [
+            (header::CONTENT_TYPE, loaded.color_type.to_string()),
+            (header::ETAG, etag),
+            (header::CACHE_CONTROL, "public, max-age=3600".to_string()),
+        ],
+        loaded.color.clone(),
+    )
+        .into_response())
+}
+
+/// `DELETE /v1/scenes/{scene}/views/{view}`.
+pub async fn delete_view(
+    State(state): State<Arc<AppState>>,
+    Path((scene, view)): Path<(String, String)>,
+) -> Result<StatusCode, AppError> {
+    validate_id("scene", &scene)?;
+    validate_id("view", &view)?;
+    let (st, sc, vw) = (state.clone(), scene.clone(), view.clone());
+    let existed = tokio::task::spawn_blocking(move || st.store.delete_view(&sc, &vw)).await??;
+    state.forget(&scene, Some(&view));
+    if existed {
+        Ok(StatusCode::NO_CONTENT)
+    } else {
+        Err(AppError::NotFound(format!("scene {scene:?} has no view {view:?}")))
+    }
+}
+
+/// `DELETE /v1/scenes/{scene}`.
+pub async fn delete_scene(
+    State(state): State<Arc<AppState>>,
+    Path(scene): Path<String>,
+) -> Result<StatusCode, AppError> {
+    validate_id("scene", &scene)?;
+    let (st, sc) = (state.clone(), scene.clone());
+    let existed = tokio::task::spawn_blocking(move || st.store.delete_scene(&sc)).await??;
+    state.forget(&scene, None);
+    if existed {
+        Ok(StatusCode::NO_CONTENT)
+    } else {
+        Err(AppError::NotFound(format!("no scene {scene:?}")))
+    }
+}

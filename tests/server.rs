@@ -1,0 +1,433 @@
+//! The HTTP service, driven through its router (no socket) and once over a
+//! real socket on 127.0.0.1:0: upload of each depth format, listing, strips
+//! static and view-dependent in JSON and bincode, ETags, render weights,
+//! restart, deletion, and a table of bad inputs with their statuses.
+
+use std::sync::Arc;
+
+use axum::body::Body;
+use axum::http::{header, Request, StatusCode};
+use dmesh::http::{app, AppState, Pipeline, Settings};
+use dmesh::image::{encode_exr, encode_pfm, Limits};
+use dmesh::store::FileStore;
+use dmesh_proto::{Indices, RenderResponse, StripResponse, ViewSummary};
+use tower::ServiceExt;
+
+const W: u32 = 48;
+const H: u32 = 32;
+
+fn depth() -> Vec<f32> {
+    (0..W * H)
+        .map(|i| 2.0 + ((i % W) as f32 * 0.2).sin() * 0.1 + if i % W > 30 { 1.0 } else { 0.0 })
+        .collect()
+}
+
+fn png_color(w: u32, h: u32) -> Vec<u8> {
+    let img = image::RgbImage::from_fn(w, h, |x, y| image::Rgb([(x * 5) as u8, (y * 7) as u8, 90]));
+    let mut out = Vec::new();
+    image::DynamicImage::ImageRgb8(img)
+        .write_to(&mut std::io::Cursor::new(&mut out), image::ImageFormat::Png)
+        .unwrap();
+    out
+}
+
+fn png16_depth() -> Vec<u8> {
+    let img = image::ImageBuffer::<image::Luma<u16>, _>::from_fn(W, H, |x, y| image::Luma([2000 + (x * 3 + y) as u16]));
+    let mut out = Vec::new();
+    image::DynamicImage::ImageLuma16(img)
+        .write_to(&mut std::io::Cursor::new(&mut out), image::ImageFormat::Png)
+        .unwrap();
+    out
+}
+
+fn camera_json(yaw: f64, x: f64) -> String {
+    let (s, c) = ((yaw / 2.0).sin(), (yaw / 2.0).cos());
+    format!(
+        r#"{{"width": {W}, "height": {H}, "projection": {{"perspective": {{"fx": 40, "fy": 40, "cx": 23.5, "cy": 15.5}}}}, "pose": {{"rotation": [0, {s}, 0, {c}], "translation": [{x}, 0, 0]}}}}"#
+    )
+}
+
+const BOUNDARY: &str = "dmeshboundary";
+
+fn multipart(parts: &[(&str, &[u8])]) -> Vec<u8> {
+    let mut out = Vec::new();
+    for (name, data) in parts {
+        out.extend_from_slice(
+            format!("--{BOUNDARY}\r\nContent-Disposition: form-data; name=\"{name}\"; filename=\"{name}\"\r\n\r\n")
+                .as_bytes(),
+        );
+        out.extend_from_slice(data);
+        out.extend_from_slice(b"\r\n");
+    }
+    out.extend_from_slice(format!("--{BOUNDARY}--\r\n").as_bytes());
+    out
+}
+
+fn put(uri: &str, body: Vec<u8>) -> Request<Body> {
+    Request::put(uri)
+        .header(
+            header::CONTENT_TYPE,
+            format!("multipart/form-data; boundary={BOUNDARY}"),
+        )
+        .body(Body::from(body))
+        .unwrap()
+}
+
+fn state(dir: &std::path::Path, settings: Settings) -> Arc<AppState> {
+    Arc::new(AppState::new(Arc::new(FileStore::open(dir).unwrap()), settings))
+}
+
+async fn send(router: &axum::Router, req: Request<Body>) -> (StatusCode, axum::http::HeaderMap, Vec<u8>) {
+    let resp = router.clone().oneshot(req).await.unwrap();
+    let status = resp.status();
+    let headers = resp.headers().clone();
+    let body = axum::body::to_bytes(resp.into_body(), usize::MAX)
+        .await
+        .unwrap()
+        .to_vec();
+    (status, headers, body)
+}
+
+fn upload_body(depth: &[u8], extra: &[(&str, &[u8])], cam: &str) -> Vec<u8> {
+    let color = png_color(W, H);
+    let mut parts: Vec<(&str, &[u8])> = vec![("camera", cam.as_bytes()), ("depth", depth), ("color", &color)];
+    parts.extend_from_slice(extra);
+    multipart(&parts)
+}
+
+fn canon(mut t: [u32; 3]) -> [u32; 3] {
+    t.sort_unstable();
+    t
+}
+
+fn check_strips(r: &StripResponse) {
+    assert!(!r.vertices.is_empty());
+    for v in &r.vertices {
+        assert!(u32::from(v.i) < W && u32::from(v.j) < H && v.depth.is_finite() && v.depth > 0.0);
+    }
+    let wide: Vec<u32> = match &r.indices {
+        Indices::U16(s) => s
+            .iter()
+            .map(|&i| if i == u16::MAX { u32::MAX } else { u32::from(i) })
+            .collect(),
+        Indices::U32(s) => s.clone(),
+    };
+    let tris = dmesh::mesh::decode_strips(&wide);
+    assert_eq!(tris.len(), r.triangles as usize);
+    let unique: std::collections::HashSet<_> = tris.iter().map(|t| canon(*t)).collect();
+    assert_eq!(unique.len(), tris.len(), "a triangle is drawn twice");
+    assert!(wide.iter().all(|&i| i == u32::MAX || (i as usize) < r.vertices.len()));
+}
+
+#[tokio::test]
+async fn upload_list_strips_render_restart_delete() {
+    let dir = tempfile::tempdir().unwrap();
+    let router = app(state(dir.path(), Settings::default()), Pipeline::default());
+    let z = depth();
+    type Upload<'a> = (&'a str, Vec<u8>, Vec<(&'a str, Vec<u8>)>);
+    let uploads: [Upload; 3] = [
+        ("pfm", encode_pfm(W, H, &z), vec![]),
+        ("exr", encode_exr(W, H, &z).unwrap(), vec![]),
+        ("png", png16_depth(), vec![("scale", b"0.001".to_vec())]),
+    ];
+    for (i, (view, bytes, extra)) in uploads.iter().enumerate() {
+        let extra: Vec<(&str, &[u8])> = extra.iter().map(|(k, v)| (*k, v.as_slice())).collect();
+        let body = upload_body(bytes, &extra, &camera_json(0.3 * i as f64, 0.1 * i as f64));
+        let (status, _, body) = send(&router, put(&format!("/v1/scenes/demo/views/{view}"), body)).await;
+        assert_eq!(status, StatusCode::CREATED, "{}", String::from_utf8_lossy(&body));
+        let summary: ViewSummary = serde_json::from_slice(&body).unwrap();
+        assert_eq!((summary.camera.width, summary.view.as_str()), (W, *view));
+    }
+    let (status, _, body) = send(
+        &router,
+        Request::get("/v1/scenes/demo/views").body(Body::empty()).unwrap(),
+    )
+    .await;
+    assert_eq!(status, StatusCode::OK);
+    let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
+    assert_eq!(v["views"], serde_json::json!(["exr", "pfm", "png"]));
+
+    // Static strips, JSON, with a strong ETag honoured by If-None-Match.
+    let (status, headers, body) = send(
+        &router,
+        Request::get("/v1/scenes/demo/views/pfm/strips?epsilon=0.001")
+            .body(Body::empty())
+            .unwrap(),
+    )
+    .await;
+    assert_eq!(status, StatusCode::OK, "{}", String::from_utf8_lossy(&body));
+    check_strips(&serde_json::from_slice(&body).unwrap());
+    let etag = headers[header::ETAG].to_str().unwrap().to_string();
+    let req = Request::get("/v1/scenes/demo/views/pfm/strips?epsilon=0.001")
+        .header(header::IF_NONE_MATCH, &etag)
+        .body(Body::empty())
+        .unwrap();
+    assert_eq!(send(&router, req).await.0, StatusCode::NOT_MODIFIED);
+
+    // View-dependent strips in bincode, camera in the query.
+    let cam = camera_json(0.1, 0.05);
+    let uri = format!("/v1/scenes/demo/views/exr/strips?tau=1&camera={}", urlencode(&cam));
+    let req = Request::get(uri)
+        .header(header::ACCEPT, "application/x-bincode")
+        .body(Body::empty())
+        .unwrap();
+    let (status, headers, body) = send(&router, req).await;
+    assert_eq!(status, StatusCode::OK, "{}", String::from_utf8_lossy(&body));
+    assert_eq!(headers[header::CONTENT_TYPE], "application/x-bincode");
+    check_strips(&dmesh_proto::from_bincode::<StripResponse>(&body).unwrap());
+
+    // Render: weights sum to 1.
+    let req = Request::post("/v1/scenes/demo/render")
+        .header(header::CONTENT_TYPE, "application/json")
+        .body(Body::from(format!(
+            r#"{{"camera": {}, "tau": 1.0}}"#,
+            camera_json(0.15, 0.05)
+        )))
+        .unwrap();
+    let (status, _, body) = send(&router, req).await;
+    assert_eq!(status, StatusCode::OK, "{}", String::from_utf8_lossy(&body));
+    let r: RenderResponse = serde_json::from_slice(&body).unwrap();
+    assert!(!r.views.is_empty());
+    assert!((r.views.iter().map(|v| v.weight).sum::<f64>() - 1.0).abs() < 1e-9);
+    r.views.iter().for_each(|v| check_strips(&v.strips));
+
+    // Colour with ETag.
+    let (status, headers, body) = send(
+        &router,
+        Request::get("/v1/scenes/demo/views/pfm/color")
+            .body(Body::empty())
+            .unwrap(),
+    )
+    .await;
+    assert_eq!(status, StatusCode::OK);
+    assert_eq!(body, png_color(W, H));
+    let etag = headers[header::ETAG].to_str().unwrap().to_string();
+    let req = Request::get("/v1/scenes/demo/views/pfm/color")
+        .header(header::IF_NONE_MATCH, etag)
+        .body(Body::empty())
+        .unwrap();
+    assert_eq!(send(&router, req).await.0, StatusCode::NOT_MODIFIED);
+
+    // A new server over the same data directory has every view.
+    let restarted = app(state(dir.path(), Settings::default()), Pipeline::default());
+    for view in ["pfm", "exr", "png"] {
+        let (status, _, _) = send(
+            &restarted,
+            Request::get(format!("/v1/scenes/demo/views/{view}"))
+                .body(Body::empty())
+                .unwrap(),
+        )
+        .await;
+        assert_eq!(status, StatusCode::OK, "{view} lost on restart");
+    }
+    let (status, _, _) = send(
+        &restarted,
+        Request::delete("/v1/scenes/demo/views/png")
+            .body(Body::empty())
+            .unwrap(),
+    )
+    .await;
+    assert_eq!(status, StatusCode::NO_CONTENT);
+    let (status, _, _) = send(
+        &restarted,
+        Request::get("/v1/scenes/demo/views/png").body(Body::empty()).unwrap(),
+    )
+    .await;
+    assert_eq!(status, StatusCode::NOT_FOUND);
+    let (status, _, body) = send(&restarted, Request::get("/metrics").body(Body::empty()).unwrap()).await;
+    assert_eq!(status, StatusCode::OK);
+    let text = String::from_utf8(body).unwrap();
+    assert!(
+        text.contains("dmesh_request_duration_ms_bucket") && text.contains("dmesh_bytes_stored"),
+        "{text}"
+    );
+}
+
+fn urlencode(s: &str) -> String {
+    s.bytes()
+        .map(|b| {
+            if b.is_ascii_alphanumeric() || b"-_.~".contains(&b) {
+                (b as char).to_string()
+            } else {
+                format!("%{b:02X}")
+            }
+        })
+        .collect()
+}
+
+#[tokio::test]
+async fn bad_inputs_get_their_status_and_code_and_keep_the_stored_view() {
+    let dir = tempfile::tempdir().unwrap();
+    let settings = Settings {
+        max_upload_bytes: 64 << 10,
+        limits: Limits { max_pixels: 1 << 20 },
+        cache_bytes: 1 << 20,
+    };
+    let router = app(state(dir.path(), settings), Pipeline::default());
+    let z = depth();
+    let good = encode_pfm(W, H, &z);
+    let (status, _, _) = send(
+        &router,
+        put("/v1/scenes/s/views/v", upload_body(&good, &[], &camera_json(0.0, 0.0))),
+    )
+    .await;
+    assert_eq!(status, StatusCode::CREATED);
+
+    let png = png16_depth();
+    let truncated_png = &png[..png.len() / 2];
+    let small_color = png_color(8, 8);
+    let huge_pfm = b"Pf\n50000 50000\n-1.0\n".to_vec();
+    let cases: Vec<(&str, Request<Body>, StatusCode, &str)> = vec![
+        (
+            "truncated png",
+            put(
+                "/v1/scenes/s/views/v",
+                upload_body(truncated_png, &[], &camera_json(0.0, 0.0)),
+            ),
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "undecodable_image",
+        ),
+        (
+            "size mismatch",
+            put(
+                "/v1/scenes/s/views/v",
+                multipart(&[
+                    ("camera", camera_json(0.0, 0.0).as_bytes()),
+                    ("depth", &good),
+                    ("color", &small_color),
+                ]),
+            ),
+            StatusCode::BAD_REQUEST,
+            "bad_request",
+        ),
+        (
+            "NaN in camera",
+            put(
+                "/v1/scenes/s/views/v",
+                upload_body(&good, &[], &camera_json(0.0, 0.0).replace("\"fx\": 40", "\"fx\": NaN")),
+            ),
+            StatusCode::BAD_REQUEST,
+            "bad_request",
+        ),
+        (
+            "zero focal length",
+            put(
+                "/v1/scenes/s/views/v",
+                upload_body(&good, &[], &camera_json(0.0, 0.0).replace("\"fx\": 40", "\"fx\": 0")),
+            ),
+            StatusCode::BAD_REQUEST,
+            "bad_request",
+        ),
+        (
+            "unknown scene",
+            Request::get("/v1/scenes/nope/views").body(Body::empty()).unwrap(),
+            StatusCode::NOT_FOUND,
+            "not_found",
+        ),
+        (
+            "unknown view",
+            Request::get("/v1/scenes/s/views/nope/strips?epsilon=1")
+                .body(Body::empty())
+                .unwrap(),
+            StatusCode::NOT_FOUND,
+            "not_found",
+        ),
+        (
+            "huge declared size",
+            put(
+                "/v1/scenes/s/views/v",
+                upload_body(&huge_pfm, &[], &camera_json(0.0, 0.0)),
+            ),
+            StatusCode::PAYLOAD_TOO_LARGE,
+            "too_large",
+        ),
+        (
+            "oversized body",
+            put(
+                "/v1/scenes/s/views/v",
+                upload_body(&vec![0u8; 100 << 10], &[], &camera_json(0.0, 0.0)),
+            ),
+            StatusCode::PAYLOAD_TOO_LARGE,
+            "too_large",
+        ),
+        (
+            "wrong media type",
+            Request::put("/v1/scenes/s/views/v")
+                .header(header::CONTENT_TYPE, "application/json")
+                .body(Body::from("{}"))
+                .unwrap(),
+            StatusCode::UNSUPPORTED_MEDIA_TYPE,
+            "unsupported_media_type",
+        ),
+        (
+            "malformed JSON",
+            Request::post("/v1/scenes/s/render")
+                .header(header::CONTENT_TYPE, "application/json")
+                .body(Body::from("{\"camera\": "))
+                .unwrap(),
+            StatusCode::BAD_REQUEST,
+            "bad_request",
+        ),
+        (
+            "bad id",
+            Request::get("/v1/scenes/a..b%2F/views").body(Body::empty()).unwrap(),
+            StatusCode::BAD_REQUEST,
+            "bad_request",
+        ),
+        (
+            "epsilon and tau",
+            Request::get("/v1/scenes/s/views/v/strips?epsilon=1&tau=1")
+                .body(Body::empty())
+                .unwrap(),
+            StatusCode::BAD_REQUEST,
+            "bad_request",
+        ),
+        (
+            "negative epsilon",
+            Request::get("/v1/scenes/s/views/v/strips?epsilon=-1")
+                .body(Body::empty())
+                .unwrap(),
+            StatusCode::BAD_REQUEST,
+            "bad_request",
+        ),
+    ];
+    for (name, req, want, code) in cases {
+        let (status, _, body) = send(&router, req).await;
+        assert_eq!(status, want, "{name}: {}", String::from_utf8_lossy(&body));
+        let v: serde_json::Value = serde_json::from_slice(&body).unwrap_or_else(|_| panic!("{name}: body is not JSON"));
+        assert_eq!(v["error"]["code"], code, "{name}");
+        assert!(!v["error"]["message"].as_str().unwrap().is_empty(), "{name}");
+    }
+    // The failed uploads left the first version intact.
+    let (status, _, body) = send(
+        &router,
+        Request::get("/v1/scenes/s/views/v/strips?epsilon=0.001")
+            .body(Body::empty())
+            .unwrap(),
+    )
+    .await;
+    assert_eq!(status, StatusCode::OK, "{}", String::from_utf8_lossy(&body));
+}
+
+#[tokio::test]
+async fn a_real_socket_serves_health() {
+    use tokio::io::{AsyncReadExt, AsyncWriteExt};
+    let dir = tempfile::tempdir().unwrap();
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let addr = listener.local_addr().unwrap();
+    let server = tokio::spawn(dmesh::http::serve_on(
+        listener,
+        state(dir.path(), Settings::default()),
+        Pipeline::default(),
+    ));
+    let mut stream = tokio::net::TcpStream::connect(addr).await.unwrap();
+    stream
+        .write_all(b"GET /healthz HTTP/1.1\r\nHost: localhost\r\nConnection: close\r\n\r\n")
+        .await
+        .unwrap();
+    let mut reply = String::new();
+    stream.read_to_string(&mut reply).await.unwrap();
+    assert!(reply.starts_with("HTTP/1.1 200"), "{reply}");
+    assert!(reply.ends_with("ok\n"), "{reply}");
+    server.abort();
+}
