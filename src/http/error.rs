@@ -36,6 +36,11 @@ impl AppError {
             Self::TooLarge(m) => (StatusCode::PAYLOAD_TOO_LARGE, "too_large", m.clone()),
             Self::UnsupportedMedia(m) => (StatusCode::UNSUPPORTED_MEDIA_TYPE, "unsupported_media_type", m.clone()),
             Self::Undecodable(m) => (StatusCode::UNPROCESSABLE_ENTITY, "undecodable_image", m.clone()),
+            Self::Timeout => (
+                StatusCode::REQUEST_TIMEOUT,
+                "timeout",
+                "the request took longer than the server's timeout".into(),
+            ),
             Self::Overloaded(_) => (
                 StatusCode::SERVICE_UNAVAILABLE,
                 "overloaded",
