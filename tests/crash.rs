@@ -80,7 +80,7 @@ fn start(data: &std::path::Path) -> (Child, SocketAddr) {
         .unwrap()
         .port();
     let addr: SocketAddr = format!("127.0.0.1:{port}").parse().unwrap();
-    let child = Command::new(env!("CARGO_BIN_EXE_dmesh"))
+    let mut child = Command::new(env!("CARGO_BIN_EXE_dmesh"))
         .args(["serve", "--listen", &addr.to_string(), "--data", data.to_str().unwrap()])
         .stdout(Stdio::null())
         .stderr(Stdio::null())
@@ -93,6 +93,8 @@ fn start(data: &std::path::Path) -> (Child, SocketAddr) {
         }
         std::thread::sleep(Duration::from_millis(20));
     }
+    let _ = child.kill();
+    let _ = child.wait();
     panic!("server did not come up on {addr}");
 }
 
