@@ -46,10 +46,10 @@ enum Command {
 #[derive(clap::Args)]
 struct ServeArgs {
     /// Address to listen on.
-    #[arg(long, default_value = "127.0.0.1:8080")]
+    #[arg(long, default_value_t = std::net::SocketAddr::from(([127, 0, 0, 1], dmesh::http::DEFAULT_PORT)))]
     listen: std::net::SocketAddr,
     /// Data directory of the embedded store.
-    #[arg(long, default_value = "./dmesh-data")]
+    #[arg(long, default_value = dmesh::http::DEFAULT_DATA_DIR)]
     data: PathBuf,
     /// Bytes of built hierarchies kept in memory.
     #[arg(long, default_value_t = 1 << 30)]

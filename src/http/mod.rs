@@ -32,6 +32,12 @@ use tower_http::compression::CompressionLayer;
 pub use error::AppError;
 pub use state::{AppState, Settings};
 
+/// The port `dmesh serve` listens on by default (on 127.0.0.1).
+pub const DEFAULT_PORT: u16 = 8080;
+
+/// The embedded store's default data directory.
+pub const DEFAULT_DATA_DIR: &str = "./dmesh-data";
+
 /// Concurrency and timeout of the request pipeline.
 #[derive(Clone, Copy, Debug)]
 pub struct Pipeline {

@@ -1,0 +1,57 @@
+//! No Docker engine runs here, so the image is checked against the server's
+//! defaults instead: the exposed port, the volume and the entrypoint's data
+//! directory are those `dmesh serve` uses, and compose mounts that volume.
+
+fn read(path: &str) -> String {
+    std::fs::read_to_string(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(path)).unwrap()
+}
+
+fn directive<'a>(dockerfile: &'a str, name: &str) -> Vec<&'a str> {
+    dockerfile
+        .lines()
+        .filter_map(|l| l.strip_prefix(name))
+        .map(str::trim)
+        .collect()
+}
+
+#[test]
+fn dockerfile_matches_the_server_defaults() {
+    let d = read("docker/Dockerfile");
+    let (port, data) = (dmesh::http::DEFAULT_PORT, dmesh::http::DEFAULT_DATA_DIR);
+    assert_eq!(directive(&d, "EXPOSE "), vec![port.to_string()]);
+    let workdir = *directive(&d, "WORKDIR ").last().unwrap();
+    let volume = directive(&d, "VOLUME ")[0];
+    assert_eq!(volume, format!("{workdir}/{}", data.trim_start_matches("./")));
+    let entry = directive(&d, "ENTRYPOINT ")[0];
+    let args: Vec<String> = serde_json::from_str(entry).unwrap();
+    assert_eq!(&args[..2], ["dmesh", "serve"]);
+    let listen = &args[args.iter().position(|a| a == "--listen").unwrap() + 1];
+    assert_eq!(listen, &format!("0.0.0.0:{port}"));
+    let data_arg = &args[args.iter().position(|a| a == "--data").unwrap() + 1];
+    assert_eq!(data_arg, data);
+    assert!(
+        d.contains(&format!("http://127.0.0.1:{port}/healthz")),
+        "HEALTHCHECK must probe /healthz"
+    );
+    assert!(d.contains("USER dmesh"), "the runtime must not run as root");
+    let compose = read("docker/compose.yaml");
+    assert!(
+        compose.contains(&format!(":{volume}")) && compose.contains(&format!(":{port}\"")),
+        "{compose}"
+    );
+}
+
+#[test]
+fn openapi_documents_every_route() {
+    let router = read("src/http/mod.rs");
+    let spec = read("proto/openapi.yaml");
+    let routes: Vec<&str> = router
+        .split(".route(")
+        .skip(1)
+        .filter_map(|r| r.trim_start().strip_prefix('"')?.split('"').next())
+        .collect();
+    assert!(routes.len() >= 9, "{routes:?}");
+    for r in routes {
+        assert!(spec.contains(&format!("  {r}:")), "openapi.yaml lacks {r}");
+    }
+}
