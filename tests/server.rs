@@ -3,6 +3,8 @@
 //! static and view-dependent in JSON and bincode, ETags, render weights,
 //! restart, deletion, and a table of bad inputs with their statuses.
 
+mod common;
+
 use std::sync::Arc;
 
 use axum::body::Body;
@@ -117,6 +119,38 @@ fn check_strips(r: &StripResponse) {
     let unique: std::collections::HashSet<_> = tris.iter().map(|t| canon(*t)).collect();
     assert_eq!(unique.len(), tris.len(), "a triangle is drawn twice");
     assert!(wide.iter().all(|&i| i == u32::MAX || (i as usize) < r.vertices.len()));
+    // Conforming: rebuild the mesh (orienting each drawn triangle the
+    // engine's way, since strip winding is not kept) and check it.
+    let vertices: Vec<dmesh::mesh::MeshVertex> = r
+        .vertices
+        .iter()
+        .map(|v| dmesh::mesh::MeshVertex {
+            i: v.i,
+            j: v.j,
+            depth: v.depth,
+            normal: v.normal,
+            rho: v.rho,
+        })
+        .collect();
+    let triangles = tris
+        .iter()
+        .map(|&[a, b, c]| {
+            let p = |k: u32| (i64::from(vertices[k as usize].i), i64::from(vertices[k as usize].j));
+            let (pa, pb, pc) = (p(a), p(b), p(c));
+            let cross = (pb.0 - pa.0) * (pc.1 - pa.1) - (pb.1 - pa.1) * (pc.0 - pa.0);
+            if cross > 0 {
+                [b, a, c]
+            } else {
+                [a, b, c]
+            }
+        })
+        .collect();
+    common::assert_conforming(&dmesh::mesh::Mesh {
+        vertices,
+        strips: wide,
+        triangles,
+        ..Default::default()
+    });
 }
 
 #[tokio::test]
@@ -277,12 +311,34 @@ async fn bad_inputs_get_their_status_and_code_and_keep_the_stored_view() {
     let truncated_png = &png[..png.len() / 2];
     let small_color = png_color(8, 8);
     let huge_pfm = b"Pf\n50000 50000\n-1.0\n".to_vec();
+    let int_exr = {
+        use exr::prelude::*;
+        let channel = AnyChannel::new("Z", FlatSamples::U32(vec![1; (W * H) as usize]));
+        let layer = Layer::new(
+            (W as usize, H as usize),
+            LayerAttributes::default(),
+            Encoding::FAST_LOSSLESS,
+            AnyChannels::sort(SmallVec::from_vec(vec![channel])),
+        );
+        let mut out = std::io::Cursor::new(Vec::new());
+        Image::from_layer(layer).write().to_buffered(&mut out).unwrap();
+        out.into_inner()
+    };
     let cases: Vec<(&str, Request<Body>, StatusCode, &str)> = vec![
         (
             "truncated png",
             put(
                 "/v1/scenes/s/views/v",
                 upload_body(truncated_png, &[], &camera_json(0.0, 0.0)),
+            ),
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "undecodable_image",
+        ),
+        (
+            "EXR without a float channel",
+            put(
+                "/v1/scenes/s/views/v",
+                upload_body(&int_exr, &[], &camera_json(0.0, 0.0)),
             ),
             StatusCode::UNPROCESSABLE_ENTITY,
             "undecodable_image",
@@ -407,6 +463,74 @@ async fn bad_inputs_get_their_status_and_code_and_keep_the_stored_view() {
     )
     .await;
     assert_eq!(status, StatusCode::OK, "{}", String::from_utf8_lossy(&body));
+}
+
+fn stalled_upload() -> Request<Body> {
+    // A body that never arrives: the request holds its slot until it is cut off.
+    let body = Body::from_stream(futures_util::stream::pending::<Result<axum::body::Bytes, std::io::Error>>());
+    Request::put("/v1/scenes/s/views/slow")
+        .header(
+            header::CONTENT_TYPE,
+            format!("multipart/form-data; boundary={BOUNDARY}"),
+        )
+        .body(body)
+        .unwrap()
+}
+
+#[tokio::test]
+async fn overload_is_shed_with_503_and_retry_after() {
+    let dir = tempfile::tempdir().unwrap();
+    let pipeline = Pipeline {
+        max_concurrency: 1,
+        timeout: std::time::Duration::from_secs(30),
+    };
+    let router = app(state(dir.path(), Settings::default()), pipeline);
+    let busy = tokio::spawn(router.clone().oneshot(stalled_upload()));
+    tokio::time::sleep(std::time::Duration::from_millis(100)).await;
+    let (status, headers, body) = send(&router, Request::get("/healthz").body(Body::empty()).unwrap()).await;
+    assert_eq!(status, StatusCode::SERVICE_UNAVAILABLE);
+    assert_eq!(headers[header::RETRY_AFTER], "1");
+    let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
+    assert_eq!(v["error"]["code"], "overloaded");
+    busy.abort();
+}
+
+#[tokio::test]
+async fn slow_requests_time_out_with_408() {
+    let dir = tempfile::tempdir().unwrap();
+    let pipeline = Pipeline {
+        max_concurrency: 4,
+        timeout: std::time::Duration::from_millis(200),
+    };
+    let router = app(state(dir.path(), Settings::default()), pipeline);
+    let (status, _, body) = send(&router, stalled_upload()).await;
+    assert_eq!(status, StatusCode::REQUEST_TIMEOUT);
+    let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
+    assert_eq!(v["error"]["code"], "timeout");
+}
+
+#[tokio::test]
+async fn responses_are_compressed_when_asked() {
+    let dir = tempfile::tempdir().unwrap();
+    let router = app(state(dir.path(), Settings::default()), Pipeline::default());
+    let (status, _, _) = send(
+        &router,
+        put(
+            "/v1/scenes/s/views/v",
+            upload_body(&encode_pfm(W, H, &depth()), &[], &camera_json(0.0, 0.0)),
+        ),
+    )
+    .await;
+    assert_eq!(status, StatusCode::CREATED);
+    for encoding in ["gzip", "zstd"] {
+        let req = Request::get("/v1/scenes/s/views/v/strips?epsilon=0")
+            .header(header::ACCEPT_ENCODING, encoding)
+            .body(Body::empty())
+            .unwrap();
+        let (status, headers, _) = send(&router, req).await;
+        assert_eq!(status, StatusCode::OK);
+        assert_eq!(headers[header::CONTENT_ENCODING], encoding);
+    }
 }
 
 #[tokio::test]

@@ -2,10 +2,10 @@
 //!
 //! `app(state)` builds the router (tests drive it without a socket);
 //! [`serve`] binds and runs it. The tower stack, outermost first:
-//! compression (gzip, zstd), metrics, error handling that turns shedding into
-//! 503 + `Retry-After` and timeouts into 408, load shedding, a concurrency
-//! limit (so excess requests are refused at once instead of queueing without
-//! bound), a request timeout, and the body-size limit. CPU-bound work
+//! compression (gzip, zstd); load shedding over one concurrency limit for the
+//! whole router (excess requests get 503 + `Retry-After` at once instead of
+//! queueing without bound); per-route metrics; the request timeout (408);
+//! the body-size limit. CPU-bound work
 //! (decoding, building, extracting) runs on the blocking pool, never on the
 //! async workers.
 
@@ -56,13 +56,21 @@ impl Default for Pipeline {
     }
 }
 
-async fn overload(error: BoxError) -> AppError {
+async fn timed_out(error: BoxError) -> AppError {
     if error.is::<tower::timeout::error::Elapsed>() {
         AppError::Timeout
-    } else if error.is::<tower::load_shed::error::Overloaded>() {
-        AppError::Overloaded(1)
     } else {
         AppError::Internal(format!("middleware: {error}"))
+    }
+}
+
+/// Load shedding with a concurrency limit shared by every route: a request
+/// that finds no free slot is answered 503 at once rather than queued.
+/// (A tower layer on the router would be instantiated per route.)
+async fn shed(State(slots): State<Arc<tokio::sync::Semaphore>>, request: Request, next: Next) -> Response {
+    match slots.try_acquire() {
+        Ok(_permit) => next.run(request).await,
+        Err(_) => AppError::Overloaded(1).into_response(),
     }
 }
 
@@ -118,12 +126,12 @@ pub fn app(state: Arc<AppState>, pipeline: Pipeline) -> Router {
         .layer(DefaultBodyLimit::max(state.settings.max_upload_bytes))
         .layer(
             ServiceBuilder::new()
-                .layer(HandleErrorLayer::new(overload))
-                .load_shed()
-                .concurrency_limit(pipeline.max_concurrency.max(1))
+                .layer(HandleErrorLayer::new(timed_out))
                 .timeout(pipeline.timeout),
         );
+    let slots = Arc::new(tokio::sync::Semaphore::new(pipeline.max_concurrency.max(1)));
     api.route_layer(middleware::from_fn_with_state(state.clone(), record))
+        .layer(middleware::from_fn_with_state(slots, shed))
         .layer(CompressionLayer::new())
         .with_state(state)
 }
