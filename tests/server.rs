@@ -326,6 +326,18 @@ async fn bad_inputs_get_their_status_and_code_and_keep_the_stored_view() {
     };
     let cases: Vec<(&str, Request<Body>, StatusCode, &str)> = vec![
         (
+            "wrong method",
+            Request::post("/v1/scenes").body(Body::empty()).unwrap(),
+            StatusCode::METHOD_NOT_ALLOWED,
+            "method_not_allowed",
+        ),
+        (
+            "no such endpoint",
+            Request::get("/v2/nothing").body(Body::empty()).unwrap(),
+            StatusCode::NOT_FOUND,
+            "not_found",
+        ),
+        (
             "truncated png",
             put(
                 "/v1/scenes/s/views/v",

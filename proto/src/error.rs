@@ -15,7 +15,7 @@ pub struct ErrorBody {
 #[serde(deny_unknown_fields)]
 pub struct ErrorDetail {
     /// Stable, machine-readable: `bad_request`, `not_found`, `too_large`,
-    /// `unsupported_media_type`, `undecodable_image`, `timeout`, `overloaded`, `internal`.
+    /// `unsupported_media_type`, `undecodable_image`, `method_not_allowed`, `timeout`, `overloaded`, `internal`.
     pub code: String,
     /// Names the bad field and what is accepted.
     pub message: String,

@@ -27,7 +27,7 @@ pub use camera::{Camera, Pose, Projection};
 pub use error::{ErrorBody, ErrorDetail};
 pub use render::{RenderRequest, RenderResponse, RenderedView, Selection, Timings};
 pub use strips::{Indices, Lod, StripResponse, WireVertex};
-pub use view::ViewSummary;
+pub use view::{SceneList, ViewList, ViewSummary};
 
 /// Version of the wire format, sent in every response.
 pub const PROTOCOL_VERSION: u16 = 1;

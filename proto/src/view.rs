@@ -28,6 +28,28 @@ pub struct ViewSummary {
     pub color_url: String,
 }
 
+/// `GET /v1/scenes`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneList {
+    /// [`crate::PROTOCOL_VERSION`].
+    pub version: u16,
+    /// Scene ids, sorted.
+    pub scenes: Vec<String>,
+}
+
+/// `GET /v1/scenes/{scene}/views`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ViewList {
+    /// [`crate::PROTOCOL_VERSION`].
+    pub version: u16,
+    /// The scene.
+    pub scene: String,
+    /// View ids, sorted.
+    pub views: Vec<String>,
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -55,6 +77,19 @@ mod tests {
             valid_samples: 4,
             build_ms: 0.1,
             color_url: "/v1/scenes/s/views/v/color".into(),
+        });
+    }
+
+    #[test]
+    fn lists_round_trip() {
+        crate::round_trip::both(&SceneList {
+            version: crate::PROTOCOL_VERSION,
+            scenes: vec!["a".into(), "b".into()],
+        });
+        crate::round_trip::both(&ViewList {
+            version: crate::PROTOCOL_VERSION,
+            scene: "a".into(),
+            views: vec![],
         });
     }
 }

@@ -20,6 +20,8 @@ pub enum AppError {
     UnsupportedMedia(String),
     /// 422: image bytes that do not decode.
     Undecodable(String),
+    /// 405: the endpoint exists but not with this method.
+    MethodNotAllowed,
     /// 408: the request took longer than the configured timeout.
     Timeout,
     /// 503: shed under overload; retry after the given seconds.
@@ -36,6 +38,11 @@ impl AppError {
             Self::TooLarge(m) => (StatusCode::PAYLOAD_TOO_LARGE, "too_large", m.clone()),
             Self::UnsupportedMedia(m) => (StatusCode::UNSUPPORTED_MEDIA_TYPE, "unsupported_media_type", m.clone()),
             Self::Undecodable(m) => (StatusCode::UNPROCESSABLE_ENTITY, "undecodable_image", m.clone()),
+            Self::MethodNotAllowed => (
+                StatusCode::METHOD_NOT_ALLOWED,
+                "method_not_allowed",
+                "this endpoint does not take that method; see proto/openapi.yaml".into(),
+            ),
             Self::Timeout => (
                 StatusCode::REQUEST_TIMEOUT,
                 "timeout",

@@ -120,9 +120,7 @@ pub fn app(state: Arc<AppState>, pipeline: Pipeline) -> Router {
         .route("/healthz", get(healthz))
         .route("/metrics", get(metrics_text))
         .fallback(|| async { AppError::NotFound("no such endpoint; see proto/openapi.yaml".into()) })
-        .method_not_allowed_fallback(|| async {
-            AppError::BadRequest("method not allowed on this endpoint; see proto/openapi.yaml".into())
-        })
+        .method_not_allowed_fallback(|| async { AppError::MethodNotAllowed })
         .layer(DefaultBodyLimit::max(state.settings.max_upload_bytes))
         .layer(
             ServiceBuilder::new()

@@ -6,7 +6,7 @@ use axum::body::Bytes;
 use axum::extract::{Multipart, Path, State};
 use axum::http::{header, HeaderMap, StatusCode};
 use axum::response::{IntoResponse, Response};
-use dmesh_proto::{ViewSummary, PROTOCOL_VERSION};
+use dmesh_proto::{SceneList, ViewList, ViewSummary, PROTOCOL_VERSION};
 
 use crate::camera::{camera_from_json, Camera};
 use crate::image::{decode_color, decode_depth, decode_mask, sniff, DepthOptions, Format};
@@ -168,7 +168,10 @@ pub async fn list_scenes(State(state): State<Arc<AppState>>, headers: HeaderMap)
     let scenes = tokio::task::spawn_blocking(move || st.store.scenes()).await??;
     encode(
         &headers,
-        &serde_json::json!({ "version": PROTOCOL_VERSION, "scenes": scenes }),
+        &SceneList {
+            version: PROTOCOL_VERSION,
+            scenes,
+        },
     )
 }
 
@@ -185,7 +188,11 @@ pub async fn list_views(
         .ok_or_else(|| AppError::NotFound(format!("no scene {scene:?}")))?;
     encode(
         &headers,
-        &serde_json::json!({ "version": PROTOCOL_VERSION, "scene": scene, "views": views }),
+        &ViewList {
+            version: PROTOCOL_VERSION,
+            scene,
+            views,
+        },
     )
 }
 
