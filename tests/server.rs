@@ -1,7 +1,8 @@
-//! The HTTP service, driven through its router (no socket) and once over a
-//! real socket on 127.0.0.1:0: upload of each depth format, listing, strips
-//! static and view-dependent in JSON and bincode, ETags, render weights,
-//! restart, deletion, and a table of bad inputs with their statuses.
+//! The HTTP service, started for real on 127.0.0.1:0 with a temporary data
+//! directory and driven by an HTTP client: upload of each depth format,
+//! listing, strips static and view-dependent in JSON and bincode (decoded and
+//! checked conforming), ETags, render weights, restart, deletion, shedding,
+//! timeouts, compression, and a table of bad inputs with their statuses.
 
 mod common;
 
@@ -9,11 +10,12 @@ use std::sync::Arc;
 
 use axum::body::Body;
 use axum::http::{header, Request, StatusCode};
-use dmesh::http::{app, AppState, Pipeline, Settings};
+use dmesh::http::{serve_on, AppState, Pipeline, Settings};
 use dmesh::image::{encode_exr, encode_pfm, Limits};
 use dmesh::store::FileStore;
 use dmesh_proto::{Indices, RenderResponse, StripResponse, ViewSummary};
-use tower::ServiceExt;
+use hyper_util::client::legacy::Client;
+use hyper_util::rt::TokioExecutor;
 
 const W: u32 = 48;
 const H: u32 = 32;
@@ -79,11 +81,36 @@ fn state(dir: &std::path::Path, settings: Settings) -> Arc<AppState> {
     Arc::new(AppState::new(Arc::new(FileStore::open(dir).unwrap()), settings))
 }
 
-async fn send(router: &axum::Router, req: Request<Body>) -> (StatusCode, axum::http::HeaderMap, Vec<u8>) {
-    let resp = router.clone().oneshot(req).await.unwrap();
+/// A running server: its address and the task serving it.
+struct Server {
+    addr: std::net::SocketAddr,
+    task: tokio::task::JoinHandle<std::io::Result<()>>,
+}
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        self.task.abort();
+    }
+}
+
+async fn start(state: Arc<AppState>, pipeline: Pipeline) -> Server {
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let addr = listener.local_addr().unwrap();
+    Server {
+        addr,
+        task: tokio::spawn(serve_on(listener, state, pipeline)),
+    }
+}
+
+/// Sends `req` (its URI a path) to the server over HTTP/1.1.
+async fn send(server: &Server, mut req: Request<Body>) -> (StatusCode, axum::http::HeaderMap, Vec<u8>) {
+    let path = req.uri().path_and_query().map_or("/", |p| p.as_str()).to_string();
+    *req.uri_mut() = format!("http://{}{path}", server.addr).parse().unwrap();
+    let client = Client::builder(TokioExecutor::new()).build_http::<Body>();
+    let resp = client.request(req).await.unwrap();
     let status = resp.status();
     let headers = resp.headers().clone();
-    let body = axum::body::to_bytes(resp.into_body(), usize::MAX)
+    let body = axum::body::to_bytes(Body::new(resp.into_body()), usize::MAX)
         .await
         .unwrap()
         .to_vec();
@@ -156,7 +183,7 @@ fn check_strips(r: &StripResponse) {
 #[tokio::test]
 async fn upload_list_strips_render_restart_delete() {
     let dir = tempfile::tempdir().unwrap();
-    let router = app(state(dir.path(), Settings::default()), Pipeline::default());
+    let router = start(state(dir.path(), Settings::default()), Pipeline::default()).await;
     let z = depth();
     type Upload<'a> = (&'a str, Vec<u8>, Vec<(&'a str, Vec<u8>)>);
     let uploads: [Upload; 3] = [
@@ -243,7 +270,8 @@ async fn upload_list_strips_render_restart_delete() {
     assert_eq!(send(&router, req).await.0, StatusCode::NOT_MODIFIED);
 
     // A new server over the same data directory has every view.
-    let restarted = app(state(dir.path(), Settings::default()), Pipeline::default());
+    drop(router);
+    let restarted = start(state(dir.path(), Settings::default()), Pipeline::default()).await;
     for view in ["pfm", "exr", "png"] {
         let (status, _, _) = send(
             &restarted,
@@ -297,7 +325,7 @@ async fn bad_inputs_get_their_status_and_code_and_keep_the_stored_view() {
         limits: Limits { max_pixels: 1 << 20 },
         cache_bytes: 1 << 20,
     };
-    let router = app(state(dir.path(), settings), Pipeline::default());
+    let router = start(state(dir.path(), settings), Pipeline::default()).await;
     let z = depth();
     let good = encode_pfm(W, H, &z);
     let (status, _, _) = send(
@@ -496,8 +524,16 @@ async fn overload_is_shed_with_503_and_retry_after() {
         max_concurrency: 1,
         timeout: std::time::Duration::from_secs(30),
     };
-    let router = app(state(dir.path(), Settings::default()), pipeline);
-    let busy = tokio::spawn(router.clone().oneshot(stalled_upload()));
+    let router = start(state(dir.path(), Settings::default()), pipeline).await;
+    let addr = router.addr;
+    let busy = tokio::spawn(async move {
+        let mut req = stalled_upload();
+        *req.uri_mut() = format!("http://{addr}/v1/scenes/s/views/slow").parse().unwrap();
+        Client::builder(TokioExecutor::new())
+            .build_http::<Body>()
+            .request(req)
+            .await
+    });
     tokio::time::sleep(std::time::Duration::from_millis(100)).await;
     let (status, headers, body) = send(&router, Request::get("/healthz").body(Body::empty()).unwrap()).await;
     assert_eq!(status, StatusCode::SERVICE_UNAVAILABLE);
@@ -514,7 +550,7 @@ async fn slow_requests_time_out_with_408() {
         max_concurrency: 4,
         timeout: std::time::Duration::from_millis(200),
     };
-    let router = app(state(dir.path(), Settings::default()), pipeline);
+    let router = start(state(dir.path(), Settings::default()), pipeline).await;
     let (status, _, body) = send(&router, stalled_upload()).await;
     assert_eq!(status, StatusCode::REQUEST_TIMEOUT);
     let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
@@ -524,7 +560,7 @@ async fn slow_requests_time_out_with_408() {
 #[tokio::test]
 async fn responses_are_compressed_when_asked() {
     let dir = tempfile::tempdir().unwrap();
-    let router = app(state(dir.path(), Settings::default()), Pipeline::default());
+    let router = start(state(dir.path(), Settings::default()), Pipeline::default()).await;
     let (status, _, _) = send(
         &router,
         put(
@@ -543,27 +579,4 @@ async fn responses_are_compressed_when_asked() {
         assert_eq!(status, StatusCode::OK);
         assert_eq!(headers[header::CONTENT_ENCODING], encoding);
     }
-}
-
-#[tokio::test]
-async fn a_real_socket_serves_health() {
-    use tokio::io::{AsyncReadExt, AsyncWriteExt};
-    let dir = tempfile::tempdir().unwrap();
-    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
-    let addr = listener.local_addr().unwrap();
-    let server = tokio::spawn(dmesh::http::serve_on(
-        listener,
-        state(dir.path(), Settings::default()),
-        Pipeline::default(),
-    ));
-    let mut stream = tokio::net::TcpStream::connect(addr).await.unwrap();
-    stream
-        .write_all(b"GET /healthz HTTP/1.1\r\nHost: localhost\r\nConnection: close\r\n\r\n")
-        .await
-        .unwrap();
-    let mut reply = String::new();
-    stream.read_to_string(&mut reply).await.unwrap();
-    assert!(reply.starts_with("HTTP/1.1 200"), "{reply}");
-    assert!(reply.ends_with("ok\n"), "{reply}");
-    server.abort();
 }

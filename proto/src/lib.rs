@@ -26,7 +26,7 @@ pub mod view;
 pub use camera::{Camera, Pose, Projection};
 pub use error::{ErrorBody, ErrorDetail};
 pub use render::{RenderRequest, RenderResponse, RenderedView, Selection, Timings};
-pub use strips::{Indices, Lod, StripResponse, WireVertex};
+pub use strips::{Indices, Lod, StripRequest, StripResponse, WireVertex};
 pub use view::{SceneList, ViewList, ViewSummary};
 
 /// Version of the wire format, sent in every response.

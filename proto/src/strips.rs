@@ -47,6 +47,21 @@ pub enum Indices {
     U32(Vec<u32>),
 }
 
+/// Body of `POST .../strips`: `{"epsilon": E}` or `{"tau": T, "camera": {...}}`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StripRequest {
+    /// Static tolerance in metres.
+    #[serde(default)]
+    pub epsilon: Option<f64>,
+    /// View-dependent tolerance in pixels of `camera`.
+    #[serde(default)]
+    pub tau: Option<f64>,
+    /// The requesting camera, with `tau`.
+    #[serde(default)]
+    pub camera: Option<Camera>,
+}
+
 /// A view's mesh for one request.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -129,6 +144,21 @@ mod tests {
         wide.indices = Indices::U32(vec![0, 1, 2, u32::MAX, 2, 1, 0]);
         wide.lod = Lod::Epsilon(0.01);
         crate::round_trip::both(&wide);
+    }
+
+    #[test]
+    fn request_round_trips() {
+        crate::round_trip::both(&StripRequest {
+            epsilon: Some(0.01),
+            ..Default::default()
+        });
+        crate::round_trip::both(&StripRequest {
+            tau: Some(1.0),
+            camera: Some(sample().camera),
+            epsilon: None,
+        });
+        let r: StripRequest = serde_json::from_str(r#"{"epsilon": 0.5}"#).unwrap();
+        assert_eq!(r.epsilon, Some(0.5));
     }
 
     #[test]

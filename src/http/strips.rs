@@ -7,7 +7,7 @@ use axum::extract::{Path, Query, State};
 use axum::http::{header, HeaderMap, StatusCode};
 use axum::response::{IntoResponse, Response};
 use axum::Json;
-use dmesh_proto::{RenderRequest, RenderResponse, RenderedView, Selection, Timings, PROTOCOL_VERSION};
+use dmesh_proto::{RenderRequest, RenderResponse, RenderedView, Selection, StripRequest, Timings, PROTOCOL_VERSION};
 use serde::Deserialize;
 
 use crate::camera::{camera_from_json, Camera};
@@ -28,15 +28,6 @@ pub struct StripQuery {
     epsilon: Option<f64>,
     tau: Option<f64>,
     camera: Option<String>,
-}
-
-/// Body of `POST .../strips`.
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct StripBody {
-    tau: Option<f64>,
-    epsilon: Option<f64>,
-    camera: Option<dmesh_proto::Camera>,
 }
 
 enum Tolerance {
@@ -124,7 +115,7 @@ pub async fn post_strips(
     State(state): State<Arc<AppState>>,
     Path((scene, view)): Path<(String, String)>,
     headers: HeaderMap,
-    body: Result<Json<StripBody>, axum::extract::rejection::JsonRejection>,
+    body: Result<Json<StripRequest>, axum::extract::rejection::JsonRejection>,
 ) -> Result<Response, AppError> {
     let Json(b) = body.map_err(json_rejection)?;
     let camera = b.camera.as_ref().map(Camera::try_from).transpose()?;
