@@ -9,6 +9,7 @@
 //! - [`mesh`]: the hierarchy, its error metric, segmentation and extraction;
 //! - [`ply`]: binary PLY output of an extracted mesh;
 //! - [`scene`]: reference-view selection and weights for a novel camera;
+//! - [`sim`]: the scene simulator with ground truth;
 //! - [`store`]: durable storage of uploaded views (the only module here that does I/O);
 //! - [`synthetic`]: built-in synthetic depth maps;
 //! - [`wire`]: extracted meshes as `dmesh-proto` strip responses.
@@ -30,6 +31,7 @@ pub mod image;
 pub mod mesh;
 pub mod ply;
 pub mod scene;
+pub mod sim;
 pub mod store;
 pub mod synthetic;
 pub mod wire;
