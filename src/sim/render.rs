@@ -19,11 +19,13 @@ pub struct RenderedView {
     pub color: ColorImage,
 }
 
+/// A soft 3D checkerboard: cells of the texture's size whose edges ramp over
+/// about a fifth of a cell, so the pattern is visible yet band-limited
+/// (resampling it costs little, as a real photograph's texture would).
 fn albedo(scene: &SceneSpec, p: DVec3, base: DVec3) -> DVec3 {
-    let c = scene.texture.checker;
-    let cell = (p / c).floor();
-    let odd = (cell.x + cell.y + cell.z).rem_euclid(2.0) >= 1.0;
-    base * if odd { 0.6 } else { 1.0 }
+    let q = p * (std::f64::consts::PI / scene.texture.checker);
+    let s = q.x.sin() * q.y.sin() * q.z.sin();
+    base * (0.8 + 0.2 * (3.0 * s).clamp(-1.0, 1.0))
 }
 
 /// Renders `camera`'s view of `scene`; `reference` applies the scene's

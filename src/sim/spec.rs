@@ -38,8 +38,8 @@ pub struct SceneSpec {
     pub fov_deg: f64,
 }
 
-/// Albedo pattern: a 3D checkerboard of the given cell size in metres,
-/// modulating each object's own colour.
+/// Albedo pattern: a soft 3D checkerboard of the given cell size in metres,
+/// modulating each object's own colour between 60 % and 100 %.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Texture {

@@ -1,0 +1,286 @@
+//! Blending served strips into a novel view: DMesh Sec. 6.3-6.4 (epsilon-z-buffer,
+//! per-view weights times per-vertex quality rho, normalisation) and Verlani
+//! Sec. 3 (optional per-pixel `cos^k` of the angle between the reference and
+//! novel rays).
+//!
+//! Pass 1 rasterises every selected view's triangles into one z-buffer
+//! (nearest depth). Pass 2 rasterises them again and, for each fragment
+//! within `eps_z` (relative) of that depth, accumulates `w_i * rho * colour`
+//! and `w_i * rho`; the image is their ratio. Depth, rho and world position
+//! are interpolated perspective-correctly (linear in `1/z` over the screen);
+//! texture coordinates projectively, through the reference camera, so a
+//! large triangle seen obliquely by its reference view still samples the
+//! right texel. Pixel `(x, y)` is the sample at integer
+//! coordinates, as everywhere in dmesh; coverage follows the top-left rule so
+//! a pixel on a shared edge is drawn once.
+
+use dmesh::camera::Camera;
+use dmesh::mesh::{decode_strips, normals::oct_decode};
+use dmesh_proto::{Indices, StripResponse};
+use glam::{DVec2, DVec3};
+
+/// An 8-bit RGB texture (a reference view's colour image).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Texture {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// `3 * width * height` bytes.
+    pub rgb: Vec<u8>,
+}
+
+impl Texture {
+    /// Bilinear sample at pixel coordinates (integers are pixel centres).
+    pub fn sample(&self, u: f64, v: f64) -> DVec3 {
+        let (w, h) = (f64::from(self.width - 1), f64::from(self.height - 1));
+        let (u, v) = (u.clamp(0.0, w), v.clamp(0.0, h));
+        let (x0, y0) = (u.floor() as u32, v.floor() as u32);
+        let (x1, y1) = ((x0 + 1).min(self.width - 1), (y0 + 1).min(self.height - 1));
+        let (fx, fy) = (u - f64::from(x0), v - f64::from(y0));
+        let at = |x: u32, y: u32| {
+            let i = 3 * (y * self.width + x) as usize;
+            DVec3::new(
+                f64::from(self.rgb[i]),
+                f64::from(self.rgb[i + 1]),
+                f64::from(self.rgb[i + 2]),
+            )
+        };
+        let top = at(x0, y0) * (1.0 - fx) + at(x1, y0) * fx;
+        let bottom = at(x0, y1) * (1.0 - fx) + at(x1, y1) * fx;
+        top * (1.0 - fy) + bottom * fy
+    }
+}
+
+/// One selected view to blend.
+pub struct ViewInput<'a> {
+    /// Its blending weight (the server's, summing to 1 over the views).
+    pub weight: f64,
+    /// Its strips.
+    pub strips: &'a StripResponse,
+    /// Its colour image.
+    pub texture: &'a Texture,
+}
+
+/// Blending settings.
+#[derive(Clone, Copy, Debug)]
+pub struct BlendOptions {
+    /// Fragments within `eps_z * z` of the nearest depth blend (DMesh's epsilon).
+    pub eps_z: f64,
+    /// Verlani's per-pixel `cos^k(theta)` weight, when set.
+    pub cos_k: Option<f64>,
+    /// Relighting with the vertex normals: a directional light (world) and
+    /// its specular exponent; `None` keeps the textures' own shading.
+    pub relight: Option<(DVec3, f64)>,
+}
+
+impl Default for BlendOptions {
+    fn default() -> Self {
+        Self {
+            eps_z: 0.01,
+            cos_k: None,
+            relight: None,
+        }
+    }
+}
+
+/// A blended novel view.
+#[derive(Clone, Debug)]
+pub struct Blended {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// RGB; black where nothing is covered.
+    pub rgb: Vec<u8>,
+    /// Depth `z` in the novel camera; 0 where nothing is covered.
+    pub depth: Vec<f32>,
+    /// Bit `i` set where view `i` contributed (views past 31 share bit 31).
+    pub coverage: Vec<u32>,
+}
+
+struct Vertex {
+    /// Screen position in the novel camera.
+    s: DVec2,
+    /// Novel-camera depth.
+    z: f64,
+    /// Homogeneous reference pixel `(i z_ref, j z_ref, z_ref)`: affine in
+    /// space, so interpolating it and dividing gives the exact reference pixel
+    /// of a point on the triangle (projective texturing), however oblique the
+    /// reference view.
+    uvz: DVec3,
+    rho: f64,
+    world: DVec3,
+    normal: DVec3,
+}
+
+fn vertices(novel: &Camera, s: &StripResponse) -> anyhow::Result<(Camera, Vec<Option<Vertex>>)> {
+    let reference = Camera::try_from(&s.camera)?;
+    let out = s
+        .vertices
+        .iter()
+        .map(|v| {
+            let local = reference.back_project(f64::from(v.i), f64::from(v.j), f64::from(v.depth));
+            let world = reference.to_world(local);
+            let (x, y, z) = novel.project(novel.to_camera(world))?;
+            (z > 1e-9).then(|| Vertex {
+                s: DVec2::new(x, y),
+                z,
+                uvz: DVec3::new(f64::from(v.i), f64::from(v.j), 1.0) * f64::from(v.depth),
+                rho: f64::from(v.rho) / 255.0,
+                world,
+                normal: reference.rotation * oct_decode(v.normal),
+            })
+        })
+        .collect();
+    Ok((reference, out))
+}
+
+fn indices(s: &StripResponse) -> Vec<u32> {
+    match &s.indices {
+        Indices::U16(v) => v
+            .iter()
+            .map(|&i| if i == u16::MAX { u32::MAX } else { u32::from(i) })
+            .collect(),
+        Indices::U32(v) => v.clone(),
+    }
+}
+
+/// Calls `f(pixel index, perspective-correct barycentrics, depth)` for every
+/// covered pixel of the triangle, top-left rule.
+fn raster(w: u32, h: u32, t: [&Vertex; 3], mut f: impl FnMut(usize, [f64; 3], f64)) {
+    let [mut a, mut b, c] = t;
+    let edge = |p: DVec2, q: DVec2, r: DVec2| (q.x - p.x) * (r.y - p.y) - (q.y - p.y) * (r.x - p.x);
+    let mut area = edge(a.s, b.s, c.s);
+    if area.abs() < 1e-12 || !area.is_finite() {
+        return;
+    }
+    // Work counter-clockwise; hand the barycentrics back in the caller's order.
+    let swapped = area < 0.0;
+    if swapped {
+        std::mem::swap(&mut a, &mut b);
+        area = -area;
+    }
+    let (lo, hi) = (a.s.min(b.s).min(c.s), a.s.max(b.s).max(c.s));
+    let (x0, y0) = (lo.x.ceil().max(0.0), lo.y.ceil().max(0.0));
+    let (x1, y1) = (
+        hi.x.floor().min(f64::from(w) - 1.0),
+        hi.y.floor().min(f64::from(h) - 1.0),
+    );
+    if x0 > x1 || y0 > y1 {
+        return;
+    }
+    // Top-left rule (y down, counter-clockwise after the swap): a pixel on an
+    // edge belongs to the triangle only for top and left edges.
+    let owns = |p: DVec2, q: DVec2| {
+        let d = q - p;
+        (d.y == 0.0 && d.x < 0.0) || d.y > 0.0
+    };
+    let verts = [a, b, c];
+    for y in y0 as u32..=y1 as u32 {
+        for x in x0 as u32..=x1 as u32 {
+            let p = DVec2::new(f64::from(x), f64::from(y));
+            let e = [edge(b.s, c.s, p), edge(c.s, a.s, p), edge(a.s, b.s, p)];
+            let inside = e
+                .iter()
+                .zip([(b.s, c.s), (c.s, a.s), (a.s, b.s)])
+                .all(|(&e, (p, q))| e > 0.0 || (e == 0.0 && owns(p, q)));
+            if !inside {
+                continue;
+            }
+            // Screen barycentrics, then perspective-correct ones.
+            let l = [e[0] / area, e[1] / area, e[2] / area];
+            let inv = [l[0] / verts[0].z, l[1] / verts[1].z, l[2] / verts[2].z];
+            let sum = inv[0] + inv[1] + inv[2];
+            if !(sum > 0.0 && sum.is_finite()) {
+                continue;
+            }
+            let l = [inv[0] / sum, inv[1] / sum, inv[2] / sum];
+            let l = if swapped { [l[1], l[0], l[2]] } else { l };
+            f((y * w + x) as usize, l, 1.0 / sum);
+        }
+    }
+}
+
+/// Blends `views` into the `novel` camera's image.
+pub fn blend(novel: &Camera, views: &[ViewInput<'_>], options: &BlendOptions) -> anyhow::Result<Blended> {
+    let (w, h) = (novel.width, novel.height);
+    let n = (w * h) as usize;
+    let prepared: Vec<(Camera, Vec<Option<Vertex>>, Vec<[u32; 3]>)> = views
+        .iter()
+        .map(|v| {
+            let (reference, verts) = vertices(novel, v.strips)?;
+            Ok((reference, verts, decode_strips(&indices(v.strips))))
+        })
+        .collect::<anyhow::Result<_>>()?;
+    // Pass 1: nearest depth.
+    let mut zbuf = vec![f64::INFINITY; n];
+    for (_, verts, tris) in &prepared {
+        for t in tris {
+            let (Some(a), Some(b), Some(c)) = (&verts[t[0] as usize], &verts[t[1] as usize], &verts[t[2] as usize])
+            else {
+                continue;
+            };
+            raster(w, h, [a, b, c], |i, _, z| zbuf[i] = zbuf[i].min(z));
+        }
+    }
+    // Pass 2: accumulate within epsilon of it.
+    let mut color = vec![DVec3::ZERO; n];
+    let mut weight = vec![0f64; n];
+    let mut coverage = vec![0u32; n];
+    let eye = novel.translation;
+    for (k, ((reference, verts, tris), view)) in prepared.iter().zip(views).enumerate() {
+        for t in tris {
+            let (Some(a), Some(b), Some(c)) = (&verts[t[0] as usize], &verts[t[1] as usize], &verts[t[2] as usize])
+            else {
+                continue;
+            };
+            raster(w, h, [a, b, c], |i, l, z| {
+                if z > zbuf[i] * (1.0 + options.eps_z) {
+                    return;
+                }
+                let mix = |f: &dyn Fn(&Vertex) -> f64| l[0] * f(a) + l[1] * f(b) + l[2] * f(c);
+                let h = a.uvz * l[0] + b.uvz * l[1] + c.uvz * l[2];
+                let (u, v) = (h.x / h.z, h.y / h.z);
+                let rho = mix(&|p| p.rho).max(1e-3);
+                let mut wgt = view.weight * rho;
+                let world = a.world * l[0] + b.world * l[1] + c.world * l[2];
+                if let Some(k) = options.cos_k {
+                    let to_ref = (reference.translation - world).normalize_or_zero();
+                    let to_novel = (eye - world).normalize_or_zero();
+                    wgt *= to_ref.dot(to_novel).max(0.0).powf(k);
+                }
+                let mut c3 = view.texture.sample(u, v);
+                if let Some((light, shininess)) = options.relight {
+                    let nrm = (a.normal * l[0] + b.normal * l[1] + c.normal * l[2]).normalize_or_zero();
+                    let to_novel = (eye - world).normalize_or_zero();
+                    let diffuse = nrm.dot(light).max(0.0);
+                    let r = 2.0 * nrm.dot(light) * nrm - light;
+                    let specular = r.dot(to_novel).max(0.0).powf(shininess);
+                    c3 = c3 * (0.3 + 0.7 * diffuse) + DVec3::splat(255.0 * 0.3 * specular);
+                }
+                color[i] += c3 * wgt;
+                weight[i] += wgt;
+                coverage[i] |= 1 << k.min(31);
+            });
+        }
+    }
+    let mut rgb = vec![0u8; 3 * n];
+    let mut depth = vec![0f32; n];
+    for i in 0..n {
+        if weight[i] > 0.0 {
+            let c = color[i] / weight[i];
+            for (k, ch) in [c.x, c.y, c.z].into_iter().enumerate() {
+                rgb[3 * i + k] = (ch.clamp(0.0, 255.0) + 0.5) as u8;
+            }
+            depth[i] = zbuf[i] as f32;
+        }
+    }
+    Ok(Blended {
+        width: w,
+        height: h,
+        rgb,
+        depth,
+        coverage,
+    })
+}

@@ -1,0 +1,152 @@
+//! The server calls, over HTTP/1.1 with hyper.
+
+use std::path::PathBuf;
+
+use bytes::Bytes;
+use http_body_util::{BodyExt, Full};
+use hyper::{header, Method, Request, StatusCode};
+use hyper_util::client::legacy::{connect::HttpConnector, Client};
+use hyper_util::rt::TokioExecutor;
+
+/// A client of one dmesh server.
+#[derive(Clone)]
+pub struct Server {
+    base: String,
+    client: Client<HttpConnector, Full<Bytes>>,
+    cache: Option<PathBuf>,
+}
+
+/// A failed call, with the server's error body when it sent one.
+#[derive(Debug, thiserror::Error)]
+#[error("{method} {path}: {status}: {message}")]
+pub struct CallError {
+    method: Method,
+    path: String,
+    status: StatusCode,
+    message: String,
+}
+
+impl Server {
+    /// A client of `base` (`http://host:port`); colour images are cached in `cache` by ETag.
+    pub fn new(base: &str, cache: Option<PathBuf>) -> Self {
+        Self {
+            base: base.trim_end_matches('/').to_string(),
+            client: Client::builder(TokioExecutor::new()).build_http(),
+            cache,
+        }
+    }
+
+    async fn call(
+        &self,
+        method: Method,
+        path: &str,
+        headers: &[(header::HeaderName, String)],
+        body: Vec<u8>,
+    ) -> anyhow::Result<(StatusCode, hyper::HeaderMap, Bytes)> {
+        let mut req = Request::builder()
+            .method(method.clone())
+            .uri(format!("{}{path}", self.base));
+        for (k, v) in headers {
+            req = req.header(k, v);
+        }
+        let resp = self.client.request(req.body(Full::new(Bytes::from(body)))?).await?;
+        let status = resp.status();
+        let headers = resp.headers().clone();
+        let body = resp.into_body().collect().await?.to_bytes();
+        if !(status.is_success() || status == StatusCode::NOT_MODIFIED) {
+            let message = serde_json::from_slice::<dmesh_proto::ErrorBody>(&body).map_or_else(
+                |_| String::from_utf8_lossy(&body).into_owned(),
+                |e| format!("{} ({})", e.error.message, e.error.code),
+            );
+            return Err(CallError {
+                method,
+                path: path.to_string(),
+                status,
+                message,
+            }
+            .into());
+        }
+        Ok((status, headers, body))
+    }
+
+    /// Uploads one view (multipart): camera JSON, depth bytes, colour bytes.
+    pub async fn put_view(
+        &self,
+        scene: &str,
+        view: &str,
+        camera_json: &str,
+        depth: &[u8],
+        color: &[u8],
+    ) -> anyhow::Result<dmesh_proto::ViewSummary> {
+        let boundary = "dmesh-client-boundary";
+        let mut body = Vec::new();
+        for (name, data) in [("camera", camera_json.as_bytes()), ("depth", depth), ("color", color)] {
+            body.extend_from_slice(
+                format!("--{boundary}\r\nContent-Disposition: form-data; name=\"{name}\"\r\n\r\n").as_bytes(),
+            );
+            body.extend_from_slice(data);
+            body.extend_from_slice(b"\r\n");
+        }
+        body.extend_from_slice(format!("--{boundary}--\r\n").as_bytes());
+        let ct = format!("multipart/form-data; boundary={boundary}");
+        let (_, _, bytes) = self
+            .call(
+                Method::PUT,
+                &format!("/v1/scenes/{scene}/views/{view}"),
+                &[(header::CONTENT_TYPE, ct)],
+                body,
+            )
+            .await?;
+        Ok(serde_json::from_slice(&bytes)?)
+    }
+
+    /// Asks for a novel view's views, weights and strips (bincode on the wire).
+    pub async fn render(
+        &self,
+        scene: &str,
+        request: &dmesh_proto::RenderRequest,
+    ) -> anyhow::Result<dmesh_proto::RenderResponse> {
+        let headers = [
+            (header::CONTENT_TYPE, "application/json".to_string()),
+            (header::ACCEPT, dmesh_proto::BINCODE_MEDIA_TYPE.to_string()),
+        ];
+        let (_, _, bytes) = self
+            .call(
+                Method::POST,
+                &format!("/v1/scenes/{scene}/render"),
+                &headers,
+                serde_json::to_vec(request)?,
+            )
+            .await?;
+        Ok(dmesh_proto::from_bincode(&bytes)?)
+    }
+
+    /// A colour image by URL path, from the ETag cache when the server says it is current.
+    pub async fn color(&self, path: &str) -> anyhow::Result<Vec<u8>> {
+        let key = path.replace('/', "_");
+        let cached = self.cache.as_ref().and_then(|dir| {
+            let etag = std::fs::read_to_string(dir.join(format!("{key}.etag"))).ok()?;
+            let bytes = std::fs::read(dir.join(format!("{key}.img"))).ok()?;
+            Some((etag, bytes))
+        });
+        let headers: Vec<_> = cached
+            .iter()
+            .map(|(etag, _)| (header::IF_NONE_MATCH, etag.clone()))
+            .collect();
+        let (status, resp_headers, bytes) = self.call(Method::GET, path, &headers, Vec::new()).await?;
+        if status == StatusCode::NOT_MODIFIED {
+            if let Some((_, bytes)) = cached {
+                return Ok(bytes);
+            }
+        }
+        if let (Some(dir), Some(etag)) = (
+            &self.cache,
+            resp_headers.get(header::ETAG).and_then(|v| v.to_str().ok()),
+        ) {
+            std::fs::create_dir_all(dir)?;
+            std::fs::write(dir.join(format!("{key}.img")), &bytes)?;
+            std::fs::write(dir.join(format!("{key}.etag")), etag)?;
+        }
+        Ok(bytes.to_vec())
+    }
+}

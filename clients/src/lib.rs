@@ -1,0 +1,11 @@
+//! dmesh's thin client: talks to the server only through HTTP and
+//! `dmesh-proto`, and blends the served strips into novel views on the CPU.
+//!
+//! - [`blend`]: the two-pass epsilon-z-buffer blend of DMesh Sec. 6.3-6.4 and
+//!   Verlani Sec. 3, with perspective-correct interpolation;
+//! - [`compare`]: PSNR on the valid mask and inverse-depth RMSE;
+//! - [`http`]: the server calls (upload, render, colour with an ETag cache).
+
+pub mod blend;
+pub mod compare;
+pub mod http;

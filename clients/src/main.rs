@@ -1,0 +1,390 @@
+//! `dmesh-client`: ingest views, render novel views by blending, compare images.
+//!
+//! - `dmesh-client ingest --server URL --scene ID (--simulate SCENE_FILE|demo | --dir DIR)`
+//! - `dmesh-client render --server URL --scene ID --camera CAM.json [--tau T | --epsilon E]
+//!   --out OUT.png [--depth-out OUT.pfm] [--coverage-out COV.png] [--cos-k K] [--max-views N]`
+//! - `dmesh-client compare A.png B.png [--depth-a A.pfm --depth-b B.pfm] [--json]`
+//!
+//! Every failure exits non-zero with one line naming the problem.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::{bail, Context, Result};
+use clap::{Parser, Subcommand};
+use dmesh_client::blend::{blend, BlendOptions, Texture, ViewInput};
+use dmesh_client::compare::compare;
+use dmesh_client::http::Server;
+
+#[derive(Parser)]
+#[command(name = "dmesh-client", version, about = "Thin client of a dmesh server")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Upload a simulated scene or a folder of views.
+    Ingest {
+        /// Server base URL.
+        #[arg(long, default_value = "http://127.0.0.1:8080")]
+        server: String,
+        /// Scene id.
+        #[arg(long)]
+        scene: String,
+        /// A scene file (JSON), or `demo` for the built-in box scene.
+        #[arg(long, conflicts_with = "dir", required_unless_present = "dir")]
+        simulate: Option<String>,
+        /// A folder of views: NAME.json (camera), NAME.depth.{pfm,png,exr}, NAME.color.{png,jpg}.
+        #[arg(long)]
+        dir: Option<PathBuf>,
+    },
+    /// Render a novel view by blending the server's strips.
+    Render {
+        /// Server base URL.
+        #[arg(long, default_value = "http://127.0.0.1:8080")]
+        server: String,
+        /// Scene id.
+        #[arg(long)]
+        scene: String,
+        /// The novel camera (JSON).
+        #[arg(long)]
+        camera: PathBuf,
+        /// View-dependent tolerance in pixels (default 1).
+        #[arg(long, conflicts_with = "epsilon")]
+        tau: Option<f64>,
+        /// Static tolerance in metres.
+        #[arg(long)]
+        epsilon: Option<f64>,
+        /// Output PNG.
+        #[arg(long)]
+        out: PathBuf,
+        /// Also write the rendered depth (PFM).
+        #[arg(long)]
+        depth_out: Option<PathBuf>,
+        /// Also write which views contributed (PNG, a colour per view).
+        #[arg(long)]
+        coverage_out: Option<PathBuf>,
+        /// Verlani's per-pixel cos^k weights.
+        #[arg(long)]
+        cos_k: Option<f64>,
+        /// At most this many views.
+        #[arg(long)]
+        max_views: Option<u32>,
+        /// Colour texture cache directory.
+        #[arg(long, default_value = "./dmesh-cache")]
+        cache: PathBuf,
+    },
+    /// PSNR (valid mask) and inverse-depth RMSE between two images.
+    Compare {
+        /// First image (PNG).
+        a: PathBuf,
+        /// Second image (PNG).
+        b: PathBuf,
+        /// Depth of the first (PFM); with --depth-b the valid mask is where both are positive.
+        #[arg(long, requires = "depth_b")]
+        depth_a: Option<PathBuf>,
+        /// Depth of the second (PFM).
+        #[arg(long, requires = "depth_a")]
+        depth_b: Option<PathBuf>,
+        /// Print JSON: psnr, valid_fraction, inverse_depth_rmse.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+fn read(path: &Path) -> Result<Vec<u8>> {
+    std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))
+}
+
+fn png(width: u32, height: u32, rgb: &[u8]) -> Result<Vec<u8>> {
+    let img = image::RgbImage::from_raw(width, height, rgb.to_vec()).context("image buffer size")?;
+    let mut out = Vec::new();
+    image::DynamicImage::ImageRgb8(img).write_to(&mut std::io::Cursor::new(&mut out), image::ImageFormat::Png)?;
+    Ok(out)
+}
+
+fn read_pfm(path: &Path) -> Result<(u32, u32, Vec<f32>)> {
+    let bytes = read(path)?;
+    let cam = dmesh::camera::Camera::perspective(1, 1, 1.0, 1.0, 0.0, 0.0)?;
+    // Decode through the engine's PFM reader with the image's own size.
+    let text = String::from_utf8_lossy(&bytes[..bytes.len().min(64)]).to_string();
+    let mut it = text.split_ascii_whitespace().skip(1);
+    let (w, h): (u32, u32) = (
+        it.next().and_then(|s| s.parse().ok()).context("PFM width")?,
+        it.next().and_then(|s| s.parse().ok()).context("PFM height")?,
+    );
+    let cam = dmesh::camera::Camera {
+        width: w,
+        height: h,
+        ..cam
+    };
+    let d = dmesh::image::decode_depth(&bytes, &Default::default(), &cam, &Default::default())
+        .with_context(|| format!("depth {}", path.display()))?;
+    Ok((w, h, d.z))
+}
+
+async fn ingest(server: &str, scene: &str, simulate: Option<&str>, dir: Option<&Path>) -> Result<()> {
+    let s = Server::new(server, None);
+    let views: Vec<(String, String, Vec<u8>, Vec<u8>)> = match (simulate, dir) {
+        (Some(name), _) => {
+            let spec = if name == "demo" {
+                dmesh::sim::SceneSpec::demo()
+            } else {
+                dmesh::sim::SceneSpec::from_json(&String::from_utf8(read(Path::new(name))?)?)?
+            };
+            spec.reference_views()?
+                .iter()
+                .enumerate()
+                .map(|(k, v)| {
+                    let cam = serde_json::to_string(&dmesh_proto::Camera::from(&v.camera))?;
+                    let depth = dmesh::image::encode_pfm(v.depth.width, v.depth.height, &v.depth.z);
+                    Ok((
+                        format!("v{k:02}"),
+                        cam,
+                        depth,
+                        png(v.color.width, v.color.height, &v.color.rgb)?,
+                    ))
+                })
+                .collect::<Result<_>>()?
+        }
+        (None, Some(dir)) => {
+            let mut out = Vec::new();
+            let mut names: Vec<_> = std::fs::read_dir(dir)
+                .with_context(|| format!("cannot list {}", dir.display()))?
+                .filter_map(|e| e.ok()?.file_name().to_str()?.strip_suffix(".json").map(str::to_string))
+                .collect();
+            names.sort();
+            for name in names {
+                let find = |stem: &str, exts: &[&str]| {
+                    exts.iter()
+                        .map(|e| dir.join(format!("{name}.{stem}.{e}")))
+                        .find(|p| p.exists())
+                };
+                let depth =
+                    find("depth", &["pfm", "png", "exr"]).with_context(|| format!("no depth for view {name}"))?;
+                let color =
+                    find("color", &["png", "jpg", "jpeg"]).with_context(|| format!("no colour for view {name}"))?;
+                let cam = String::from_utf8(read(&dir.join(format!("{name}.json")))?)?;
+                out.push((name, cam, read(&depth)?, read(&color)?));
+            }
+            out
+        }
+        _ => bail!("give --simulate SCENE_FILE (or demo) or --dir DIR"),
+    };
+    if views.is_empty() {
+        bail!("nothing to upload");
+    }
+    for (k, (name, cam, depth, color)) in views.iter().enumerate() {
+        let summary = s.put_view(scene, name, cam, depth, color).await?;
+        eprint!(
+            "\ruploaded {}/{} views ({} built in {:.1} ms)   ",
+            k + 1,
+            views.len(),
+            summary.view,
+            summary.build_ms
+        );
+        let _ = std::io::stderr().flush();
+    }
+    eprintln!();
+    Ok(())
+}
+
+#[allow(clippy::too_many_arguments)]
+async fn render(
+    server: &str,
+    scene: &str,
+    camera: &Path,
+    tau: Option<f64>,
+    epsilon: Option<f64>,
+    cos_k: Option<f64>,
+    max_views: Option<u32>,
+    cache: &Path,
+) -> Result<dmesh_client::blend::Blended> {
+    let s = Server::new(server, Some(cache.to_path_buf()));
+    let wire: dmesh_proto::Camera = serde_json::from_slice(&read(camera)?).context("camera JSON")?;
+    let novel = dmesh::camera::Camera::try_from(&wire)?;
+    let request = dmesh_proto::RenderRequest {
+        camera: wire,
+        tau: if epsilon.is_some() {
+            None
+        } else {
+            Some(tau.unwrap_or(1.0))
+        },
+        epsilon,
+        max_views,
+        max_angle_deg: None,
+        selection: dmesh_proto::Selection::Dmesh,
+    };
+    let response = s.render(scene, &request).await?;
+    if response.views.is_empty() {
+        bail!("the server selected no view for this camera");
+    }
+    let mut textures = Vec::new();
+    for v in &response.views {
+        let bytes = s.color(&v.color_url).await?;
+        let img = image::load_from_memory(&bytes).context("colour texture")?.to_rgb8();
+        textures.push(Texture {
+            width: img.width(),
+            height: img.height(),
+            rgb: img.into_raw(),
+        });
+    }
+    let inputs: Vec<ViewInput<'_>> = response
+        .views
+        .iter()
+        .zip(&textures)
+        .map(|(v, t)| ViewInput {
+            weight: v.weight,
+            strips: &v.strips,
+            texture: t,
+        })
+        .collect();
+    blend(
+        &novel,
+        &inputs,
+        &BlendOptions {
+            cos_k,
+            ..Default::default()
+        },
+    )
+}
+
+fn coverage_png(b: &dmesh_client::blend::Blended) -> Result<Vec<u8>> {
+    let palette = [
+        [230, 25, 75],
+        [60, 180, 75],
+        [255, 225, 25],
+        [0, 130, 200],
+        [245, 130, 48],
+        [145, 30, 180],
+        [70, 240, 240],
+        [240, 50, 230],
+    ];
+    let mut rgb = vec![0u8; b.rgb.len()];
+    for (i, &mask) in b.coverage.iter().enumerate() {
+        let (mut c, mut n) = ([0u32; 3], 0u32);
+        for (k, p) in palette.iter().enumerate() {
+            if mask & (1 << k) != 0 {
+                (0..3).for_each(|j| c[j] += p[j]);
+                n += 1;
+            }
+        }
+        if n > 0 {
+            (0..3).for_each(|j| rgb[3 * i + j] = (c[j] / n) as u8);
+        }
+    }
+    png(b.width, b.height, &rgb)
+}
+
+fn run(cli: Cli) -> Result<()> {
+    let rt = tokio::runtime::Runtime::new()?;
+    match cli.command {
+        Command::Ingest {
+            server,
+            scene,
+            simulate,
+            dir,
+        } => rt.block_on(ingest(&server, &scene, simulate.as_deref(), dir.as_deref())),
+        Command::Render {
+            server,
+            scene,
+            camera,
+            tau,
+            epsilon,
+            out,
+            depth_out,
+            coverage_out,
+            cos_k,
+            max_views,
+            cache,
+        } => {
+            let b = rt.block_on(render(&server, &scene, &camera, tau, epsilon, cos_k, max_views, &cache))?;
+            std::fs::write(&out, png(b.width, b.height, &b.rgb)?)
+                .with_context(|| format!("cannot write {}", out.display()))?;
+            if let Some(p) = depth_out {
+                std::fs::write(&p, dmesh::image::encode_pfm(b.width, b.height, &b.depth))?;
+            }
+            if let Some(p) = coverage_out {
+                std::fs::write(&p, coverage_png(&b)?)?;
+            }
+            println!("wrote {}", out.display());
+            Ok(())
+        }
+        Command::Compare {
+            a,
+            b,
+            depth_a,
+            depth_b,
+            json,
+        } => {
+            let load = |p: &Path| -> Result<image::RgbImage> {
+                Ok(image::load_from_memory(&read(p)?)
+                    .with_context(|| format!("image {}", p.display()))?
+                    .to_rgb8())
+            };
+            let (ia, ib) = (load(&a)?, load(&b)?);
+            if ia.dimensions() != ib.dimensions() {
+                bail!(
+                    "{} is {:?} but {} is {:?}",
+                    a.display(),
+                    ia.dimensions(),
+                    b.display(),
+                    ib.dimensions()
+                );
+            }
+            let depths = match (depth_a, depth_b) {
+                (Some(da), Some(db)) => Some((read_pfm(&da)?.2, read_pfm(&db)?.2)),
+                _ => None,
+            };
+            let c = compare(
+                ia.as_raw(),
+                ib.as_raw(),
+                depths.as_ref().map(|(x, y)| (x.as_slice(), y.as_slice())),
+            )?;
+            if json {
+                println!("{}", serde_json::to_string(&c)?);
+            } else {
+                println!(
+                    "PSNR {:.2} dB over {:.1} % of the pixels",
+                    c.psnr,
+                    100.0 * c.valid_fraction
+                );
+                if let Some(r) = c.inverse_depth_rmse {
+                    println!("inverse-depth RMSE {r:.6}");
+                }
+            }
+            Ok(())
+        }
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) if !e.use_stderr() => {
+            let _ = e.print();
+            return ExitCode::SUCCESS;
+        }
+        Err(e) => {
+            let text = e.render().to_string();
+            let head: Vec<&str> = text
+                .lines()
+                .take_while(|l| !l.starts_with("Usage:"))
+                .map(str::trim)
+                .filter(|l| !l.is_empty())
+                .collect();
+            eprintln!("{}", head.join(" "));
+            return ExitCode::from(2);
+        }
+    };
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {}", format!("{e:#}").replace('\n', " "));
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,219 @@
+//! End to end: simulate the box scene, start the real server on port 0,
+//! ingest through the client, render novel views by blending, and measure
+//! them against the simulator's ground truth.
+
+use std::sync::Arc;
+
+use dmesh::camera::Camera;
+use dmesh::sim::rig::camera;
+use dmesh::sim::SceneSpec;
+use dmesh_client::blend::{blend, BlendOptions, Blended, Texture, ViewInput};
+use dmesh_client::compare::compare;
+use dmesh_client::http::Server;
+use glam::DVec3;
+
+struct Running {
+    base: String,
+    task: tokio::task::JoinHandle<std::io::Result<()>>,
+    _dir: tempfile::TempDir,
+}
+
+impl Drop for Running {
+    fn drop(&mut self) {
+        self.task.abort();
+    }
+}
+
+async fn start() -> Running {
+    let dir = tempfile::tempdir().unwrap();
+    let store = dmesh::store::FileStore::open(dir.path()).unwrap();
+    let state = Arc::new(dmesh::http::AppState::new(
+        Arc::new(store),
+        dmesh::http::Settings::default(),
+    ));
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let base = format!("http://{}", listener.local_addr().unwrap());
+    let task = tokio::spawn(dmesh::http::serve_on(listener, state, dmesh::http::Pipeline::default()));
+    Running { base, task, _dir: dir }
+}
+
+async fn ingest(server: &Server, scene: &SceneSpec) {
+    for (k, v) in scene.reference_views().unwrap().iter().enumerate() {
+        let cam = serde_json::to_string(&dmesh_proto::Camera::from(&v.camera)).unwrap();
+        let depth = dmesh::image::encode_pfm(v.depth.width, v.depth.height, &v.depth.z);
+        let img = image::RgbImage::from_raw(v.color.width, v.color.height, v.color.rgb.clone()).unwrap();
+        let mut color = Vec::new();
+        image::DynamicImage::ImageRgb8(img)
+            .write_to(&mut std::io::Cursor::new(&mut color), image::ImageFormat::Png)
+            .unwrap();
+        server
+            .put_view("box", &format!("v{k:02}"), &cam, &depth, &color)
+            .await
+            .unwrap();
+    }
+}
+
+async fn render(server: &Server, novel: &Camera, tau: f64, max_views: u32) -> Blended {
+    let request = dmesh_proto::RenderRequest {
+        camera: novel.into(),
+        tau: Some(tau),
+        epsilon: None,
+        max_views: Some(max_views),
+        max_angle_deg: None,
+        selection: dmesh_proto::Selection::Dmesh,
+    };
+    let response = server.render("box", &request).await.unwrap();
+    assert!(!response.views.is_empty());
+    let textures: Vec<Texture> = futures_textures(server, &response).await;
+    let inputs: Vec<ViewInput<'_>> = response
+        .views
+        .iter()
+        .zip(&textures)
+        .map(|(v, t)| ViewInput {
+            weight: v.weight,
+            strips: &v.strips,
+            texture: t,
+        })
+        .collect();
+    blend(novel, &inputs, &BlendOptions::default()).unwrap()
+}
+
+async fn futures_textures(server: &Server, r: &dmesh_proto::RenderResponse) -> Vec<Texture> {
+    let mut out = Vec::new();
+    for v in &r.views {
+        let img = image::load_from_memory(&server.color(&v.color_url).await.unwrap())
+            .unwrap()
+            .to_rgb8();
+        out.push(Texture {
+            width: img.width(),
+            height: img.height(),
+            rgb: img.into_raw(),
+        });
+    }
+    out
+}
+
+fn novel(scene: &SceneSpec, angle: f64, height: f64) -> Camera {
+    let target = DVec3::new(0.0, 0.4, 0.0);
+    let eye = DVec3::new(4.0 * angle.sin(), height, 4.0 * angle.cos());
+    camera(scene.width, scene.height, scene.fov_deg, eye, target).unwrap()
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_view_at_its_own_camera_reproduces_its_colour() {
+    let running = start().await;
+    let server = Server::new(&running.base, None);
+    let scene = SceneSpec::demo();
+    ingest(&server, &scene).await;
+    let refs = scene.reference_views().unwrap();
+    for k in [0usize, 3, 9] {
+        let cam = refs[k].camera;
+        let blended = render(&server, &cam, 0.5, 1).await;
+        let c = compare(
+            &blended.rgb,
+            &refs[k].color.rgb,
+            Some((&blended.depth, &refs[k].depth.z)),
+        )
+        .unwrap();
+        println!("view {k}: PSNR {:.2} dB over {:.1} %", c.psnr, 100.0 * c.valid_fraction);
+        if let Ok(dir) = std::env::var("DMESH_E2E_DUMP") {
+            image::RgbImage::from_raw(cam.width, cam.height, blended.rgb.clone())
+                .unwrap()
+                .save(format!("{dir}/self-{k}.png"))
+                .unwrap();
+        }
+        assert!(c.psnr >= 40.0, "view {k}: {:.2} dB", c.psnr);
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn blended_novel_views_match_ground_truth() {
+    let running = start().await;
+    let server = Server::new(&running.base, None);
+    let scene = SceneSpec::demo();
+    ingest(&server, &scene).await;
+    let step = std::f64::consts::TAU / 8.0;
+    for (angle, height) in [(0.5 * step, 1.2), (2.3 * step, 1.9), (5.5 * step, 2.6)] {
+        let cam = novel(&scene, angle, height);
+        let truth = scene.ground_truth(&cam).unwrap();
+        let blended = render(&server, &cam, 1.0, 5).await;
+        let c = compare(&blended.rgb, &truth.color.rgb, Some((&blended.depth, &truth.depth.z))).unwrap();
+        println!(
+            "angle {angle:.2} height {height}: PSNR {:.2} dB over {:.1} %",
+            c.psnr,
+            100.0 * c.valid_fraction
+        );
+        if let Ok(dir) = std::env::var("DMESH_E2E_DUMP") {
+            let save = |name: &str, rgb: &[u8]| {
+                image::RgbImage::from_raw(cam.width, cam.height, rgb.to_vec())
+                    .unwrap()
+                    .save(format!("{dir}/{name}-{angle:.2}.png"))
+                    .unwrap()
+            };
+            save("blend", &blended.rgb);
+            save("truth", &truth.color.rgb);
+        }
+        assert!(c.psnr >= 30.0, "PSNR {:.2} dB at angle {angle}", c.psnr);
+        assert!(
+            c.valid_fraction > 0.5,
+            "only {:.2} of the view covered",
+            c.valid_fraction
+        );
+    }
+    // Between two references, blending the selected views beats the best single one.
+    let cam = novel(&scene, 0.5 * step, 1.9);
+    let truth = scene.ground_truth(&cam).unwrap();
+    let psnr = |b: &Blended| compare(&b.rgb, &truth.color.rgb, Some((&b.depth, &truth.depth.z))).unwrap();
+    let blended = psnr(&render(&server, &cam, 1.0, 5).await);
+    let single = psnr(&render(&server, &cam, 1.0, 1).await);
+    println!(
+        "blend {:.2} dB ({:.3}), single {:.2} dB ({:.3})",
+        blended.psnr, blended.valid_fraction, single.psnr, single.valid_fraction
+    );
+    assert!(blended.psnr > single.psnr, "blending did not beat the best single view");
+    assert!(blended.valid_fraction >= single.valid_fraction);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn no_rubber_sheet_between_the_pole_and_the_wall() {
+    let running = start().await;
+    let server = Server::new(&running.base, None);
+    let scene = SceneSpec::demo();
+    ingest(&server, &scene).await;
+    // From the -z side the pole (z = 1) stands in front of the wall (z = 1.5).
+    let cam = novel(&scene, std::f64::consts::PI + 0.2, 1.0);
+    let truth = scene.ground_truth(&cam).unwrap();
+    let blended = render(&server, &cam, 1.0, 5).await;
+    // Pixels whose depth lies between the pole's and the wall's, where the
+    // truth is either: a rubber sheet spans the gap. Silhouette pixels may
+    // flip between the two surfaces, never land in between.
+    let (w, h) = (cam.width as usize, cam.height as usize);
+    let mut gap = 0;
+    let mut pole_pixels = 0;
+    for y in 0..h {
+        for x in 1..w - 1 {
+            let i = y * w + x;
+            let (zr, zt) = (blended.depth[i], truth.depth.z[i]);
+            if zr <= 0.0 || zt <= 0.0 {
+                continue;
+            }
+            // Near a depth jump of the truth (the pole's silhouette against the wall).
+            let (l, r) = (truth.depth.z[i - 1], truth.depth.z[i + 1]);
+            let (near, far) = (l.min(r).min(zt), l.max(r).max(zt));
+            if far - near > 0.3 {
+                pole_pixels += 1;
+                // The middle half of the gap: silhouettes may shift by a pixel
+                // onto the neighbouring surface (a little off its depth), a
+                // rubber sheet crosses the middle.
+                let in_gap = |z: f32| z > near + 0.25 * (far - near) && z < far - 0.25 * (far - near);
+                // Only where the truth is on one of the two surfaces.
+                if in_gap(zr) && !in_gap(zt) {
+                    gap += 1;
+                }
+            }
+        }
+    }
+    println!("{pole_pixels} pixels at depth jumps, {gap} in the gap");
+    assert!(pole_pixels > 20, "the view does not show the pole against the wall");
+    assert_eq!(gap, 0, "{gap} rubber-sheet pixels");
+}
