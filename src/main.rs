@@ -66,6 +66,9 @@ struct ServeArgs {
     /// Request timeout, seconds.
     #[arg(long, default_value_t = 30)]
     timeout_secs: u64,
+    /// Ingest the simulated demo scene (scene id `demo`) when it is not stored yet.
+    #[arg(long)]
+    demo: bool,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -351,6 +354,36 @@ fn run_demo(size: u32, ply: Option<&Path>) -> Result<()> {
     Ok(())
 }
 
+/// Stores the simulated demo scene's reference views as scene `demo`, unless present.
+fn ingest_demo(store: &dmesh::store::FileStore) -> Result<()> {
+    use dmesh::store::{SegmentationSpec, StoredView, ViewStore};
+    let scene = dmesh::sim::SceneSpec::demo();
+    let existing = store.views("demo")?.unwrap_or_default();
+    let views = scene.reference_views()?;
+    for (k, v) in views.iter().enumerate() {
+        let name = format!("v{k:02}");
+        if existing.contains(&name) {
+            continue;
+        }
+        let img =
+            image::RgbImage::from_raw(v.color.width, v.color.height, v.color.rgb.clone()).context("demo colour")?;
+        let mut color = Vec::new();
+        image::DynamicImage::ImageRgb8(img).write_to(&mut std::io::Cursor::new(&mut color), image::ImageFormat::Png)?;
+        let stored = StoredView {
+            camera: (&v.camera).into(),
+            segmentation: SegmentationSpec::default(),
+            z: v.depth.z.clone(),
+            color,
+        };
+        store.put("demo", &name, &stored)?;
+    }
+    eprintln!("demo scene: {} simulated views in scene \"demo\"", views.len());
+    eprintln!(
+        "render a novel view: cargo run --release -p dmesh-client -- render --scene demo \\\n  --camera examples/cameras/demo-novel.json --out novel.png --coverage-out coverage.png"
+    );
+    Ok(())
+}
+
 fn run_serve(a: &ServeArgs) -> Result<()> {
     use dmesh::http::{serve, AppState, Pipeline, Settings};
     let store =
@@ -362,6 +395,9 @@ fn run_serve(a: &ServeArgs) -> Result<()> {
         },
         cache_bytes: a.cache_bytes,
     };
+    if a.demo {
+        ingest_demo(&store)?;
+    }
     let state = std::sync::Arc::new(AppState::new(std::sync::Arc::new(store), settings));
     let pipeline = Pipeline {
         max_concurrency: a.max_concurrency,

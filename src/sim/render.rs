@@ -23,7 +23,8 @@ pub struct RenderedView {
 /// about a fifth of a cell, so the pattern is visible yet band-limited
 /// (resampling it costs little, as a real photograph's texture would).
 fn albedo(scene: &SceneSpec, p: DVec3, base: DVec3) -> DVec3 {
-    let q = p * (std::f64::consts::PI / scene.texture.checker);
+    // A phase offset keeps the pattern on surfaces through the origin planes.
+    let q = p * (std::f64::consts::PI / scene.texture.checker) + DVec3::splat(0.7);
     let s = q.x.sin() * q.y.sin() * q.z.sin();
     base * (0.8 + 0.2 * (3.0 * s).clamp(-1.0, 1.0))
 }

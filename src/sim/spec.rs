@@ -87,16 +87,17 @@ impl SceneSpec {
         self.rig.validate()
     }
 
-    /// The box scene the tests and the demo use: a ground plane, two boxes,
+    /// The box scene the tests and the demo use: a floor, two boxes,
     /// a sphere, a staircase and a thin pole in front of a wall, seen by a
     /// ring of eight cameras at two heights.
     pub fn demo() -> Self {
         use Object::*;
         Self {
             objects: vec![
-                Plane {
-                    point: [0.0, 0.0, 0.0],
-                    normal: [0.0, 1.0, 0.0],
+                // A bounded floor: an infinite plane would alias towards its horizon.
+                Box {
+                    min: [-4.0, -0.1, -4.0],
+                    max: [4.0, 0.0, 4.0],
                     color: [0.55, 0.55, 0.5],
                 },
                 Box {
