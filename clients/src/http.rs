@@ -78,9 +78,26 @@ impl Server {
         depth: &[u8],
         color: &[u8],
     ) -> anyhow::Result<dmesh_proto::ViewSummary> {
+        self.put_view_with(scene, view, camera_json, depth, color, &[]).await
+    }
+
+    /// Uploads one view with extra form fields (`depth_kind`, `scale`, `focal_baseline`, ...).
+    pub async fn put_view_with(
+        &self,
+        scene: &str,
+        view: &str,
+        camera_json: &str,
+        depth: &[u8],
+        color: &[u8],
+        fields: &[(&str, String)],
+    ) -> anyhow::Result<dmesh_proto::ViewSummary> {
         let boundary = "dmesh-client-boundary";
         let mut body = Vec::new();
-        for (name, data) in [("camera", camera_json.as_bytes()), ("depth", depth), ("color", color)] {
+        let extra = fields.iter().map(|(k, v)| (*k, v.as_bytes()));
+        for (name, data) in [("camera", camera_json.as_bytes()), ("depth", depth), ("color", color)]
+            .into_iter()
+            .chain(extra)
+        {
             body.extend_from_slice(
                 format!("--{boundary}\r\nContent-Disposition: form-data; name=\"{name}\"\r\n\r\n").as_bytes(),
             );
