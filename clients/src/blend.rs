@@ -284,3 +284,139 @@ pub fn blend(novel: &Camera, views: &[ViewInput<'_>], options: &BlendOptions) ->
         coverage,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use dmesh_proto::{Lod, WireVertex};
+
+    /// A fronto-parallel square at depth `z` filling a 16 x 16 reference
+    /// view: two triangles over its corners.
+    fn square(z: f32) -> StripResponse {
+        let cam = Camera::perspective(16, 16, 16.0, 16.0, 7.5, 7.5).unwrap();
+        let corner = |i: u16, j: u16| WireVertex {
+            i,
+            j,
+            depth: z,
+            normal: [128, 128],
+            rho: 255,
+        };
+        StripResponse {
+            version: 1,
+            scene: "s".into(),
+            view: "v".into(),
+            lod: Lod::Epsilon(0.0),
+            camera: (&cam).into(),
+            vertices: vec![corner(0, 0), corner(15, 0), corner(0, 15), corner(15, 15)],
+            indices: Indices::U16(vec![0, 1, 2, 3]),
+            triangles: 2,
+            extract_ms: 0.0,
+        }
+    }
+
+    fn flat(value: u8) -> Texture {
+        Texture {
+            width: 16,
+            height: 16,
+            rgb: vec![value; 16 * 16 * 3],
+        }
+    }
+
+    #[test]
+    fn weights_normalise_per_pixel() {
+        let novel = Camera::perspective(16, 16, 16.0, 16.0, 7.5, 7.5).unwrap();
+        let (s, dark, light) = (square(2.0), flat(40), flat(200));
+        let views = [
+            ViewInput {
+                weight: 0.25,
+                strips: &s,
+                texture: &dark,
+            },
+            ViewInput {
+                weight: 0.75,
+                strips: &s,
+                texture: &light,
+            },
+        ];
+        let b = blend(&novel, &views, &BlendOptions::default()).unwrap();
+        let centre = 3 * (8 * 16 + 8);
+        assert_eq!(b.rgb[centre], (0.25f64 * 40.0 + 0.75 * 200.0).round() as u8);
+        assert_eq!(b.coverage[8 * 16 + 8], 0b11);
+        assert!((f64::from(b.depth[8 * 16 + 8]) - 2.0).abs() < 1e-4);
+        // Scaling every weight changes nothing: only ratios matter.
+        let scaled = [
+            ViewInput {
+                weight: 2.5,
+                ..views[0]
+            },
+            ViewInput {
+                weight: 7.5,
+                ..views[1]
+            },
+        ];
+        assert_eq!(blend(&novel, &scaled, &BlendOptions::default()).unwrap().rgb, b.rgb);
+    }
+
+    #[test]
+    fn epsilon_z_keeps_occluded_surfaces_out() {
+        let novel = Camera::perspective(16, 16, 16.0, 16.0, 7.5, 7.5).unwrap();
+        let (near, far) = (square(2.0), square(3.0));
+        let (red, blue) = (flat(10), flat(250));
+        let views = [
+            ViewInput {
+                weight: 0.1,
+                strips: &near,
+                texture: &red,
+            },
+            ViewInput {
+                weight: 0.9,
+                strips: &far,
+                texture: &blue,
+            },
+        ];
+        let b = blend(&novel, &views, &BlendOptions::default()).unwrap();
+        // The far surface is hidden however heavy its view: only the near colour remains.
+        assert_eq!(b.rgb[3 * (8 * 16 + 8)], 10);
+        assert_eq!(b.coverage[8 * 16 + 8], 0b01);
+        // With a tolerance wider than the gap both blend.
+        let loose = blend(
+            &novel,
+            &views,
+            &BlendOptions {
+                eps_z: 1.0,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        assert_eq!(loose.coverage[8 * 16 + 8], 0b11);
+    }
+
+    #[test]
+    fn a_view_behind_the_camera_draws_nothing() {
+        let novel = Camera::new(
+            16,
+            16,
+            dmesh::camera::Projection::Perspective {
+                fx: 16.0,
+                fy: 16.0,
+                cx: 7.5,
+                cy: 7.5,
+            },
+            glam::DQuat::from_rotation_y(std::f64::consts::PI),
+            DVec3::ZERO,
+        )
+        .unwrap();
+        let (s, t) = (square(2.0), flat(99));
+        let b = blend(
+            &novel,
+            &[ViewInput {
+                weight: 1.0,
+                strips: &s,
+                texture: &t,
+            }],
+            &BlendOptions::default(),
+        )
+        .unwrap();
+        assert!(b.coverage.iter().all(|&c| c == 0));
+    }
+}

@@ -73,6 +73,9 @@ enum Command {
         /// At most this many views.
         #[arg(long)]
         max_views: Option<u32>,
+        /// Relight with the vertex normals (diffuse + specular from a light above and behind the camera).
+        #[arg(long)]
+        relight: bool,
         /// Colour texture cache directory.
         #[arg(long, default_value = "./dmesh-cache")]
         cache: PathBuf,
@@ -199,7 +202,7 @@ async fn render(
     camera: &Path,
     tau: Option<f64>,
     epsilon: Option<f64>,
-    cos_k: Option<f64>,
+    options: &BlendOptions,
     max_views: Option<u32>,
     cache: &Path,
 ) -> Result<dmesh_client::blend::Blended> {
@@ -299,9 +302,18 @@ fn run(cli: Cli) -> Result<()> {
             coverage_out,
             cos_k,
             max_views,
+            relight,
             cache,
         } => {
-            let b = rt.block_on(render(&server, &scene, &camera, tau, epsilon, cos_k, max_views, &cache))?;
+            let relight = relight.then(|| (glam::DVec3::new(0.3, 1.0, 0.4).normalize(), 32.0));
+            let options = BlendOptions {
+                cos_k,
+                relight,
+                ..Default::default()
+            };
+            let b = rt.block_on(render(
+                &server, &scene, &camera, tau, epsilon, &options, max_views, &cache,
+            ))?;
             std::fs::write(&out, png(b.width, b.height, &b.rgb)?)
                 .with_context(|| format!("cannot write {}", out.display()))?;
             if let Some(p) = depth_out {
