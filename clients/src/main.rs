@@ -245,14 +245,7 @@ async fn render(
             texture: t,
         })
         .collect();
-    blend(
-        &novel,
-        &inputs,
-        &BlendOptions {
-            cos_k,
-            ..Default::default()
-        },
-    )
+    blend(&novel, &inputs, options)
 }
 
 fn coverage_png(b: &dmesh_client::blend::Blended) -> Result<Vec<u8>> {
