@@ -1,0 +1,73 @@
+//! The `dmesh-client` binary: compare's JSON, one-line errors.
+
+use std::process::Command;
+
+fn client(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_dmesh-client"))
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into(),
+        String::from_utf8_lossy(&out.stderr).into(),
+    )
+}
+
+#[test]
+fn compare_prints_the_documented_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = image::RgbImage::from_fn(8, 8, |x, _| image::Rgb([x as u8 * 10 + 5, 50, 50]));
+    let mut b = a.clone();
+    b.put_pixel(3, 3, image::Rgb([100, 100, 100]));
+    let (pa, pb) = (dir.path().join("a.png"), dir.path().join("b.png"));
+    a.save(&pa).unwrap();
+    b.save(&pb).unwrap();
+    let (code, out, err) = client(&["compare", pa.to_str().unwrap(), pb.to_str().unwrap(), "--json"]);
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
+    assert!(
+        v["psnr"].as_f64().unwrap() > 20.0 && v["psnr"].as_f64().unwrap() < 60.0,
+        "{out}"
+    );
+    assert_eq!(v["valid_fraction"], 1.0);
+    assert!(v.get("inverse_depth_rmse").is_some());
+}
+
+#[test]
+fn failures_are_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let cam = dir.path().join("cam.json");
+    std::fs::write(
+        &cam,
+        r#"{"width": 8, "height": 8, "projection": {"perspective": {"fx": 8, "fy": 8, "cx": 3.5, "cy": 3.5}}}"#,
+    )
+    .unwrap();
+    let cases: [(Vec<&str>, &str); 3] = [
+        (
+            vec!["compare", "/nonexistent/a.png", "/nonexistent/b.png"],
+            "cannot read",
+        ),
+        (
+            vec![
+                "render",
+                "--server",
+                "http://127.0.0.1:9",
+                "--scene",
+                "s",
+                "--camera",
+                cam.to_str().unwrap(),
+                "--out",
+                "/tmp/x.png",
+            ],
+            "error",
+        ),
+        (vec!["ingest", "--scene", "s"], "--simulate"),
+    ];
+    for (args, needle) in cases {
+        let (code, _, err) = client(&args);
+        assert_ne!(code, 0, "{args:?}");
+        assert_eq!(err.trim().lines().count(), 1, "{args:?}: {err}");
+        assert!(err.contains(needle), "{args:?}: {err}");
+    }
+}
