@@ -4,8 +4,10 @@
 //! - [`blend`]: the two-pass epsilon-z-buffer blend of DMesh Sec. 6.3-6.4 and
 //!   Verlani Sec. 3, with perspective-correct interpolation;
 //! - [`compare`]: PSNR on the valid mask and inverse-depth RMSE;
-//! - [`http`]: the server calls (upload, render, colour with an ETag cache).
+//! - [`http`]: the server calls (upload, render, colour with an ETag cache);
+//! - [`novel`]: a novel view end to end (render request, textures, blend).
 
 pub mod blend;
 pub mod compare;
 pub mod http;
+pub mod novel;

@@ -13,9 +13,10 @@ use std::process::ExitCode;
 
 use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
-use dmesh_client::blend::{blend, BlendOptions, Texture, ViewInput};
+use dmesh_client::blend::BlendOptions;
 use dmesh_client::compare::compare;
 use dmesh_client::http::Server;
+use dmesh_client::novel::render_novel;
 
 #[derive(Parser)]
 #[command(name = "dmesh-client", version, about = "Thin client of a dmesh server")]
@@ -208,7 +209,6 @@ async fn render(
 ) -> Result<dmesh_client::blend::Blended> {
     let s = Server::new(server, Some(cache.to_path_buf()));
     let wire: dmesh_proto::Camera = serde_json::from_slice(&read(camera)?).context("camera JSON")?;
-    let novel = dmesh::camera::Camera::try_from(&wire)?;
     let request = dmesh_proto::RenderRequest {
         camera: wire,
         tau: if epsilon.is_some() {
@@ -221,31 +221,7 @@ async fn render(
         max_angle_deg: None,
         selection: dmesh_proto::Selection::Dmesh,
     };
-    let response = s.render(scene, &request).await?;
-    if response.views.is_empty() {
-        bail!("the server selected no view for this camera");
-    }
-    let mut textures = Vec::new();
-    for v in &response.views {
-        let bytes = s.color(&v.color_url).await?;
-        let img = image::load_from_memory(&bytes).context("colour texture")?.to_rgb8();
-        textures.push(Texture {
-            width: img.width(),
-            height: img.height(),
-            rgb: img.into_raw(),
-        });
-    }
-    let inputs: Vec<ViewInput<'_>> = response
-        .views
-        .iter()
-        .zip(&textures)
-        .map(|(v, t)| ViewInput {
-            weight: v.weight,
-            strips: &v.strips,
-            texture: t,
-        })
-        .collect();
-    blend(&novel, &inputs, options)
+    render_novel(&s, scene, &request, options).await
 }
 
 fn coverage_png(b: &dmesh_client::blend::Blended) -> Result<Vec<u8>> {

@@ -7,9 +7,10 @@ use std::sync::Arc;
 use dmesh::camera::Camera;
 use dmesh::sim::rig::camera;
 use dmesh::sim::SceneSpec;
-use dmesh_client::blend::{blend, BlendOptions, Blended, Texture, ViewInput};
+use dmesh_client::blend::{BlendOptions, Blended};
 use dmesh_client::compare::compare;
 use dmesh_client::http::Server;
+use dmesh_client::novel::render_novel;
 use glam::DVec3;
 
 struct Running {
@@ -62,35 +63,9 @@ async fn render(server: &Server, novel: &Camera, tau: f64, max_views: u32) -> Bl
         max_angle_deg: None,
         selection: dmesh_proto::Selection::Dmesh,
     };
-    let response = server.render("box", &request).await.unwrap();
-    assert!(!response.views.is_empty());
-    let textures: Vec<Texture> = futures_textures(server, &response).await;
-    let inputs: Vec<ViewInput<'_>> = response
-        .views
-        .iter()
-        .zip(&textures)
-        .map(|(v, t)| ViewInput {
-            weight: v.weight,
-            strips: &v.strips,
-            texture: t,
-        })
-        .collect();
-    blend(novel, &inputs, &BlendOptions::default()).unwrap()
-}
-
-async fn futures_textures(server: &Server, r: &dmesh_proto::RenderResponse) -> Vec<Texture> {
-    let mut out = Vec::new();
-    for v in &r.views {
-        let img = image::load_from_memory(&server.color(&v.color_url).await.unwrap())
-            .unwrap()
-            .to_rgb8();
-        out.push(Texture {
-            width: img.width(),
-            height: img.height(),
-            rgb: img.into_raw(),
-        });
-    }
-    out
+    render_novel(server, "box", &request, &BlendOptions::default())
+        .await
+        .unwrap()
 }
 
 fn novel(scene: &SceneSpec, angle: f64, height: f64) -> Camera {
