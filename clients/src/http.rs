@@ -138,6 +138,49 @@ impl Server {
         Ok(dmesh_proto::from_bincode(&bytes)?)
     }
 
+    /// The reference cameras of a scene's views.
+    pub async fn cameras(&self, scene: &str) -> anyhow::Result<Vec<dmesh::camera::Camera>> {
+        let (_, _, bytes) = self
+            .call(Method::GET, &format!("/v1/scenes/{scene}/views"), &[], Vec::new())
+            .await?;
+        let list: dmesh_proto::ViewList = serde_json::from_slice(&bytes)?;
+        let mut out = Vec::new();
+        for view in list.views {
+            let (_, _, bytes) = self
+                .call(
+                    Method::GET,
+                    &format!("/v1/scenes/{scene}/views/{view}"),
+                    &[],
+                    Vec::new(),
+                )
+                .await?;
+            let summary: dmesh_proto::ViewSummary = serde_json::from_slice(&bytes)?;
+            out.push(dmesh::camera::Camera::try_from(&summary.camera)?);
+        }
+        Ok(out)
+    }
+
+    /// Like [`Server::render`], for the load test: the response's size, or the
+    /// failing status (0 for a transport error).
+    pub async fn render_raw(
+        &self,
+        scene: &str,
+        request: &dmesh_proto::RenderRequest,
+    ) -> Result<(u64, dmesh_proto::RenderResponse), u16> {
+        let headers = [
+            (header::CONTENT_TYPE, "application/json".to_string()),
+            (header::ACCEPT, dmesh_proto::BINCODE_MEDIA_TYPE.to_string()),
+        ];
+        let body = serde_json::to_vec(request).map_err(|_| 0u16)?;
+        match self
+            .call(Method::POST, &format!("/v1/scenes/{scene}/render"), &headers, body)
+            .await
+        {
+            Ok((_, _, bytes)) => Ok((bytes.len() as u64, dmesh_proto::from_bincode(&bytes).map_err(|_| 0u16)?)),
+            Err(e) => Err(e.downcast_ref::<CallError>().map_or(0, |c| c.status.as_u16())),
+        }
+    }
+
     /// A colour image by URL path, from the ETag cache when the server says it is current.
     pub async fn color(&self, path: &str) -> anyhow::Result<Vec<u8>> {
         let key = path.replace('/', "_");

@@ -5,9 +5,11 @@
 //!   Verlani Sec. 3, with perspective-correct interpolation;
 //! - [`compare`]: PSNR on the valid mask and inverse-depth RMSE;
 //! - [`http`]: the server calls (upload, render, colour with an ETag cache);
-//! - [`novel`]: a novel view end to end (render request, textures, blend).
+//! - [`novel`]: a novel view end to end (render request, textures, blend);
+//! - [`loadtest`]: a bounded load generator for `/render`.
 
 pub mod blend;
 pub mod compare;
 pub mod http;
+pub mod loadtest;
 pub mod novel;

@@ -81,6 +81,39 @@ enum Command {
         #[arg(long, default_value = "./dmesh-cache")]
         cache: PathBuf,
     },
+    /// Load the server's /render with novel cameras on an orbit (bounded; loopback only by default).
+    Loadtest {
+        /// Server base URL.
+        #[arg(long, default_value = "http://127.0.0.1:8080")]
+        server: String,
+        /// Scene id.
+        #[arg(long)]
+        scene: String,
+        /// Requests in flight.
+        #[arg(long, default_value_t = 8)]
+        concurrency: usize,
+        /// Stop after this many requests.
+        #[arg(long, conflicts_with = "duration", required_unless_present = "duration")]
+        requests: Option<u64>,
+        /// Stop after this many seconds.
+        #[arg(long)]
+        duration: Option<f64>,
+        /// View-dependent tolerance in pixels (default 1).
+        #[arg(long, conflicts_with = "epsilon")]
+        tau: Option<f64>,
+        /// Static tolerance in metres.
+        #[arg(long)]
+        epsilon: Option<f64>,
+        /// Viewpoints on the orbit.
+        #[arg(long, default_value_t = 32)]
+        viewpoints: usize,
+        /// Allow a target that is not on this machine's loopback interface.
+        #[arg(long)]
+        allow_remote: bool,
+        /// Print JSON: requests, errors, throughput_rps, p50_ms, p90_ms, p99_ms, max_ms, bytes.
+        #[arg(long)]
+        json: bool,
+    },
     /// PSNR (valid mask) and inverse-depth RMSE between two images.
     Compare {
         /// First image (PNG).
@@ -292,6 +325,50 @@ fn run(cli: Cli) -> Result<()> {
                 std::fs::write(&p, coverage_png(&b)?)?;
             }
             println!("wrote {}", out.display());
+            Ok(())
+        }
+        Command::Loadtest {
+            server,
+            scene,
+            concurrency,
+            requests,
+            duration,
+            tau,
+            epsilon,
+            viewpoints,
+            allow_remote,
+            json,
+        } => {
+            dmesh_client::loadtest::check_target(&server, allow_remote)?;
+            let stop = match (requests, duration) {
+                (Some(n), _) => dmesh_client::loadtest::Stop::Requests(n),
+                (None, Some(s)) if s.is_finite() && s > 0.0 && s <= 86_400.0 => {
+                    dmesh_client::loadtest::Stop::Duration(std::time::Duration::from_secs_f64(s))
+                }
+                _ => bail!("give --requests N or --duration S (seconds, at most a day)"),
+            };
+            let report = rt.block_on(async {
+                let s = Server::new(&server, None);
+                let cameras = dmesh_client::loadtest::orbit(&s.cameras(&scene).await?, viewpoints)?;
+                dmesh_client::loadtest::run(&s, &scene, &cameras, tau, epsilon, concurrency, stop).await
+            })?;
+            if json {
+                println!("{}", serde_json::to_string(&report)?);
+            } else {
+                println!(
+                    "{} requests, {} errors, {:.1} req/s; latency p50 {:.2} ms, p90 {:.2} ms, p99 {:.2} ms, max {:.2} ms; \
+                     server extraction p50 {:.2} ms; {} bytes",
+                    report.requests,
+                    report.errors,
+                    report.throughput_rps,
+                    report.p50_ms,
+                    report.p90_ms,
+                    report.p99_ms,
+                    report.max_ms,
+                    report.server_extract_p50_ms,
+                    report.bytes
+                );
+            }
             Ok(())
         }
         Command::Compare {

@@ -192,3 +192,36 @@ async fn no_rubber_sheet_between_the_pole_and_the_wall() {
     assert!(pole_pixels > 20, "the view does not show the pole against the wall");
     assert_eq!(gap, 0, "{gap} rubber-sheet pixels");
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_load_test_stops_by_itself_and_counts_everything() {
+    let running = start().await;
+    let server = Server::new(&running.base, None);
+    let scene = SceneSpec::demo();
+    ingest(&server, &scene).await;
+    let cameras = dmesh_client::loadtest::orbit(&server.cameras("box").await.unwrap(), 6).unwrap();
+    let stop = dmesh_client::loadtest::Stop::Requests(24);
+    let report = dmesh_client::loadtest::run(&server, "box", &cameras, Some(1.0), None, 4, stop)
+        .await
+        .unwrap();
+    assert_eq!(report.requests, 24);
+    assert_eq!(report.errors, 0, "{:?}", report.errors_by_status);
+    assert!(report.p50_ms > 0.0 && report.p99_ms >= report.p50_ms && report.max_ms >= report.p99_ms);
+    assert!(report.bytes > 0 && report.throughput_rps > 0.0);
+    // Asking for a scene that does not exist counts 404s instead of failing.
+    let missing = dmesh_client::loadtest::run(
+        &server,
+        "nope",
+        &cameras,
+        Some(1.0),
+        None,
+        2,
+        dmesh_client::loadtest::Stop::Requests(4),
+    )
+    .await
+    .unwrap();
+    assert_eq!(
+        (missing.errors, missing.errors_by_status.get(&404).copied()),
+        (4, Some(4))
+    );
+}
