@@ -39,7 +39,7 @@ use glam::DVec3;
 use super::backproject::BackProject;
 use super::deviation::{half_rows, max_deviation};
 use super::error_metric::{norm_bound, point_line_2d_sq, point_line_3d_sq};
-use super::grid::{cell_half, half_of, Grid, Pt};
+use super::grid::{half_of, Grid, Pt};
 use super::normals::normals_and_quality;
 use super::segmentation::{leaf_flags, Samples, Segmentation};
 use crate::camera::Camera;
@@ -201,17 +201,20 @@ impl DepthMesh {
             let h = 1u32 << g;
             let step = 2 * h as usize;
             // Edge midpoints of level g depend on centres of level g - 1,
-            // centres of level g on edge midpoints of level g.
-            for y in (0..gh).step_by(if g == 0 { usize::MAX } else { step }) {
-                for x in (h..gw).step_by(step) {
-                    let apex = [(y >= h).then(|| (x, y - h)), (y + h < gh).then_some((x, y + h))];
-                    self.split_vertex(flags, zmax, (x, y), (x - h, y), (x + h, y), apex, Bisects::Row);
+            // centres of level g on edge midpoints of level g. Level 0 edge
+            // midpoints were done above.
+            if g > 0 {
+                for y in (0..gh).step_by(step) {
+                    for x in (h..gw).step_by(step) {
+                        let apex = [(y >= h).then(|| (x, y - h)), (y + h < gh).then_some((x, y + h))];
+                        self.split_vertex(flags, zmax, (x, y), (x - h, y), (x + h, y), apex, Bisects::Row);
+                    }
                 }
-            }
-            for y in (h..gh).step_by(if g == 0 { usize::MAX } else { step }) {
-                for x in (0..gw).step_by(step) {
-                    let apex = [(x >= h).then(|| (x - h, y)), (x + h < gw).then_some((x + h, y))];
-                    self.split_vertex(flags, zmax, (x, y), (x, y - h), (x, y + h), apex, Bisects::Column);
+                for y in (h..gh).step_by(step) {
+                    for x in (0..gw).step_by(step) {
+                        let apex = [(x >= h).then(|| (x - h, y)), (x + h < gw).then_some((x + h, y))];
+                        self.split_vertex(flags, zmax, (x, y), (x, y - h), (x, y + h), apex, Bisects::Column);
+                    }
                 }
             }
             for y in (h..gh).step_by(step) {
@@ -329,9 +332,10 @@ impl DepthMesh {
         }
     }
 
-    /// Computes flags, own and saturated error, radius and deviation of the
-    /// split vertex `v`, which bisects `a-b`; `apex` are its halves' apexes
-    /// (`None` off the grid). Children are finer and already done.
+    /// Computes flags, own and saturated error and radius of the split vertex
+    /// `v` (any but a level-0 edge midpoint, see [`Self::finest_edges`]),
+    /// which bisects `a-b`; `apex` are its halves' apexes (`None` off the
+    /// grid). Children are finer and already done.
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn split_vertex(
@@ -347,7 +351,6 @@ impl DepthMesh {
         let gw = self.grid.gw() as usize;
         let at = |p: Pt| p.1 as usize * gw + p.0 as usize;
         let h = a.0.abs_diff(b.0).max(a.1.abs_diff(b.1)) / 2;
-        let leaf_children = h == 1 && bisects != Bisects::Diagonal;
         let vi = at(v);
         let (za, zb, zv) = (self.z[at(a)], self.z[at(b)], self.z[vi]);
         let pv = self.bp.point(v.0, v.1, zv);
@@ -365,22 +368,15 @@ impl DepthMesh {
             let mut or = false;
             let mut and = true;
             for (e0, e1) in [(a, apex), (apex, b)] {
-                if leaf_children {
-                    let cell = (e0.0.min(e1.0), e0.1.min(e1.1));
-                    let set = flags[at(cell)] & cell_bit(cell_half(cell, v)) != 0;
-                    or |= set;
-                    and &= set;
-                } else {
-                    let c = ((e0.0 + e1.0) / 2, (e0.1 + e1.1) / 2);
-                    let ci = at(c);
-                    let hh = half_of(c, v);
-                    or |= flags[ci] & or_bit(hh) != 0;
-                    and &= flags[ci] & and_bit(hh) != 0;
-                    // Saturation and nesting over the DAG children.
-                    err = err.max(self.err2[ci]);
-                    let d = pv - self.bp.point(c.0, c.1, self.z[ci]);
-                    radius = radius.max(norm_bound(d) + f64::from(self.radius[ci]));
-                }
+                let c = ((e0.0 + e1.0) / 2, (e0.1 + e1.1) / 2);
+                let ci = at(c);
+                let hh = half_of(c, v);
+                or |= flags[ci] & or_bit(hh) != 0;
+                and &= flags[ci] & and_bit(hh) != 0;
+                // Saturation and nesting over the DAG children.
+                err = err.max(self.err2[ci]);
+                let d = pv - self.bp.point(c.0, c.1, self.z[ci]);
+                radius = radius.max(norm_bound(d) + f64::from(self.radius[ci]));
             }
             if or {
                 bits |= or_bit(half);
