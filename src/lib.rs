@@ -4,6 +4,7 @@
 //! The engine (`camera`, `image`, `mesh`, `scene`) is pure: no HTTP, no async,
 //! no file system; `store` and `http` are the service around it.
 //! - [`camera`]: intrinsics, pose, projection and back-projection;
+//! - [`cli`]: one-line errors for the command-line binaries;
 //! - [`http`]: the axum service;
 //! - [`image`]: decoding depth (EXR, PNG, PFM) and colour, conversion to `z`;
 //! - [`mesh`]: the hierarchy, its error metric, segmentation and extraction;
@@ -25,6 +26,7 @@
 //! ```
 
 pub mod camera;
+pub mod cli;
 mod error;
 pub mod http;
 pub mod image;

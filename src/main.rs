@@ -410,38 +410,13 @@ fn run_serve(a: &ServeArgs) -> Result<()> {
 }
 
 fn main() -> ExitCode {
-    let cli = match Cli::try_parse() {
+    let cli = match dmesh::cli::parse::<Cli>() {
         Ok(cli) => cli,
-        Err(e) if !e.use_stderr() => {
-            // --help and --version.
-            let _ = e.print();
-            return ExitCode::SUCCESS;
-        }
-        Err(e) => {
-            // Clap explains over several lines; keep everything before the
-            // usage block on one line.
-            let text = e.render().to_string();
-            let head: Vec<&str> = text
-                .lines()
-                .take_while(|l| !l.starts_with("Usage:"))
-                .map(str::trim)
-                .filter(|l| !l.is_empty())
-                .collect();
-            eprintln!("{}", head.join(" "));
-            return ExitCode::from(2);
-        }
+        Err(code) => return code,
     };
-    let result = match &cli.command {
+    dmesh::cli::finish(match &cli.command {
         Command::Mesh(a) => run_mesh(a),
         Command::Demo { size, ply } => run_demo(*size, ply.as_deref()),
         Command::Serve(a) => run_serve(a),
-    };
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            // One line: the context chain joined, outermost first.
-            eprintln!("error: {}", format!("{e:#}").replace('\n', " "));
-            ExitCode::FAILURE
-        }
-    }
+    })
 }

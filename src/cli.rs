@@ -1,0 +1,41 @@
+//! Glue shared by the `dmesh` and `dmesh-client` binaries: every failure,
+//! from bad arguments to a failed run, ends in one line on stderr and a
+//! non-zero exit code.
+
+use std::process::ExitCode;
+
+/// Parses the command line. `--help` and `--version` print and exit 0; a bad
+/// argument prints clap's explanation on one line and exits 2.
+pub fn parse<T: clap::Parser>() -> Result<T, ExitCode> {
+    match T::try_parse() {
+        Ok(cli) => Ok(cli),
+        Err(e) if !e.use_stderr() => {
+            let _ = e.print();
+            Err(ExitCode::SUCCESS)
+        }
+        Err(e) => {
+            // Clap explains over several lines; keep everything before the
+            // usage block, on one line.
+            let text = e.render().to_string();
+            let head: Vec<&str> = text
+                .lines()
+                .take_while(|l| !l.starts_with("Usage:"))
+                .map(str::trim)
+                .filter(|l| !l.is_empty())
+                .collect();
+            eprintln!("{}", head.join(" "));
+            Err(ExitCode::from(2))
+        }
+    }
+}
+
+/// The exit code of a run; on failure, the error's context chain on one line.
+pub fn finish(result: anyhow::Result<()>) -> ExitCode {
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {}", format!("{e:#}").replace('\n', " "));
+            ExitCode::FAILURE
+        }
+    }
+}
