@@ -534,8 +534,18 @@ async fn overload_is_shed_with_503_and_retry_after() {
             .request(req)
             .await
     });
-    tokio::time::sleep(std::time::Duration::from_millis(100)).await;
-    let (status, headers, body) = send(&router, Request::get("/healthz").body(Body::empty()).unwrap()).await;
+    // Once the stalled upload holds the only slot, every other request is
+    // shed at once (poll until it has reached the server, however slow the machine).
+    let mut shed = None;
+    for _ in 0..100 {
+        let reply = send(&router, Request::get("/healthz").body(Body::empty()).unwrap()).await;
+        if reply.0 == StatusCode::SERVICE_UNAVAILABLE {
+            shed = Some(reply);
+            break;
+        }
+        tokio::time::sleep(std::time::Duration::from_millis(20)).await;
+    }
+    let (status, headers, body) = shed.expect("no request was shed while the only slot was taken");
     assert_eq!(status, StatusCode::SERVICE_UNAVAILABLE);
     assert_eq!(headers[header::RETRY_AFTER], "1");
     let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
