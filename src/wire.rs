@@ -4,7 +4,31 @@
 use dmesh_proto::{Indices, Lod as WireLod, StripResponse, WireVertex, PROTOCOL_VERSION};
 
 use crate::camera::Camera;
-use crate::mesh::{Lod, Mesh};
+use crate::mesh::{Lod, Mesh, MeshVertex};
+
+impl From<&MeshVertex> for WireVertex {
+    fn from(v: &MeshVertex) -> Self {
+        Self {
+            i: v.i,
+            j: v.j,
+            depth: v.depth,
+            normal: v.normal,
+            rho: v.rho,
+        }
+    }
+}
+
+impl From<&WireVertex> for MeshVertex {
+    fn from(v: &WireVertex) -> Self {
+        Self {
+            i: v.i,
+            j: v.j,
+            depth: v.depth,
+            normal: v.normal,
+            rho: v.rho,
+        }
+    }
+}
 
 /// The wire form of `lod` (the requesting camera travels separately).
 pub fn wire_lod(lod: &Lod<'_>) -> WireLod {
@@ -16,17 +40,7 @@ pub fn wire_lod(lod: &Lod<'_>) -> WireLod {
 
 /// `mesh`, extracted from the view `scene/view` seen by `camera` at `lod`, as a strip response.
 pub fn strip_response(mesh: &Mesh, scene: &str, view: &str, lod: WireLod, camera: &Camera) -> StripResponse {
-    let vertices = mesh
-        .vertices
-        .iter()
-        .map(|v| WireVertex {
-            i: v.i,
-            j: v.j,
-            depth: v.depth,
-            normal: v.normal,
-            rho: v.rho,
-        })
-        .collect();
+    let vertices = mesh.vertices.iter().map(WireVertex::from).collect();
     let indices = match mesh.strips_u16() {
         Some(short) => Indices::U16(short),
         None => Indices::U32(mesh.strips.clone()),
@@ -64,13 +78,8 @@ mod tests {
         let wire = strip_response(&mesh, "s", "v", WireLod::Epsilon(0.001), &cam);
         let bytes = dmesh_proto::to_bincode(&wire).unwrap();
         let back: StripResponse = dmesh_proto::from_bincode(&bytes).unwrap();
-        let Indices::U16(short) = &back.indices else {
-            panic!("expected 16-bit indices")
-        };
-        let widened: Vec<u32> = short
-            .iter()
-            .map(|&i| if i == u16::MAX { u32::MAX } else { u32::from(i) })
-            .collect();
+        assert!(matches!(back.indices, Indices::U16(_)), "expected 16-bit indices");
+        let widened = back.indices.to_u32();
         let canon = |mut t: [u32; 3]| {
             t.sort_unstable();
             t

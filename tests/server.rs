@@ -13,7 +13,7 @@ use axum::http::{header, Request, StatusCode};
 use dmesh::http::{serve_on, AppState, Pipeline, Settings};
 use dmesh::image::{encode_exr, encode_pfm, Limits};
 use dmesh::store::FileStore;
-use dmesh_proto::{Indices, RenderResponse, StripResponse, ViewSummary};
+use dmesh_proto::{RenderResponse, StripResponse, ViewSummary};
 use hyper_util::client::legacy::Client;
 use hyper_util::rt::TokioExecutor;
 
@@ -134,13 +134,7 @@ fn check_strips(r: &StripResponse) {
     for v in &r.vertices {
         assert!(u32::from(v.i) < W && u32::from(v.j) < H && v.depth.is_finite() && v.depth > 0.0);
     }
-    let wide: Vec<u32> = match &r.indices {
-        Indices::U16(s) => s
-            .iter()
-            .map(|&i| if i == u16::MAX { u32::MAX } else { u32::from(i) })
-            .collect(),
-        Indices::U32(s) => s.clone(),
-    };
+    let wide = r.indices.to_u32();
     let tris = dmesh::mesh::decode_strips(&wide);
     assert_eq!(tris.len(), r.triangles as usize);
     let unique: std::collections::HashSet<_> = tris.iter().map(|t| canon(*t)).collect();
@@ -148,17 +142,7 @@ fn check_strips(r: &StripResponse) {
     assert!(wide.iter().all(|&i| i == u32::MAX || (i as usize) < r.vertices.len()));
     // Conforming: rebuild the mesh (orienting each drawn triangle the
     // engine's way, since strip winding is not kept) and check it.
-    let vertices: Vec<dmesh::mesh::MeshVertex> = r
-        .vertices
-        .iter()
-        .map(|v| dmesh::mesh::MeshVertex {
-            i: v.i,
-            j: v.j,
-            depth: v.depth,
-            normal: v.normal,
-            rho: v.rho,
-        })
-        .collect();
+    let vertices: Vec<dmesh::mesh::MeshVertex> = r.vertices.iter().map(Into::into).collect();
     let triangles = tris
         .iter()
         .map(|&[a, b, c]| {

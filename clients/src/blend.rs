@@ -16,7 +16,7 @@
 
 use dmesh::camera::Camera;
 use dmesh::mesh::{decode_strips, normals::oct_decode};
-use dmesh_proto::{Indices, StripResponse};
+use dmesh_proto::StripResponse;
 use glam::{DVec2, DVec3};
 
 /// An 8-bit RGB texture (a reference view's colour image).
@@ -136,16 +136,6 @@ fn vertices(novel: &Camera, s: &StripResponse) -> anyhow::Result<(Camera, Vec<Op
     Ok((reference, out))
 }
 
-fn indices(s: &StripResponse) -> Vec<u32> {
-    match &s.indices {
-        Indices::U16(v) => v
-            .iter()
-            .map(|&i| if i == u16::MAX { u32::MAX } else { u32::from(i) })
-            .collect(),
-        Indices::U32(v) => v.clone(),
-    }
-}
-
 /// Calls `f(pixel index, perspective-correct barycentrics, depth)` for every
 /// covered pixel of the triangle, top-left rule.
 fn raster(w: u32, h: u32, t: [&Vertex; 3], mut f: impl FnMut(usize, [f64; 3], f64)) {
@@ -210,7 +200,7 @@ pub fn blend(novel: &Camera, views: &[ViewInput<'_>], options: &BlendOptions) ->
         .iter()
         .map(|v| {
             let (reference, verts) = vertices(novel, v.strips)?;
-            Ok((reference, verts, decode_strips(&indices(v.strips))))
+            Ok((reference, verts, decode_strips(&v.strips.indices.to_u32())))
         })
         .collect::<anyhow::Result<_>>()?;
     // Pass 1: nearest depth.

@@ -62,6 +62,19 @@ pub struct StripRequest {
     pub camera: Option<Camera>,
 }
 
+impl Indices {
+    /// The indices as 32-bit, the restart marker mapped to `u32::MAX`.
+    pub fn to_u32(&self) -> Vec<u32> {
+        match self {
+            Self::U16(v) => v
+                .iter()
+                .map(|&i| if i == u16::MAX { u32::MAX } else { u32::from(i) })
+                .collect(),
+            Self::U32(v) => v.clone(),
+        }
+    }
+}
+
 /// A view's mesh for one request.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -144,6 +157,12 @@ mod tests {
         wide.indices = Indices::U32(vec![0, 1, 2, u32::MAX, 2, 1, 0]);
         wide.lod = Lod::Epsilon(0.01);
         crate::round_trip::both(&wide);
+    }
+
+    #[test]
+    fn sixteen_bit_indices_widen_with_their_restart_marker() {
+        assert_eq!(Indices::U16(vec![0, 7, u16::MAX, 3]).to_u32(), vec![0, 7, u32::MAX, 3]);
+        assert_eq!(Indices::U32(vec![1, u32::MAX]).to_u32(), vec![1, u32::MAX]);
     }
 
     #[test]
