@@ -298,7 +298,7 @@ mod tests {
             lod: Lod::Epsilon(0.0),
             camera: (&cam).into(),
             vertices: vec![corner(0, 0), corner(15, 0), corner(0, 15), corner(15, 15)],
-            indices: Indices::U16(vec![0, 1, 2, 3]),
+            indices: dmesh_proto::Indices::U16(vec![0, 1, 2, 3]),
             triangles: 2,
             extract_ms: 0.0,
         }
