@@ -144,23 +144,7 @@ fn png(width: u32, height: u32, rgb: &[u8]) -> Result<Vec<u8>> {
 }
 
 fn read_pfm(path: &Path) -> Result<(u32, u32, Vec<f32>)> {
-    let bytes = read(path)?;
-    let cam = dmesh::camera::Camera::perspective(1, 1, 1.0, 1.0, 0.0, 0.0)?;
-    // Decode through the engine's PFM reader with the image's own size.
-    let text = String::from_utf8_lossy(&bytes[..bytes.len().min(64)]).to_string();
-    let mut it = text.split_ascii_whitespace().skip(1);
-    let (w, h): (u32, u32) = (
-        it.next().and_then(|s| s.parse().ok()).context("PFM width")?,
-        it.next().and_then(|s| s.parse().ok()).context("PFM height")?,
-    );
-    let cam = dmesh::camera::Camera {
-        width: w,
-        height: h,
-        ..cam
-    };
-    let d = dmesh::image::decode_depth(&bytes, &Default::default(), &cam, &Default::default())
-        .with_context(|| format!("depth {}", path.display()))?;
-    Ok((w, h, d.z))
+    dmesh::image::decode_pfm(&read(path)?, &Default::default()).with_context(|| format!("depth {}", path.display()))
 }
 
 async fn ingest(server: &str, scene: &str, simulate: Option<&str>, dir: Option<&Path>) -> Result<()> {

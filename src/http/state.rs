@@ -5,7 +5,7 @@ use std::hash::{Hash, Hasher};
 use std::sync::{Arc, Mutex};
 
 use crate::camera::Camera;
-use crate::image::{DepthImage, Limits};
+use crate::image::{sniff, DepthImage, Format, Limits};
 use crate::mesh::DepthMesh;
 use crate::store::{StoredView, ViewStore};
 
@@ -40,10 +40,10 @@ impl Loaded {
         let camera = Camera::try_from(&v.camera)?;
         let depth = DepthImage::from_z(camera.width, camera.height, v.z.clone())?;
         let hierarchy = DepthMesh::build(&depth, &camera, &v.segmentation.to_engine())?;
-        let color_type = if v.color.starts_with(b"\x89PNG") {
-            "image/png"
-        } else {
-            "image/jpeg"
+        // Uploads are checked to be PNG or JPEG by their magic bytes.
+        let color_type = match sniff(&v.color) {
+            Some(Format::Png) => "image/png",
+            _ => "image/jpeg",
         };
         let mut h = std::collections::hash_map::DefaultHasher::new();
         for z in &v.z {

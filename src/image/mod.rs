@@ -16,7 +16,7 @@ mod png_depth;
 
 pub use color::{decode_color, ColorImage};
 pub use exr_depth::encode_exr;
-pub use pfm::encode_pfm;
+pub use pfm::{decode_pfm, encode_pfm};
 
 use crate::camera::Camera;
 use crate::error::{Error, Result};

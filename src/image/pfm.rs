@@ -80,6 +80,13 @@ pub(crate) fn decode(bytes: &[u8], limits: &Limits) -> Result<RawSamples> {
     })
 }
 
+/// Decodes a PFM file to `(width, height, row-major values)` (the first
+/// channel of a colour `PF`), top row first.
+pub fn decode_pfm(bytes: &[u8], limits: &Limits) -> Result<(u32, u32, Vec<f32>)> {
+    let raw = decode(bytes, limits)?;
+    Ok((raw.width, raw.height, raw.values))
+}
+
 /// Encodes row-major single-channel floats as a little-endian `Pf` file.
 pub fn encode_pfm(width: u32, height: u32, values: &[f32]) -> Vec<u8> {
     let mut out = format!("Pf\n{width} {height}\n-1.0\n").into_bytes();

@@ -29,8 +29,9 @@ fn albedo(scene: &SceneSpec, p: DVec3, base: DVec3) -> DVec3 {
     base * (0.8 + 0.2 * (3.0 * s).clamp(-1.0, 1.0))
 }
 
-/// Renders `camera`'s view of `scene`; `reference` applies the scene's
-/// effects (reference views), otherwise the view is ground truth (exact).
+/// Renders `camera`'s view of `scene`; `reference` applies the scene's depth
+/// effects (reference views), otherwise depth is exact (ground truth).
+/// Specular highlights, being part of the scene's appearance, are in both.
 pub fn render_view(scene: &SceneSpec, camera: &Camera, reference: bool, seed: u64) -> crate::Result<RenderedView> {
     let (w, h) = (camera.width as usize, camera.height as usize);
     let mut z = vec![0f32; w * h];
@@ -60,7 +61,8 @@ pub fn render_view(scene: &SceneSpec, camera: &Camera, reference: bool, seed: u6
             z[i] = hit.t as f32;
             let p = o + hit.t * d;
             let mut c = albedo(scene, p, hit.color);
-            if let (true, Some(s)) = (reference || scene.effects.specular.is_some(), scene.effects.specular) {
+            // Highlights are view-dependent: they belong to reference and ground-truth views alike.
+            if let Some(s) = scene.effects.specular {
                 let view = -d.normalize();
                 let r = 2.0 * hit.normal.dot(light) * hit.normal - light;
                 c += DVec3::splat(s * r.dot(view).max(0.0).powi(32));
