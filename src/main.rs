@@ -373,6 +373,7 @@ fn ingest_demo(store: &dmesh::store::FileStore) -> Result<()> {
             camera: (&v.camera).into(),
             segmentation: SegmentationSpec::default(),
             z: v.depth.z.clone(),
+            raw_grid: None,
             color,
         };
         store.put("demo", &name, &stored)?;

@@ -1,7 +1,10 @@
 //! From engine values to wire values (`dmesh-proto`): an extracted mesh as a
 //! strip response, 16-bit indices when the vertex count allows.
 
-use dmesh_proto::{Indices, Lod as WireLod, StripResponse, WireVertex, PROTOCOL_VERSION};
+use dmesh_proto::{
+    Depths, Indices, Lod as WireLod, RawGrid, ResidualDepths, ResidualError, StripResponse, WireVertex,
+    PROTOCOL_VERSION,
+};
 
 use crate::camera::Camera;
 use crate::mesh::{Lod, Mesh, MeshVertex};
@@ -11,23 +14,37 @@ impl From<&MeshVertex> for WireVertex {
         Self {
             i: v.i,
             j: v.j,
-            depth: v.depth,
             normal: v.normal,
             rho: v.rho,
         }
     }
 }
 
-impl From<&WireVertex> for MeshVertex {
-    fn from(v: &WireVertex) -> Self {
-        Self {
+/// The engine vertices of a strip response, depths decoded.
+pub fn mesh_vertices(r: &StripResponse) -> Result<Vec<MeshVertex>, ResidualError> {
+    let depths = r.decode_depths()?;
+    Ok(r.vertices
+        .iter()
+        .zip(depths)
+        .map(|(v, depth)| MeshVertex {
             i: v.i,
             j: v.j,
-            depth: v.depth,
+            depth,
             normal: v.normal,
             rho: v.rho,
-        }
-    }
+        })
+        .collect())
+}
+
+/// How a response carries its depths.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct DepthCoding {
+    /// Residual bit-depth (`0..=16`), `None` for exact `f32` depths.
+    pub bits: Option<u8>,
+    /// Root quad side of the view's grid (see [`crate::mesh::Grid::side`]).
+    pub root_side: u32,
+    /// The integer grid the stored depths came from, if any.
+    pub raw_grid: Option<RawGrid>,
 }
 
 /// The wire form of `lod` (the requesting camera travels separately).
@@ -38,24 +55,47 @@ pub fn wire_lod(lod: &Lod<'_>) -> WireLod {
     }
 }
 
-/// `mesh`, extracted from the view `scene/view` seen by `camera` at `lod`, as a strip response.
-pub fn strip_response(mesh: &Mesh, scene: &str, view: &str, lod: WireLod, camera: &Camera) -> StripResponse {
+/// `mesh`, extracted from the view `scene/view` seen by `camera` at `lod`, as
+/// a strip response with depths coded by `coding`.
+pub fn strip_response(
+    mesh: &Mesh,
+    scene: &str,
+    view: &str,
+    lod: WireLod,
+    camera: &Camera,
+    coding: DepthCoding,
+) -> Result<StripResponse, ResidualError> {
     let vertices = mesh.vertices.iter().map(WireVertex::from).collect();
+    let z: Vec<f32> = mesh.vertices.iter().map(|v| v.depth).collect();
+    let depths = match coding.bits {
+        None => Depths::Exact(z),
+        Some(bits) => {
+            let ij: Vec<(u16, u16)> = mesh.vertices.iter().map(|v| (v.i, v.j)).collect();
+            Depths::Residual(ResidualDepths::encode(
+                &ij,
+                &z,
+                bits,
+                coding.root_side,
+                coding.raw_grid,
+            )?)
+        }
+    };
     let indices = match mesh.strips_u16() {
         Some(short) => Indices::U16(short),
         None => Indices::U32(mesh.strips.clone()),
     };
-    StripResponse {
+    Ok(StripResponse {
         version: PROTOCOL_VERSION,
         scene: scene.to_string(),
         view: view.to_string(),
         lod,
         camera: camera.into(),
         vertices,
+        depths,
         indices,
         triangles: u32::try_from(mesh.triangles.len()).unwrap_or(u32::MAX),
         extract_ms: mesh.extract_ms,
-    }
+    })
 }
 
 #[cfg(test)]
@@ -75,7 +115,7 @@ mod tests {
             .unwrap()
             .extract(Lod::Epsilon(0.001))
             .unwrap();
-        let wire = strip_response(&mesh, "s", "v", WireLod::Epsilon(0.001), &cam);
+        let wire = strip_response(&mesh, "s", "v", WireLod::Epsilon(0.001), &cam, DepthCoding::default()).unwrap();
         let bytes = dmesh_proto::to_bincode(&wire).unwrap();
         let back: StripResponse = dmesh_proto::from_bincode(&bytes).unwrap();
         assert!(matches!(back.indices, Indices::U16(_)), "expected 16-bit indices");
@@ -89,7 +129,45 @@ mod tests {
         drawn.sort_unstable();
         want.sort_unstable();
         assert_eq!(drawn, want);
-        assert_eq!(back.vertices.len(), mesh.vertices.len());
+        assert_eq!(mesh_vertices(&back).unwrap(), mesh.vertices);
         assert_eq!(back.triangles as usize, mesh.triangles.len());
+    }
+
+    #[test]
+    fn residual_depths_of_a_real_mesh_decode_within_their_bound() {
+        let cam = Camera::perspective(65, 40, 60.0, 60.0, 32.0, 20.0).unwrap();
+        let z: Vec<f32> = (0..65 * 40)
+            .map(|k| {
+                let (x, y) = ((k % 65) as f32, (k / 65) as f32);
+                // A step so that segmentation drops triangles and makes anchors.
+                if x > 40.0 {
+                    6.0
+                } else {
+                    2.0 + 0.01 * x + (y * 0.2).sin() * 0.1
+                }
+            })
+            .collect();
+        let depth = DepthImage::from_z(65, 40, z).unwrap();
+        let h = DepthMesh::build(&depth, &cam, &Segmentation::default()).unwrap();
+        let mesh = h.extract(Lod::Epsilon(0.0005)).unwrap();
+        for bits in [0, 1, 4, 8, 12, 16] {
+            let coding = DepthCoding {
+                bits: Some(bits),
+                root_side: h.grid().side(),
+                raw_grid: None,
+            };
+            let wire = strip_response(&mesh, "s", "v", WireLod::Epsilon(0.0005), &cam, coding).unwrap();
+            let Depths::Residual(r) = &wire.depths else {
+                panic!("expected residual depths")
+            };
+            let back = mesh_vertices(&wire).unwrap();
+            for (a, b) in back.iter().zip(&mesh.vertices) {
+                assert!((a.depth - b.depth).abs() <= r.max_error, "bits {bits}");
+                assert!(a.depth.is_finite() && a.depth > 0.0, "bits {bits}: {}", a.depth);
+            }
+            if bits > 0 {
+                assert!(f64::from(r.max_error) <= r.step() / 2.0 + 1e-6, "bits {bits}");
+            }
+        }
     }
 }

@@ -131,7 +131,8 @@ fn canon(mut t: [u32; 3]) -> [u32; 3] {
 
 fn check_strips(r: &StripResponse) {
     assert!(!r.vertices.is_empty());
-    for v in &r.vertices {
+    let vertices = dmesh::wire::mesh_vertices(r).unwrap();
+    for v in &vertices {
         assert!(u32::from(v.i) < W && u32::from(v.j) < H && v.depth.is_finite() && v.depth > 0.0);
     }
     let wide = r.indices.to_u32();
@@ -142,7 +143,6 @@ fn check_strips(r: &StripResponse) {
     assert!(wide.iter().all(|&i| i == u32::MAX || (i as usize) < r.vertices.len()));
     // Conforming: rebuild the mesh (orienting each drawn triangle the
     // engine's way, since strip winding is not kept) and check it.
-    let vertices: Vec<dmesh::mesh::MeshVertex> = r.vertices.iter().map(Into::into).collect();
     let triangles = tris
         .iter()
         .map(|&[a, b, c]| {
@@ -572,5 +572,100 @@ async fn responses_are_compressed_when_asked() {
         let (status, headers, _) = send(&router, req).await;
         assert_eq!(status, StatusCode::OK);
         assert_eq!(headers[header::CONTENT_ENCODING], encoding);
+    }
+}
+
+fn get_strips(uri: &str) -> Request<Body> {
+    Request::get(uri)
+        .header(header::ACCEPT, dmesh_proto::BINCODE_MEDIA_TYPE)
+        .body(Body::empty())
+        .unwrap()
+}
+
+#[tokio::test]
+async fn residual_bits_and_triangle_budgets() {
+    let dir = tempfile::tempdir().unwrap();
+    let router = start(state(dir.path(), Settings::default()), Pipeline::default()).await;
+    // 16-bit depth over most of the range, smooth with one step.
+    let img = image::ImageBuffer::<image::Luma<u16>, _>::from_fn(W, H, |x, y| {
+        let smooth = 9000.0 + 4000.0 * (x as f64 * 0.3).sin() + 57.0 * f64::from(y);
+        image::Luma([smooth as u16 + if x > 30 { 40_000 } else { 0 }])
+    });
+    let mut png = Vec::new();
+    image::DynamicImage::ImageLuma16(img)
+        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+        .unwrap();
+    let body = upload_body(&png, &[("scale", b"0.0001")], &camera_json(0.0, 0.0));
+    let (status, _, body) = send(&router, put("/v1/scenes/r/views/v", body)).await;
+    assert_eq!(status, StatusCode::CREATED, "{}", String::from_utf8_lossy(&body));
+
+    let fetch = |uri: String| {
+        let router = &router;
+        async move {
+            let (status, headers, body) = send(router, get_strips(&uri)).await;
+            assert_eq!(status, StatusCode::OK, "{uri}: {}", String::from_utf8_lossy(&body));
+            (
+                headers,
+                dmesh_proto::from_bincode::<StripResponse>(&body).unwrap(),
+                body.len(),
+            )
+        }
+    };
+    let (_, exact, exact_bytes) = fetch("/v1/scenes/r/views/v/strips?epsilon=0".into()).await;
+    check_strips(&exact);
+    let truth = exact.decode_depths().unwrap();
+    let (_, lossless, _) = fetch("/v1/scenes/r/views/v/strips?epsilon=0&bits=16".into()).await;
+    assert_eq!(
+        lossless.decode_depths().unwrap(),
+        truth,
+        "bits = 16 must be lossless for 16-bit input"
+    );
+    let mut last_bytes = usize::MAX;
+    for bits in (0..=16).rev() {
+        let (headers, r, bytes) = fetch(format!("/v1/scenes/r/views/v/strips?epsilon=0&bits={bits}")).await;
+        let dmesh_proto::Depths::Residual(res) = &r.depths else {
+            panic!("bits {bits}: exact depths")
+        };
+        assert!(headers[header::ETAG].to_str().unwrap().contains(&format!("-b{bits}")));
+        let back = r.decode_depths().unwrap();
+        for (a, b) in back.iter().zip(&truth) {
+            assert!((a - b).abs() <= res.max_error, "bits {bits}: {a} vs {b}");
+        }
+        if bits > 0 {
+            assert!(f64::from(res.max_error) <= res.step() / 2.0 + 1e-6, "bits {bits}");
+        }
+        assert!(bytes <= last_bytes && bytes < exact_bytes, "bits {bits}: {bytes} bytes");
+        last_bytes = bytes;
+    }
+
+    // Budgets: never above max_triangles; the response says the tolerance used.
+    for max in [50u32, 300, 1000, 100_000] {
+        let (_, r, _) = fetch(format!("/v1/scenes/r/views/v/strips?max_triangles={max}")).await;
+        check_strips(&r);
+        assert!(r.triangles <= max, "{} > {max}", r.triangles);
+        assert!(matches!(r.lod, dmesh_proto::Lod::Epsilon(e) if e >= 0.0));
+        let cam = camera_json(0.2, 0.3);
+        let uri = format!(
+            "/v1/scenes/r/views/v/strips?max_triangles={max}&camera={}",
+            urlencode(&cam)
+        );
+        let (_, r, _) = fetch(uri).await;
+        assert!(r.triangles <= max, "{} > {max}", r.triangles);
+    }
+    let (_, r, _) = fetch("/v1/scenes/r/views/v/strips?budget_ms=0.5&bits=8".into()).await;
+    assert!(r.triangles > 0);
+    for (uri, why) in [
+        ("/v1/scenes/r/views/v/strips?epsilon=0&bits=17", "bits is 17"),
+        ("/v1/scenes/r/views/v/strips?epsilon=0&max_triangles=9", "exactly one"),
+        ("/v1/scenes/r/views/v/strips?max_triangles=1", "coarsest"),
+        ("/v1/scenes/r/views/v/strips?budget_ms=-1", "budget_ms"),
+    ] {
+        let (status, _, body) = send(&router, get_strips(uri)).await;
+        assert_eq!(status, StatusCode::BAD_REQUEST, "{uri}");
+        assert!(
+            String::from_utf8_lossy(&body).contains(why),
+            "{uri}: {}",
+            String::from_utf8_lossy(&body)
+        );
     }
 }

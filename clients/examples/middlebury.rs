@@ -88,14 +88,12 @@ async fn main() -> anyhow::Result<()> {
             }
         };
         for tau in [0.0, 0.5, 1.0, 2.0] {
-            let request = dmesh_proto::RenderRequest {
-                camera: right.clone(),
+            let request = dmesh_client::loadtest::Detail {
                 tau: Some(tau),
-                epsilon: None,
                 max_views: Some(1),
-                max_angle_deg: None,
-                selection: dmesh_proto::Selection::Dmesh,
-            };
+                ..Default::default()
+            }
+            .request(right.clone());
             let response = server.render(scene, &request).await?;
             let v = &response.views[0];
             let b = blend(

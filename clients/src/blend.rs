@@ -116,17 +116,19 @@ struct Vertex {
 
 fn vertices(novel: &Camera, s: &StripResponse) -> anyhow::Result<(Camera, Vec<Option<Vertex>>)> {
     let reference = Camera::try_from(&s.camera)?;
+    let depths = s.decode_depths()?;
     let out = s
         .vertices
         .iter()
-        .map(|v| {
-            let local = reference.back_project(f64::from(v.i), f64::from(v.j), f64::from(v.depth));
+        .zip(depths)
+        .map(|(v, depth)| {
+            let local = reference.back_project(f64::from(v.i), f64::from(v.j), f64::from(depth));
             let world = reference.to_world(local);
             let (x, y, z) = novel.project(novel.to_camera(world))?;
             (z > 1e-9).then(|| Vertex {
                 s: DVec2::new(x, y),
                 z,
-                uvz: DVec3::new(f64::from(v.i), f64::from(v.j), 1.0) * f64::from(v.depth),
+                uvz: DVec3::new(f64::from(v.i), f64::from(v.j), 1.0) * f64::from(depth),
                 rho: f64::from(v.rho) / 255.0,
                 world,
                 normal: reference.rotation * oct_decode(v.normal),
@@ -196,7 +198,9 @@ fn raster(w: u32, h: u32, t: [&Vertex; 3], mut f: impl FnMut(usize, [f64; 3], f6
 pub fn blend(novel: &Camera, views: &[ViewInput<'_>], options: &BlendOptions) -> anyhow::Result<Blended> {
     let (w, h) = (novel.width, novel.height);
     let n = (w * h) as usize;
-    let prepared: Vec<(Camera, Vec<Option<Vertex>>, Vec<[u32; 3]>)> = views
+    // Per view: reference camera, vertices in the novel view, triangles.
+    type Prepared = (Camera, Vec<Option<Vertex>>, Vec<[u32; 3]>);
+    let prepared: Vec<Prepared> = views
         .iter()
         .map(|v| {
             let (reference, verts) = vertices(novel, v.strips)?;
@@ -287,17 +291,17 @@ mod tests {
         let corner = |i: u16, j: u16| WireVertex {
             i,
             j,
-            depth: z,
             normal: [128, 128],
             rho: 255,
         };
         StripResponse {
-            version: 1,
+            version: dmesh_proto::PROTOCOL_VERSION,
             scene: "s".into(),
             view: "v".into(),
             lod: Lod::Epsilon(0.0),
             camera: (&cam).into(),
             vertices: vec![corner(0, 0), corner(15, 0), corner(0, 15), corner(15, 15)],
+            depths: dmesh_proto::Depths::Exact(vec![z; 4]),
             indices: dmesh_proto::Indices::U16(vec![0, 1, 2, 3]),
             triangles: 2,
             extract_ms: 0.0,

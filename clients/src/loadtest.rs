@@ -23,6 +23,42 @@ pub enum Stop {
     Duration(Duration),
 }
 
+/// The level of detail every request of a run asks for; with none of
+/// `epsilon`, `max_triangles` or `budget_ms`, `tau` (default 1 pixel).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Detail {
+    /// View-dependent tolerance in pixels.
+    pub tau: Option<f64>,
+    /// Static tolerance in metres.
+    pub epsilon: Option<f64>,
+    /// Triangle budget over the answer's views.
+    pub max_triangles: Option<u32>,
+    /// Extraction time budget over the answer's views, milliseconds.
+    pub budget_ms: Option<f64>,
+    /// Residual bit-depth.
+    pub bits: Option<u8>,
+    /// Most views per answer (server default when absent).
+    pub max_views: Option<u32>,
+}
+
+impl Detail {
+    /// The render request for `camera`.
+    pub fn request(&self, camera: dmesh_proto::Camera) -> dmesh_proto::RenderRequest {
+        let other = self.epsilon.is_some() || self.max_triangles.is_some() || self.budget_ms.is_some();
+        dmesh_proto::RenderRequest {
+            camera,
+            tau: if other { None } else { Some(self.tau.unwrap_or(1.0)) },
+            epsilon: self.epsilon,
+            max_triangles: self.max_triangles,
+            budget_ms: self.budget_ms,
+            bits: self.bits,
+            max_views: self.max_views,
+            max_angle_deg: None,
+            selection: dmesh_proto::Selection::Dmesh,
+        }
+    }
+}
+
 /// What a run measured.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct Report {
@@ -112,8 +148,7 @@ pub async fn run(
     server: &Server,
     scene: &str,
     cameras: &[Camera],
-    tau: Option<f64>,
-    epsilon: Option<f64>,
+    detail: Detail,
     concurrency: usize,
     stop: Stop,
 ) -> anyhow::Result<Report> {
@@ -148,18 +183,7 @@ pub async fn run(
                     s.issued += 1;
                     s.issued
                 };
-                let request = dmesh_proto::RenderRequest {
-                    camera: cameras[(k as usize) % cameras.len()].clone(),
-                    tau: if epsilon.is_some() {
-                        None
-                    } else {
-                        Some(tau.unwrap_or(1.0))
-                    },
-                    epsilon,
-                    max_views: None,
-                    max_angle_deg: None,
-                    selection: dmesh_proto::Selection::Dmesh,
-                };
+                let request = detail.request(cameras[(k as usize) % cameras.len()].clone());
                 let t = Instant::now();
                 let result = server.render_raw(&scene, &request).await;
                 let micros = (t.elapsed().as_micros() as u64).max(1);

@@ -16,6 +16,7 @@ use clap::{Parser, Subcommand};
 use dmesh_client::blend::BlendOptions;
 use dmesh_client::compare::compare;
 use dmesh_client::http::Server;
+use dmesh_client::loadtest::Detail;
 use dmesh_client::novel::render_novel;
 
 #[derive(Parser)]
@@ -53,12 +54,8 @@ enum Command {
         /// The novel camera (JSON).
         #[arg(long)]
         camera: PathBuf,
-        /// View-dependent tolerance in pixels (default 1).
-        #[arg(long, conflicts_with = "epsilon")]
-        tau: Option<f64>,
-        /// Static tolerance in metres.
-        #[arg(long)]
-        epsilon: Option<f64>,
+        #[command(flatten)]
+        detail: DetailArgs,
         /// Output PNG.
         #[arg(long)]
         out: PathBuf,
@@ -71,9 +68,6 @@ enum Command {
         /// Verlani's per-pixel cos^k weights.
         #[arg(long)]
         cos_k: Option<f64>,
-        /// At most this many views.
-        #[arg(long)]
-        max_views: Option<u32>,
         /// Relight with the vertex normals (diffuse + specular from a light above and behind the camera).
         #[arg(long)]
         relight: bool,
@@ -98,12 +92,8 @@ enum Command {
         /// Stop after this many seconds.
         #[arg(long)]
         duration: Option<f64>,
-        /// View-dependent tolerance in pixels (default 1).
-        #[arg(long, conflicts_with = "epsilon")]
-        tau: Option<f64>,
-        /// Static tolerance in metres.
-        #[arg(long)]
-        epsilon: Option<f64>,
+        #[command(flatten)]
+        detail: DetailArgs,
         /// Viewpoints on the orbit.
         #[arg(long, default_value_t = 32)]
         viewpoints: usize,
@@ -213,32 +203,54 @@ async fn ingest(server: &str, scene: &str, simulate: Option<&str>, dir: Option<&
     Ok(())
 }
 
-#[allow(clippy::too_many_arguments)]
 async fn render(
     server: &str,
     scene: &str,
     camera: &Path,
-    tau: Option<f64>,
-    epsilon: Option<f64>,
+    detail: Detail,
     options: &BlendOptions,
-    max_views: Option<u32>,
     cache: &Path,
 ) -> Result<dmesh_client::blend::Blended> {
     let s = Server::new(server, Some(cache.to_path_buf()));
     let wire: dmesh_proto::Camera = serde_json::from_slice(&read(camera)?).context("camera JSON")?;
-    let request = dmesh_proto::RenderRequest {
-        camera: wire,
-        tau: if epsilon.is_some() {
-            None
-        } else {
-            Some(tau.unwrap_or(1.0))
-        },
-        epsilon,
-        max_views,
-        max_angle_deg: None,
-        selection: dmesh_proto::Selection::Dmesh,
-    };
-    render_novel(&s, scene, &request, options).await
+    render_novel(&s, scene, &detail.request(wire), options).await
+}
+
+/// The level of detail of `render` and `loadtest`: one of --tau (default 1
+/// pixel), --epsilon, --max-triangles, --budget-ms; optionally --bits.
+#[derive(clap::Args, Debug)]
+struct DetailArgs {
+    /// View-dependent tolerance in pixels (default 1).
+    #[arg(long, conflicts_with_all = ["epsilon", "max_triangles", "budget_ms"])]
+    tau: Option<f64>,
+    /// Static tolerance in metres.
+    #[arg(long, conflicts_with_all = ["max_triangles", "budget_ms"])]
+    epsilon: Option<f64>,
+    /// Triangle budget per answer, shared by its views (the server picks tau).
+    #[arg(long, conflicts_with = "budget_ms")]
+    max_triangles: Option<u32>,
+    /// Extraction time budget per answer in milliseconds (the server picks tau).
+    #[arg(long)]
+    budget_ms: Option<f64>,
+    /// Residual bit-depth of the depths (0..=16; exact f32 when absent).
+    #[arg(long, value_parser = clap::value_parser!(u8).range(0..=16))]
+    bits: Option<u8>,
+    /// Most views per answer (server default 5).
+    #[arg(long)]
+    max_views: Option<u32>,
+}
+
+impl DetailArgs {
+    fn detail(&self) -> Detail {
+        Detail {
+            tau: self.tau,
+            epsilon: self.epsilon,
+            max_triangles: self.max_triangles,
+            budget_ms: self.budget_ms,
+            bits: self.bits,
+            max_views: self.max_views,
+        }
+    }
 }
 
 fn coverage_png(b: &dmesh_client::blend::Blended) -> Result<Vec<u8>> {
@@ -281,13 +293,11 @@ fn run(cli: Cli) -> Result<()> {
             server,
             scene,
             camera,
-            tau,
-            epsilon,
+            detail,
             out,
             depth_out,
             coverage_out,
             cos_k,
-            max_views,
             relight,
             cache,
         } => {
@@ -297,9 +307,7 @@ fn run(cli: Cli) -> Result<()> {
                 relight,
                 ..Default::default()
             };
-            let b = rt.block_on(render(
-                &server, &scene, &camera, tau, epsilon, &options, max_views, &cache,
-            ))?;
+            let b = rt.block_on(render(&server, &scene, &camera, detail.detail(), &options, &cache))?;
             std::fs::write(&out, png(b.width, b.height, &b.rgb)?)
                 .with_context(|| format!("cannot write {}", out.display()))?;
             if let Some(p) = depth_out {
@@ -317,12 +325,12 @@ fn run(cli: Cli) -> Result<()> {
             concurrency,
             requests,
             duration,
-            tau,
-            epsilon,
+            detail,
             viewpoints,
             allow_remote,
             json,
         } => {
+            let detail = detail.detail();
             dmesh_client::loadtest::check_target(&server, allow_remote)?;
             let stop = match (requests, duration) {
                 (Some(n), _) => dmesh_client::loadtest::Stop::Requests(n),
@@ -334,7 +342,7 @@ fn run(cli: Cli) -> Result<()> {
             let report = rt.block_on(async {
                 let s = Server::new(&server, None);
                 let cameras = dmesh_client::loadtest::orbit(&s.cameras(&scene).await?, viewpoints)?;
-                dmesh_client::loadtest::run(&s, &scene, &cameras, tau, epsilon, concurrency, stop).await
+                dmesh_client::loadtest::run(&s, &scene, &cameras, detail, concurrency, stop).await
             })?;
             if json {
                 println!("{}", serde_json::to_string(&report)?);

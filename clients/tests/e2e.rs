@@ -10,6 +10,7 @@ use dmesh::sim::SceneSpec;
 use dmesh_client::blend::{BlendOptions, Blended};
 use dmesh_client::compare::compare;
 use dmesh_client::http::Server;
+use dmesh_client::loadtest::Detail;
 use dmesh_client::novel::render_novel;
 use glam::DVec3;
 
@@ -55,14 +56,12 @@ async fn ingest(server: &Server, scene: &SceneSpec) {
 }
 
 async fn render(server: &Server, novel: &Camera, tau: f64, max_views: u32) -> Blended {
-    let request = dmesh_proto::RenderRequest {
-        camera: novel.into(),
+    let request = Detail {
         tau: Some(tau),
-        epsilon: None,
         max_views: Some(max_views),
-        max_angle_deg: None,
-        selection: dmesh_proto::Selection::Dmesh,
-    };
+        ..Default::default()
+    }
+    .request(novel.into());
     render_novel(server, "box", &request, &BlendOptions::default())
         .await
         .unwrap()
@@ -201,7 +200,7 @@ async fn the_load_test_stops_by_itself_and_counts_everything() {
     ingest(&server, &scene).await;
     let cameras = dmesh_client::loadtest::orbit(&server.cameras("box").await.unwrap(), 6).unwrap();
     let stop = dmesh_client::loadtest::Stop::Requests(24);
-    let report = dmesh_client::loadtest::run(&server, "box", &cameras, Some(1.0), None, 4, stop)
+    let report = dmesh_client::loadtest::run(&server, "box", &cameras, Detail::default(), 4, stop)
         .await
         .unwrap();
     assert_eq!(report.requests, 24);
@@ -213,8 +212,7 @@ async fn the_load_test_stops_by_itself_and_counts_everything() {
         &server,
         "nope",
         &cameras,
-        Some(1.0),
-        None,
+        Detail::default(),
         2,
         dmesh_client::loadtest::Stop::Requests(4),
     )

@@ -20,17 +20,19 @@
 pub mod camera;
 pub mod error;
 pub mod render;
+pub mod residual;
 pub mod strips;
 pub mod view;
 
 pub use camera::{Camera, Pose, Projection};
 pub use error::{ErrorBody, ErrorDetail};
 pub use render::{RenderRequest, RenderResponse, RenderedView, Selection, Timings};
-pub use strips::{Indices, Lod, StripRequest, StripResponse, WireVertex};
+pub use residual::{RawGrid, ResidualDepths, ResidualError};
+pub use strips::{Depths, Indices, Lod, StripRequest, StripResponse, WireVertex};
 pub use view::{SceneList, ViewList, ViewSummary};
 
 /// Version of the wire format, sent in every response.
-pub const PROTOCOL_VERSION: u16 = 1;
+pub const PROTOCOL_VERSION: u16 = 2;
 
 /// Media type of bincode bodies.
 pub const BINCODE_MEDIA_TYPE: &str = "application/x-bincode";

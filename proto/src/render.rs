@@ -28,6 +28,17 @@ pub struct RenderRequest {
     /// Static tolerance in metres (exclusive with `tau`).
     #[serde(default)]
     pub epsilon: Option<f64>,
+    /// Most triangles over all returned views (instead of `tau` or
+    /// `epsilon`), shared out by view weight.
+    #[serde(default)]
+    pub max_triangles: Option<u32>,
+    /// Extraction time to aim for over all returned views, milliseconds
+    /// (instead of `tau`, `epsilon` or `max_triangles`).
+    #[serde(default)]
+    pub budget_ms: Option<f64>,
+    /// Residual bit-depth of the depths, `0..=16`; absent: exact.
+    #[serde(default)]
+    pub bits: Option<u8>,
     /// Largest number of views to return.
     #[serde(default)]
     pub max_views: Option<u32>,
@@ -117,6 +128,7 @@ mod tests {
             lod: crate::strips::Lod::Tau(1.0),
             camera: camera(),
             vertices: vec![],
+            depths: crate::strips::Depths::Exact(vec![]),
             indices: crate::strips::Indices::U16(vec![]),
             triangles: 0,
             extract_ms: 0.0,

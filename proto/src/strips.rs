@@ -1,15 +1,17 @@
 //! One reference view's extracted mesh, as a thin client draws it.
 //!
 //! Vertices come coarse to fine and carry grid coordinates `(i, j)` (the
-//! pixel of the reference image, hence also the texture coordinate) and depth,
-//! from which the client rebuilds positions with the view's camera; the normal
-//! is octahedron-encoded in two bytes and the sampling quality rho is one byte.
+//! pixel of the reference image, hence also the texture coordinate); their
+//! depths come separately, exact or residual-coded ([`Depths`]), and the client
+//! rebuilds positions from both with the view's camera. The normal is
+//! octahedron-encoded in two bytes and the sampling quality rho is one byte.
 //! Indices form generalised triangle strips with primitive restart (the
 //! largest value of the index width), drawable as `TRIANGLE_STRIP`.
 
 use serde::{Deserialize, Serialize};
 
 use crate::camera::Camera;
+use crate::residual::{ResidualDepths, ResidualError};
 
 /// The level of detail a mesh was extracted at.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -21,7 +23,7 @@ pub enum Lod {
     Tau(f64),
 }
 
-/// One vertex: 11 bytes in bincode.
+/// One vertex (its depth travels in [`Depths`]): 7 bytes in bincode.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct WireVertex {
@@ -29,8 +31,6 @@ pub struct WireVertex {
     pub i: u16,
     /// Pixel row in the reference image.
     pub j: u16,
-    /// Depth `z` in metres (finite, positive).
-    pub depth: f32,
     /// Octahedron-encoded unit normal facing the reference camera.
     pub normal: [u8; 2],
     /// Sampling quality rho in 1/255.
@@ -47,7 +47,19 @@ pub enum Indices {
     U32(Vec<u32>),
 }
 
-/// Body of `POST .../strips`: `{"epsilon": E}` or `{"tau": T, "camera": {...}}`.
+/// Vertex depths, in vertex order.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase", deny_unknown_fields)]
+pub enum Depths {
+    /// Lossless: `z` in metres (finite, positive), 4 bytes per vertex.
+    Exact(Vec<f32>),
+    /// Residuals from parent-edge predictions (request `bits`), see [`crate::residual`].
+    Residual(ResidualDepths),
+}
+
+/// Body of `POST .../strips`: exactly one level of detail, `{"epsilon": E}`,
+/// `{"tau": T, "camera": {...}}`, or a budget (`max_triangles` or
+/// `budget_ms`, with `camera` for a view-dependent mesh); optionally `bits`.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct StripRequest {
@@ -57,9 +69,20 @@ pub struct StripRequest {
     /// View-dependent tolerance in pixels of `camera`.
     #[serde(default)]
     pub tau: Option<f64>,
-    /// The requesting camera, with `tau`.
+    /// The requesting camera, with `tau` or a budget.
     #[serde(default)]
     pub camera: Option<Camera>,
+    /// Most triangles the mesh may have; the server picks the finest
+    /// tolerance it can guarantee meets it.
+    #[serde(default)]
+    pub max_triangles: Option<u32>,
+    /// Extraction time to aim for in milliseconds, turned into
+    /// `max_triangles` by the server's measured extraction rate.
+    #[serde(default)]
+    pub budget_ms: Option<f64>,
+    /// Residual bit-depth of the depths, `0..=16`; absent: exact `f32`.
+    #[serde(default)]
+    pub bits: Option<u8>,
 }
 
 impl Indices {
@@ -75,6 +98,23 @@ impl Indices {
     }
 }
 
+impl StripResponse {
+    /// The vertex depths in metres, decoding residuals if need be.
+    pub fn decode_depths(&self) -> Result<Vec<f32>, ResidualError> {
+        match &self.depths {
+            Depths::Exact(z) if z.len() == self.vertices.len() => Ok(z.clone()),
+            Depths::Exact(z) => Err(ResidualError::Count {
+                depths: z.len(),
+                vertices: self.vertices.len(),
+            }),
+            Depths::Residual(r) => {
+                let ij: Vec<(u16, u16)> = self.vertices.iter().map(|v| (v.i, v.j)).collect();
+                r.decode(&ij)
+            }
+        }
+    }
+}
+
 /// A view's mesh for one request.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -85,12 +125,14 @@ pub struct StripResponse {
     pub scene: String,
     /// View id.
     pub view: String,
-    /// The tolerance the mesh meets.
+    /// The tolerance the mesh meets (for a budget request, the one the server chose).
     pub lod: Lod,
     /// The reference camera (positions and texture coordinates come from it).
     pub camera: Camera,
     /// Vertices, coarse to fine.
     pub vertices: Vec<WireVertex>,
+    /// Their depths.
+    pub depths: Depths,
     /// Generalised strips with primitive restart.
     pub indices: Indices,
     /// Number of (non-degenerate) triangles the strips draw.
@@ -125,25 +167,23 @@ mod tests {
                 WireVertex {
                     i: 0,
                     j: 0,
-                    depth: 2.0,
                     normal: [128, 128],
                     rho: 255,
                 },
                 WireVertex {
                     i: 3,
                     j: 2,
-                    depth: 2.5,
                     normal: [120, 130],
                     rho: 200,
                 },
                 WireVertex {
                     i: 3,
                     j: 0,
-                    depth: 2.25,
                     normal: [128, 128],
                     rho: 250,
                 },
             ],
+            depths: Depths::Exact(vec![2.0, 2.5, 2.25]),
             indices: Indices::U16(vec![0, 1, 2, u16::MAX, 2, 1, 0]),
             triangles: 2,
             extract_ms: 0.25,
@@ -157,6 +197,22 @@ mod tests {
         wide.indices = Indices::U32(vec![0, 1, 2, u32::MAX, 2, 1, 0]);
         wide.lod = Lod::Epsilon(0.01);
         crate::round_trip::both(&wide);
+        let ij: Vec<(u16, u16)> = wide.vertices.iter().map(|v| (v.i, v.j)).collect();
+        wide.depths = Depths::Residual(ResidualDepths::encode(&ij, &[2.0, 2.5, 2.25], 8, 4, None).unwrap());
+        crate::round_trip::both(&wide);
+        let back = wide.decode_depths().unwrap();
+        assert!(
+            back.iter().zip([2.0, 2.5, 2.25]).all(|(a, b)| (a - b).abs() < 1e-2),
+            "{back:?}"
+        );
+    }
+
+    #[test]
+    fn depth_count_must_match_the_vertices() {
+        let mut r = sample();
+        assert_eq!(r.decode_depths().unwrap(), vec![2.0, 2.5, 2.25]);
+        r.depths = Depths::Exact(vec![1.0]);
+        assert!(r.decode_depths().is_err());
     }
 
     #[test]
@@ -174,7 +230,13 @@ mod tests {
         crate::round_trip::both(&StripRequest {
             tau: Some(1.0),
             camera: Some(sample().camera),
-            epsilon: None,
+            bits: Some(8),
+            ..Default::default()
+        });
+        crate::round_trip::both(&StripRequest {
+            max_triangles: Some(5000),
+            budget_ms: Some(2.5),
+            ..Default::default()
         });
         let r: StripRequest = serde_json::from_str(r#"{"epsilon": 0.5}"#).unwrap();
         assert_eq!(r.epsilon, Some(0.5));
@@ -185,7 +247,7 @@ mod tests {
         let r = sample();
         let b = crate::to_bincode(&r).unwrap();
         // version
-        assert_eq!(&b[0..2], &1u16.to_le_bytes());
+        assert_eq!(&b[0..2], &2u16.to_le_bytes());
         // scene: u64 length + bytes
         assert_eq!(&b[2..10], &4u64.to_le_bytes());
         assert_eq!(&b[10..14], b"demo");
@@ -199,14 +261,18 @@ mod tests {
         assert_eq!(&b[39..43], &4u32.to_le_bytes());
         assert_eq!(&b[47..51], &0u32.to_le_bytes());
         let after_camera = 39 + 4 + 4 + 4 + 32 + 32 + 24;
-        // vertices: u64 count + 11 bytes each
+        // vertices: u64 count + 7 bytes each
         assert_eq!(&b[after_camera..after_camera + 8], &3u64.to_le_bytes());
-        let v1 = after_camera + 8 + 11;
+        let v1 = after_camera + 8 + 7;
         assert_eq!(&b[v1..v1 + 2], &3u16.to_le_bytes());
-        assert_eq!(&b[v1 + 4..v1 + 8], &2.5f32.to_le_bytes());
-        assert_eq!(b[v1 + 10], 200);
+        assert_eq!(b[v1 + 6], 200);
+        // depths: u32 variant 0 (exact) + u64 count + f32 values
+        let d = after_camera + 8 + 3 * 7;
+        assert_eq!(&b[d..d + 4], &0u32.to_le_bytes());
+        assert_eq!(&b[d + 4..d + 12], &3u64.to_le_bytes());
+        assert_eq!(&b[d + 12 + 4..d + 12 + 8], &2.5f32.to_le_bytes());
         // indices: u32 variant 0 (u16) + u64 count + values
-        let idx = after_camera + 8 + 3 * 11;
+        let idx = d + 12 + 3 * 4;
         assert_eq!(&b[idx..idx + 4], &0u32.to_le_bytes());
         assert_eq!(&b[idx + 4..idx + 12], &7u64.to_le_bytes());
         assert_eq!(&b[idx + 12 + 6..idx + 12 + 8], &u16::MAX.to_le_bytes());

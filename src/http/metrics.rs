@@ -55,7 +55,13 @@ pub struct Metrics {
     extract: Mutex<Histogram>,
     triangles: Mutex<Histogram>,
     views_loaded: AtomicU64,
+    /// Moving average of extraction milliseconds per triangle (f64 bits; 0 until measured).
+    ms_per_triangle: AtomicU64,
 }
+
+/// Assumed extraction cost before the first measurement: 100 ns per triangle,
+/// about twice what one core of the reference machine takes.
+const DEFAULT_MS_PER_TRIANGLE: f64 = 1e-4;
 
 impl Metrics {
     /// Records one request's latency.
@@ -66,8 +72,25 @@ impl Metrics {
             .observe(&BUCKETS_MS, ms);
     }
 
+    /// Extraction milliseconds per triangle: a moving average over recent
+    /// extractions of 1,000 triangles or more (which includes the slowdown
+    /// of a loaded machine, so budgets shrink under load).
+    pub fn ms_per_triangle(&self) -> f64 {
+        match f64::from_bits(self.ms_per_triangle.load(Ordering::Relaxed)) {
+            v if v > 0.0 && v.is_finite() => v,
+            _ => DEFAULT_MS_PER_TRIANGLE,
+        }
+    }
+
     /// Records one extraction.
     pub fn extraction(&self, ms: f64, triangles: usize) {
+        if triangles >= 1000 && ms.is_finite() && ms > 0.0 {
+            let sample = ms / triangles as f64;
+            // A lost race between two updates drops one sample: harmless.
+            let old = f64::from_bits(self.ms_per_triangle.load(Ordering::Relaxed));
+            let new = if old > 0.0 { 0.9 * old + 0.1 * sample } else { sample };
+            self.ms_per_triangle.store(new.to_bits(), Ordering::Relaxed);
+        }
         self.extract
             .lock()
             .unwrap_or_else(|p| p.into_inner())
@@ -107,6 +130,11 @@ impl Metrics {
             "dmesh_response_triangles",
             "",
             &BUCKETS_TRIANGLES,
+        );
+        let _ = writeln!(
+            out,
+            "# HELP dmesh_extract_ms_per_triangle Moving average used to turn budget_ms into triangles.\n# TYPE dmesh_extract_ms_per_triangle gauge\ndmesh_extract_ms_per_triangle {}",
+            self.ms_per_triangle()
         );
         let _ = writeln!(
             out,

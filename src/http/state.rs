@@ -27,6 +27,8 @@ pub struct Loaded {
     pub etag: String,
     /// Valid depth samples.
     pub valid_samples: u64,
+    /// The integer grid of the uploaded depth, for lossless residual coding.
+    pub raw_grid: Option<dmesh_proto::RawGrid>,
 }
 
 impl Loaded {
@@ -52,8 +54,10 @@ impl Loaded {
         v.color.hash(&mut h);
         serde_json::to_string(&v.camera).unwrap_or_default().hash(&mut h);
         serde_json::to_string(&v.segmentation).unwrap_or_default().hash(&mut h);
+        serde_json::to_string(&v.raw_grid).unwrap_or_default().hash(&mut h);
         Ok(Self {
             valid_samples: depth.valid_count() as u64,
+            raw_grid: v.raw_grid,
             hierarchy,
             camera,
             color: v.color.clone(),

@@ -11,58 +11,171 @@ use dmesh_proto::{RenderRequest, RenderResponse, RenderedView, Selection, StripR
 use serde::Deserialize;
 
 use crate::camera::{camera_from_json, Camera};
-use crate::mesh::Lod;
+use crate::mesh::{Budgeted, Lod};
 use crate::scene::{select_views, SelectionRule};
 use crate::store::validate_id;
-use crate::wire::{strip_response, wire_lod};
+use crate::wire::{strip_response, wire_lod, DepthCoding};
 
 use super::error::AppError;
 use super::negotiate::encode;
 use super::state::{AppState, Loaded};
 use super::views::{color_url, load};
 
-/// Query of `GET .../strips`: `epsilon`, or `tau` with the requesting `camera` (JSON).
+/// Query of `GET .../strips`: `epsilon`, or `tau` with the requesting
+/// `camera` (JSON), or a budget (`max_triangles` or `budget_ms`, optionally
+/// with `camera`); optionally `bits`.
 #[derive(Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct StripQuery {
     epsilon: Option<f64>,
     tau: Option<f64>,
     camera: Option<String>,
+    max_triangles: Option<u32>,
+    budget_ms: Option<f64>,
+    bits: Option<u8>,
 }
 
+/// What a request asks for: one level of detail and a depth coding.
+#[derive(Clone, Debug)]
+pub(crate) struct Ask {
+    tol: Tolerance,
+    bits: Option<u8>,
+}
+
+#[derive(Clone, Debug)]
 enum Tolerance {
     Epsilon(f64),
     Tau(f64, Camera),
+    /// At most this many triangles, view-dependent with a camera.
+    Triangles(u64, Option<Camera>),
+    /// Aim at this many milliseconds of extraction.
+    Millis(f64, Option<Camera>),
 }
 
-fn tolerance(epsilon: Option<f64>, tau: Option<f64>, camera: Option<Camera>) -> Result<Tolerance, AppError> {
-    match (epsilon, tau, camera) {
-        (Some(e), None, None) => Ok(Tolerance::Epsilon(e)),
-        (None, Some(t), Some(c)) => Ok(Tolerance::Tau(t, c)),
-        (None, Some(_), None) => Err(AppError::BadRequest("tau needs the requesting camera (camera)".into())),
-        (Some(_), None, Some(_)) => Err(AppError::BadRequest(
-            "camera is only used with tau; give tau or drop camera".into(),
-        )),
-        _ => Err(AppError::BadRequest(
-            "give exactly one of epsilon (metres) or tau (pixels, with camera)".into(),
-        )),
+/// The level-of-detail fields of a strip or render request.
+pub(crate) struct Fields {
+    pub epsilon: Option<f64>,
+    pub tau: Option<f64>,
+    pub camera: Option<Camera>,
+    pub max_triangles: Option<u32>,
+    pub budget_ms: Option<f64>,
+    pub bits: Option<u8>,
+}
+
+impl Ask {
+    pub(crate) fn new(f: Fields) -> Result<Self, AppError> {
+        if let Some(b) = f.bits.filter(|&b| b > dmesh_proto::residual::MAX_BITS) {
+            return Err(AppError::BadRequest(format!("bits is {b}; it must be 0..=16")));
+        }
+        let given = [
+            f.epsilon.is_some(),
+            f.tau.is_some(),
+            f.max_triangles.is_some(),
+            f.budget_ms.is_some(),
+        ];
+        if given.iter().filter(|&&g| g).count() != 1 {
+            return Err(AppError::BadRequest(
+                "give exactly one of epsilon (metres), tau (pixels, with camera), max_triangles or budget_ms".into(),
+            ));
+        }
+        let tol = match f {
+            Fields {
+                epsilon: Some(_),
+                camera: Some(_),
+                ..
+            } => {
+                return Err(AppError::BadRequest(
+                    "camera is not used with epsilon; give tau or a budget, or drop camera".into(),
+                ))
+            }
+            Fields { epsilon: Some(e), .. } => Tolerance::Epsilon(e),
+            Fields {
+                tau: Some(t),
+                camera: Some(c),
+                ..
+            } => Tolerance::Tau(t, c),
+            Fields { tau: Some(_), .. } => {
+                return Err(AppError::BadRequest("tau needs the requesting camera (camera)".into()))
+            }
+            Fields {
+                max_triangles: Some(m),
+                camera,
+                ..
+            } => Tolerance::Triangles(u64::from(m), camera),
+            Fields {
+                budget_ms: Some(ms),
+                camera,
+                ..
+            } if ms.is_finite() && ms > 0.0 => Tolerance::Millis(ms, camera),
+            Fields {
+                budget_ms: Some(ms), ..
+            } => {
+                return Err(AppError::BadRequest(format!(
+                    "budget_ms is {ms}; it must be a finite number of milliseconds > 0"
+                )))
+            }
+            _ => unreachable!("exactly one level of detail was checked above"),
+        };
+        Ok(Self { tol, bits: f.bits })
+    }
+
+    /// The same request with a share of a render request's budget.
+    pub(crate) fn share(&self, fraction: f64) -> Self {
+        let tol = match &self.tol {
+            Tolerance::Triangles(m, c) => Tolerance::Triangles((*m as f64 * fraction).floor() as u64, *c),
+            Tolerance::Millis(ms, c) => Tolerance::Millis(ms * fraction, *c),
+            other => other.clone(),
+        };
+        Self { tol, bits: self.bits }
+    }
+
+    /// The ETag suffix of a cacheable (static) answer.
+    fn cache_key(&self) -> Option<String> {
+        let bits = self.bits.map_or(String::new(), |b| format!("-b{b}"));
+        match &self.tol {
+            Tolerance::Epsilon(e) => Some(format!("{:016x}{bits}", e.to_bits())),
+            Tolerance::Triangles(m, None) => Some(format!("t{m}{bits}")),
+            _ => None,
+        }
     }
 }
 
-fn extract(
+pub(crate) fn extract(
     state: &AppState,
     scene: &str,
     view: &str,
     loaded: &Loaded,
-    tol: &Tolerance,
+    ask: &Ask,
 ) -> Result<dmesh_proto::StripResponse, AppError> {
-    let lod = match tol {
+    fn budget<'a>(loaded: &'a Loaded, max: u64, camera: Option<&'a Camera>) -> Result<Lod<'a>, AppError> {
+        Ok(match loaded.hierarchy.lod_for_triangles(max, camera)? {
+            Budgeted::Epsilon(e) => Lod::Epsilon(e),
+            Budgeted::Tau(tau) => Lod::Tau {
+                tau,
+                view: camera.unwrap_or(&loaded.camera),
+            },
+        })
+    }
+    let h = &loaded.hierarchy;
+    let lod = match &ask.tol {
         Tolerance::Epsilon(e) => Lod::Epsilon(*e),
         Tolerance::Tau(t, c) => Lod::Tau { tau: *t, view: c },
+        Tolerance::Triangles(m, c) => budget(loaded, *m, c.as_ref())?,
+        Tolerance::Millis(ms, c) => budget(
+            loaded,
+            (ms / state.metrics.ms_per_triangle()).floor() as u64,
+            c.as_ref(),
+        )?,
     };
-    let mesh = loaded.hierarchy.extract(lod)?;
+    let mesh = h.extract(lod)?;
     state.metrics.extraction(mesh.extract_ms, mesh.triangles.len());
-    Ok(strip_response(&mesh, scene, view, wire_lod(&lod), &loaded.camera))
+    let coding = DepthCoding {
+        bits: ask.bits,
+        root_side: h.grid().side(),
+        raw_grid: loaded.raw_grid,
+    };
+    strip_response(&mesh, scene, view, wire_lod(&lod), &loaded.camera, coding)
+        .map_err(|e| AppError::BadRequest(e.to_string()))
 }
 
 async fn strips(
@@ -70,14 +183,13 @@ async fn strips(
     scene: String,
     view: String,
     headers: HeaderMap,
-    tol: Tolerance,
+    ask: Ask,
 ) -> Result<Response, AppError> {
     let loaded = load(&state, &scene, &view).await?;
-    // Static meshes are a function of the stored view and epsilon: cacheable.
-    let etag = match &tol {
-        Tolerance::Epsilon(e) => Some(format!("{}-{:016x}\"", loaded.etag.trim_end_matches('"'), e.to_bits())),
-        Tolerance::Tau(..) => None,
-    };
+    // Static meshes are a function of the stored view and the request: cacheable.
+    let etag = ask
+        .cache_key()
+        .map(|key| format!("{}-{key}\"", loaded.etag.trim_end_matches('"')));
     if let Some(tag) = &etag {
         let matches = headers
             .get(header::IF_NONE_MATCH)
@@ -88,7 +200,7 @@ async fn strips(
         }
     }
     let st = state.clone();
-    let response = tokio::task::spawn_blocking(move || extract(&st, &scene, &view, &loaded, &tol)).await??;
+    let response = tokio::task::spawn_blocking(move || extract(&st, &scene, &view, &loaded, &ask)).await??;
     let mut out = encode(&headers, &response)?;
     if let Some(tag) = etag {
         if let Ok(v) = tag.parse() {
@@ -98,7 +210,8 @@ async fn strips(
     Ok(out)
 }
 
-/// `GET /v1/scenes/{scene}/views/{view}/strips?epsilon=E` or `?tau=T&camera=JSON`.
+/// `GET /v1/scenes/{scene}/views/{view}/strips?epsilon=E`, `?tau=T&camera=JSON`,
+/// `?max_triangles=N[&camera=JSON]` or `?budget_ms=MS[&camera=JSON]`, each with optional `&bits=B`.
 pub async fn get_strips(
     State(state): State<Arc<AppState>>,
     Path((scene, view)): Path<(String, String)>,
@@ -107,10 +220,18 @@ pub async fn get_strips(
 ) -> Result<Response, AppError> {
     let Query(q) = query.map_err(|e| AppError::BadRequest(format!("query: {}", e.body_text())))?;
     let camera = q.camera.as_deref().map(camera_from_json).transpose()?;
-    strips(state, scene, view, headers, tolerance(q.epsilon, q.tau, camera)?).await
+    let ask = Ask::new(Fields {
+        epsilon: q.epsilon,
+        tau: q.tau,
+        camera,
+        max_triangles: q.max_triangles,
+        budget_ms: q.budget_ms,
+        bits: q.bits,
+    })?;
+    strips(state, scene, view, headers, ask).await
 }
 
-/// `POST /v1/scenes/{scene}/views/{view}/strips` with `{"tau", "camera"}` or `{"epsilon"}`.
+/// `POST /v1/scenes/{scene}/views/{view}/strips` with a [`StripRequest`] body.
 pub async fn post_strips(
     State(state): State<Arc<AppState>>,
     Path((scene, view)): Path<(String, String)>,
@@ -119,7 +240,15 @@ pub async fn post_strips(
 ) -> Result<Response, AppError> {
     let Json(b) = body.map_err(json_rejection)?;
     let camera = b.camera.as_ref().map(Camera::try_from).transpose()?;
-    strips(state, scene, view, headers, tolerance(b.epsilon, b.tau, camera)?).await
+    let ask = Ask::new(Fields {
+        epsilon: b.epsilon,
+        tau: b.tau,
+        camera,
+        max_triangles: b.max_triangles,
+        budget_ms: b.budget_ms,
+        bits: b.bits,
+    })?;
+    strips(state, scene, view, headers, ask).await
 }
 
 pub(crate) fn json_rejection(e: axum::extract::rejection::JsonRejection) -> AppError {
@@ -144,7 +273,14 @@ pub async fn render(
     let Json(req) = body.map_err(json_rejection)?;
     validate_id("scene", &scene)?;
     let novel = Camera::try_from(&req.camera)?;
-    let tol = tolerance(req.epsilon, req.tau, req.tau.map(|_| novel))?;
+    let ask = Ask::new(Fields {
+        epsilon: req.epsilon,
+        tau: req.tau,
+        camera: req.epsilon.is_none().then_some(novel),
+        max_triangles: req.max_triangles,
+        budget_ms: req.budget_ms,
+        bits: req.bits,
+    })?;
     let rule = match req.selection {
         Selection::Dmesh => SelectionRule::Dmesh {
             max_angle_deg: req.max_angle_deg.unwrap_or(135.0),
@@ -169,7 +305,7 @@ pub async fn render(
                 let name = &names[w.index];
                 Ok(RenderedView {
                     weight: w.weight,
-                    strips: extract(&st, &scene, name, &loaded[w.index], &tol)?,
+                    strips: extract(&st, &scene, name, &loaded[w.index], &ask.share(w.weight))?,
                     color_url: color_url(&scene, name),
                 })
             })

@@ -148,6 +148,10 @@ pub async fn put_view(
             camera: (&camera).into(),
             segmentation: u.segmentation,
             z: depth.z,
+            raw_grid: (u.options.kind == crate::image::DepthKind::Z).then_some(dmesh_proto::RawGrid {
+                scale: u.options.scale,
+                offset: u.options.offset,
+            }),
             color: color_bytes.to_vec(),
         };
         // Build before storing: a view that cannot be meshed is not kept.

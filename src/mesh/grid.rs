@@ -291,6 +291,24 @@ mod tests {
     }
 
     #[test]
+    fn the_wire_parent_edge_is_the_diamond_hypotenuse() {
+        for (w, h) in [(17, 9), (33, 33), (40, 7)] {
+            let g = Grid::for_image(w, h);
+            for y in 0..g.gh() {
+                for x in 0..g.gw() {
+                    let wire = dmesh_proto::residual::parent_edge((x, y), g.side());
+                    let engine = g.diamond((x, y)).map(|d| {
+                        let p = |q: (i64, i64)| (q.0 as u32, q.1 as u32);
+                        (p(d.a), p(d.b))
+                    });
+                    let sorted = |e: Option<((u32, u32), (u32, u32))>| e.map(|(a, b)| (a.min(b), a.max(b)));
+                    assert_eq!(sorted(wire), sorted(engine), "({x}, {y}) in {w}x{h}");
+                }
+            }
+        }
+    }
+
+    #[test]
     fn sub_square_diagonals_run_through_the_parent_centre() {
         let g = Grid::for_image(9, 9);
         // Square of side 2 around (1, 1) lies in the root square centred (4, 4)?

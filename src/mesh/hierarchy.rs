@@ -37,6 +37,7 @@ use std::time::Instant;
 use glam::DVec3;
 
 use super::backproject::BackProject;
+use super::budget::ErrorStats;
 use super::deviation::{half_rows, max_deviation};
 use super::error_metric::{norm_bound, point_line_2d_sq, point_line_3d_sq};
 use super::grid::{half_of, Grid, Pt};
@@ -81,6 +82,8 @@ pub struct DepthMesh {
     pub(crate) rho: Vec<u8>,
     /// Segmentation flags, see [`or_bit`], [`and_bit`], [`cell_bit`].
     pub(crate) flags: Vec<u8>,
+    /// Error statistics for budgeted requests.
+    pub(crate) stats: ErrorStats,
     segmented: usize,
     build_peak_bytes: usize,
     build_ms: f64,
@@ -172,6 +175,7 @@ impl DepthMesh {
             normal,
             rho,
             flags: Vec::new(),
+            stats: ErrorStats::default(),
             segmented,
             build_peak_bytes: 0,
             build_ms: 0.0,
@@ -180,6 +184,7 @@ impl DepthMesh {
         let zmax = mesh.z.iter().copied().fold(0f32, f32::max);
         mesh.levels(&mut flags, zmax);
         mesh.flags = flags;
+        mesh.stats = ErrorStats::gather(&mesh);
         mesh.build_ms = start.elapsed().as_secs_f64() * 1e3;
         Ok(mesh)
     }
@@ -464,7 +469,8 @@ impl DepthMesh {
     }
 
     /// Heap bytes the hierarchy keeps: 16 per grid vertex plus the per-row
-    /// and per-column back-projection factors.
+    /// and per-column back-projection factors and the error statistics of
+    /// budgeted requests (about 40 kB).
     pub fn heap_bytes(&self) -> usize {
         self.z.capacity() * 4
             + self.err2.capacity() * 4
@@ -473,6 +479,7 @@ impl DepthMesh {
             + self.rho.capacity()
             + self.flags.capacity()
             + self.bp.heap_bytes()
+            + self.stats.heap_bytes()
     }
 
     /// Figures of this build.

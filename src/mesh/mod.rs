@@ -13,6 +13,7 @@
 //! - [`strips`]: generalised strips with primitive restart (Fig. 13).
 
 mod backproject;
+pub mod budget;
 mod deviation;
 pub mod error_metric;
 pub mod extract;
@@ -23,6 +24,7 @@ pub mod segmentation;
 mod select;
 pub mod strips;
 
+pub use budget::Budgeted;
 pub use extract::{Lod, Mesh, MeshVertex};
 pub use grid::Grid;
 pub use hierarchy::{BuildStats, DepthMesh};

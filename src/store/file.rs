@@ -34,6 +34,9 @@ pub struct FileStore {
 struct Meta {
     camera: dmesh_proto::Camera,
     segmentation: SegmentationSpec,
+    /// Absent in files written before residual coding.
+    #[serde(default)]
+    raw_grid: Option<dmesh_proto::RawGrid>,
 }
 
 /// A bounds-checked cursor over a `.dmv` file.
@@ -91,6 +94,7 @@ impl FileStore {
         let meta = serde_json::to_vec(&Meta {
             camera: v.camera.clone(),
             segmentation: v.segmentation,
+            raw_grid: v.raw_grid,
         })
         .map_err(|e| StoreError::Io(std::io::Error::other(e)))?;
         let mut out = Vec::with_capacity(4 + 24 + meta.len() + v.z.len() * 4 + v.color.len());
@@ -132,6 +136,7 @@ impl FileStore {
         Ok(StoredView {
             camera: meta.camera,
             segmentation: meta.segmentation,
+            raw_grid: meta.raw_grid,
             z,
             color,
         })
@@ -256,6 +261,10 @@ mod tests {
             },
             segmentation: SegmentationSpec::default(),
             z: vec![seed, 2.0, 0.0, 4.0],
+            raw_grid: (seed > 1.0).then_some(dmesh_proto::RawGrid {
+                scale: 0.001,
+                offset: 0.5,
+            }),
             color: vec![1, 2, 3],
         }
     }

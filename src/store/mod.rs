@@ -82,6 +82,10 @@ pub struct StoredView {
     pub segmentation: SegmentationSpec,
     /// Depth as `z`, row-major, 0 for invalid.
     pub z: Vec<f32>,
+    /// The affine map from raw samples to `z` when the depth was uploaded as
+    /// `z` (not range or disparity): residual coding uses it to stay lossless
+    /// on integer input.
+    pub raw_grid: Option<dmesh_proto::RawGrid>,
     /// The colour image as uploaded (PNG or JPEG bytes).
     pub color: Vec<u8>,
 }

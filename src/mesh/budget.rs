@@ -1,0 +1,240 @@
+//! Budgeted level of detail: the finest tolerance whose mesh provably has at
+//! most `max_triangles` triangles, chosen from error statistics gathered at
+//! build time (Qu et al. Sec. 3.4 keep frame times stable with a per-frame
+//! work budget; here the budget caps one extraction).
+//!
+//! The bound. Extraction starts from two triangles per root quad and every
+//! selected split vertex adds at most two (it splits the one or two halves of
+//! its diamond), so `triangles <= 2 m n + 2 * selected`. Selection is
+//! monotone (`select.rs`), so the selected set is exactly the vertices that
+//! pass the test, with nothing added for conformity.
+//!
+//! - Static, `e^2 > epsilon^2`: a histogram of the saturated squared errors
+//!   (bucketed by the top bits of their f32 pattern, which orders
+//!   non-negative floats) counts the vertices above any bucket boundary, so
+//!   the smallest boundary whose count fits gives `epsilon`.
+//! - View-dependent (Eq. 4 with nested spheres), perspective: a vertex is
+//!   selected only if `|p - E| - r <= 0` or `e > tau (|p - E| - r) / f`. The
+//!   spheres nest, so `|p - E| - r` of any vertex is at least the smallest
+//!   value `d` over the *frontier* (the centres of one level, ~1,000 of them,
+//!   ancestors of every finer vertex). Counting every vertex down to the
+//!   frontier as selected and the finer ones when `e > tau d / f`, the
+//!   histogram of the finer ones gives `tau = f sqrt(boundary) / d`. When the
+//!   eye is inside a frontier sphere (`d <= 0`) no such bound exists and the
+//!   budget falls back to the static bound (the response then says epsilon).
+//! - View-dependent, orthographic: `e > tau s`, the static case in pixels.
+//!
+//! The bound is conservative: it counts far vertices as if they were as near
+//! as the nearest frontier sphere and ignores culling and segmentation, so the
+//! mesh usually has fewer triangles than allowed. The cost per request is one
+//! pass over the frontier and two over 4,096 buckets.
+
+use super::grid::Pt;
+use super::hierarchy::DepthMesh;
+use crate::camera::{Camera, Projection};
+use crate::error::{Error, Result};
+
+/// Right shift of an f32 bit pattern to its bucket: sign, exponent and 4
+/// mantissa bits, 6 % apart in value.
+const SHIFT: u32 = 19;
+/// Buckets of non-negative finite f32 values (and one past them).
+const BUCKETS: usize = (0x7f80_0000u32 >> SHIFT) as usize + 1;
+/// Frontier vertices aimed at.
+const FRONTIER: usize = 1024;
+
+/// Error statistics of a hierarchy, gathered once at build time.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct ErrorStats {
+    /// `all[k]`: split vertices whose squared-error bucket is `>= k`.
+    all: Vec<u32>,
+    /// The same over the vertices finer than the frontier.
+    fine: Vec<u32>,
+    /// The frontier centres.
+    frontier: Vec<Pt>,
+    /// Split vertices down to the frontier level, frontier included.
+    coarse: u32,
+    /// Triangles of the coarsest mesh: two per root quad.
+    base: u64,
+}
+
+#[inline]
+fn bucket(err2: f32) -> usize {
+    ((err2.clamp(0.0, f32::MAX).to_bits() >> SHIFT) as usize).min(BUCKETS - 1)
+}
+
+/// Smallest squared error in bucket `k` (`k < BUCKETS`).
+fn boundary(k: usize) -> f64 {
+    f64::from(f32::from_bits((k as u32) << SHIFT))
+}
+
+fn suffix(mut counts: Vec<u32>) -> Vec<u32> {
+    counts.push(0);
+    for k in (0..counts.len() - 1).rev() {
+        counts[k] += counts[k + 1];
+    }
+    counts
+}
+
+/// The level of detail a budget resolved to.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Budgeted {
+    /// Static tolerance in metres.
+    Epsilon(f64),
+    /// View-dependent tolerance in pixels of the requesting camera.
+    Tau(f64),
+}
+
+impl ErrorStats {
+    /// Gathers the statistics of a built hierarchy: one pass over the errors.
+    pub(crate) fn gather(mesh: &DepthMesh) -> Self {
+        let grid = mesh.grid;
+        let s = grid.side();
+        let mut all = vec![0u32; BUCKETS];
+        for &e in &mesh.err2 {
+            all[bucket(e)] += 1;
+        }
+        // Root corners are no split vertices.
+        for y in (0..grid.gh()).step_by(s as usize) {
+            for x in (0..grid.gw()).step_by(s as usize) {
+                all[bucket(mesh.err2[grid.index((x, y))])] -= 1;
+            }
+        }
+        // Frontier: centres of half-side h, about FRONTIER of them.
+        let mut h = s / 2;
+        while h > 1 && grid.len() / (h as usize * h as usize) <= FRONTIER {
+            h /= 2;
+        }
+        let mut fine = all.clone();
+        let mut frontier = Vec::new();
+        let mut coarse = 0;
+        for y in (0..grid.gh()).step_by(h as usize) {
+            for x in (0..grid.gw()).step_by(h as usize) {
+                let p = (x, y);
+                let is_frontier = x % (2 * h) == h && y % (2 * h) == h;
+                let is_root = x % s == 0 && y % s == 0;
+                // Multiples of h are down to the frontier level, except the
+                // edge midpoints of half-length h, which come after it.
+                let after = (x % (2 * h) == h) != (y % (2 * h) == h);
+                if is_root || after {
+                    continue;
+                }
+                coarse += 1;
+                fine[bucket(mesh.err2[grid.index(p)])] -= 1;
+                if is_frontier {
+                    frontier.push(p);
+                }
+            }
+        }
+        Self {
+            all: suffix(all),
+            fine: suffix(fine),
+            frontier,
+            coarse,
+            base: 2 * u64::from(grid.m) * u64::from(grid.n),
+        }
+    }
+
+    /// Bytes kept.
+    pub(crate) fn heap_bytes(&self) -> usize {
+        4 * (self.all.capacity() + self.fine.capacity()) + 8 * self.frontier.capacity()
+    }
+
+    /// Smallest bucket `k` with `base + 2 * (extra + counts[k]) <= max`
+    /// (`counts` is non-increasing, so the fits form a suffix).
+    fn first_fit(&self, counts: &[u32], extra: u64, max: u64) -> Option<usize> {
+        let k = counts.partition_point(|&c| self.base + 2 * (extra + u64::from(c)) > max);
+        (k < counts.len()).then_some(k)
+    }
+
+    /// The threshold for squared errors whose selected count fits: `None`
+    /// means everything (tolerance 0) fits.
+    fn threshold(&self, counts: &[u32], extra: u64, max: u64) -> Option<Option<f64>> {
+        let k = self.first_fit(counts, extra, max)?;
+        Some(match k {
+            0 => None,
+            k if k < BUCKETS => Some(boundary(k)),
+            _ => Some(f64::from(f32::MAX)),
+        })
+    }
+}
+
+/// Relative margin on a chosen tau so that rounding in the selection test
+/// cannot select a vertex the bound did not count.
+const MARGIN: f64 = 1e-9;
+
+impl DepthMesh {
+    /// Triangles of the coarsest mesh before segmentation: two per root quad,
+    /// the smallest budget any request can be given.
+    pub fn coarsest_triangles(&self) -> u64 {
+        self.stats.base
+    }
+
+    /// The finest level of detail whose mesh has at most `max_triangles`
+    /// triangles, for the requesting camera `view` (view-dependent) or none
+    /// (static). Fails when even the coarsest mesh has more.
+    pub fn lod_for_triangles(&self, max_triangles: u64, view: Option<&Camera>) -> Result<Budgeted> {
+        let st = &self.stats;
+        let coarsest = || {
+            Error::invalid(format!(
+                "max_triangles is {max_triangles}; the coarsest mesh of this view may have up to {} triangles",
+                st.base
+            ))
+        };
+        let eps_from = |t: Option<f64>| t.map_or(0.0, |x| x.sqrt() * (1.0 + MARGIN));
+        let fallback = || -> Result<Budgeted> {
+            let t = st.threshold(&st.all, 0, max_triangles).ok_or_else(coarsest)?;
+            Ok(Budgeted::Epsilon(eps_from(t)))
+        };
+        let Some(view) = view else {
+            return fallback();
+        };
+        match (view.focal_pixels(), view.projection) {
+            (Some(f), _) => {
+                let eye = self.camera.to_camera(view.translation);
+                let d = st
+                    .frontier
+                    .iter()
+                    .map(|&p| (self.position(p) - eye).length() - f64::from(self.radius(p)))
+                    .fold(f64::INFINITY, f64::min);
+                if !(d > 0.0 && d.is_finite()) {
+                    return fallback();
+                }
+                match st.threshold(&st.fine, u64::from(st.coarse), max_triangles) {
+                    Some(t) => Ok(Budgeted::Tau(eps_from(t) * f / d)),
+                    None => fallback(),
+                }
+            }
+            (None, Projection::Orthographic { sx, sy, .. }) => {
+                let t = st.threshold(&st.all, 0, max_triangles).ok_or_else(coarsest)?;
+                Ok(Budgeted::Tau(eps_from(t) / sx.min(sy)))
+            }
+            (None, Projection::Perspective { .. }) => fallback(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn buckets_order_like_the_values_and_boundaries_start_them() {
+        let values = [0.0f32, 1e-30, 1e-6, 0.5, 1.0, 1.06, 3.0, 1e30, f32::MAX];
+        for w in values.windows(2) {
+            assert!(bucket(w[0]) <= bucket(w[1]), "{w:?}");
+        }
+        for v in values {
+            let k = bucket(v);
+            assert!(boundary(k) <= f64::from(v), "{v}");
+            if k + 1 < BUCKETS {
+                assert!(f64::from(v) < boundary(k + 1), "{v}");
+            }
+        }
+        assert_eq!(bucket(f32::INFINITY), bucket(f32::MAX));
+    }
+
+    #[test]
+    fn suffix_counts_are_non_increasing() {
+        assert_eq!(suffix(vec![1, 0, 2]), vec![3, 2, 2, 0]);
+    }
+}

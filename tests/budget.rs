@@ -1,0 +1,121 @@
+//! Budgeted level of detail: a mesh chosen for `max_triangles` never has more,
+//! static or view-dependent, perspective or orthographic, wherever the eye is;
+//! and the chosen tolerance is not needlessly coarse on a plain view.
+
+mod common;
+
+use common::*;
+use dmesh::camera::Camera;
+use dmesh::image::DepthImage;
+use dmesh::mesh::{Budgeted, DepthMesh, Lod, Segmentation};
+use glam::{DQuat, DVec3};
+use proptest::prelude::*;
+
+fn extract_budgeted(h: &DepthMesh, max: u64, view: Option<&Camera>) -> (Budgeted, usize) {
+    let chosen = h.lod_for_triangles(max, view).unwrap();
+    let lod = match (chosen, view) {
+        (Budgeted::Epsilon(e), _) => Lod::Epsilon(e),
+        (Budgeted::Tau(tau), Some(view)) => Lod::Tau { tau, view },
+        (Budgeted::Tau(_), None) => panic!("a static budget answered with tau"),
+    };
+    let mesh = h.extract(lod).unwrap();
+    assert_conforming(&mesh);
+    (chosen, mesh.triangles.len())
+}
+
+#[test]
+fn static_budgets_are_met_and_nearly_used() {
+    let depth = waves(129, 97);
+    let h = DepthMesh::build(&depth, &camera(129, 97), &Segmentation::default()).unwrap();
+    let full = h.extract(Lod::Epsilon(0.0)).unwrap().triangles.len() as u64;
+    for max in [24, 100, 1000, 5000, 20_000, full, 10 * full] {
+        let (chosen, got) = extract_budgeted(&h, max, None);
+        assert!(got as u64 <= max, "max {max}: {got} triangles with {chosen:?}");
+        // The bound counts two triangles per selected vertex, which the
+        // interior of a mesh reaches: at least a third of the budget is used.
+        if max >= 100 && max <= full {
+            assert!(got as u64 * 3 >= max, "max {max}: only {got} triangles with {chosen:?}");
+        }
+    }
+    assert_eq!(extract_budgeted(&h, 10 * full, None).0, Budgeted::Epsilon(0.0));
+}
+
+#[test]
+fn a_budget_below_the_coarsest_mesh_is_an_error() {
+    let depth = waves(65, 65);
+    let h = DepthMesh::build(&depth, &camera(65, 65), &Segmentation::default()).unwrap();
+    let err = h.lod_for_triangles(1, None).unwrap_err().to_string();
+    assert!(err.contains("max_triangles is 1"), "{err}");
+}
+
+#[test]
+fn view_dependent_budgets_choose_tau_from_afar_and_epsilon_from_inside() {
+    let depth = waves(129, 129);
+    let cam = camera(129, 129);
+    let h = DepthMesh::build(&depth, &cam, &Segmentation::default()).unwrap();
+    let far = Camera::new(128, 128, cam.projection, DQuat::IDENTITY, DVec3::new(0.2, 0.1, -3.0)).unwrap();
+    let (chosen, got) = extract_budgeted(&h, 4000, Some(&far));
+    assert!(matches!(chosen, Budgeted::Tau(t) if t > 0.0), "{chosen:?}");
+    assert!(got <= 4000);
+    // An eye on the surface: no distance bound, so the static bound answers.
+    let p = depth.z[64 * 129 + 64];
+    let on = Camera::new(
+        128,
+        128,
+        cam.projection,
+        DQuat::IDENTITY,
+        DVec3::new(0.0, 0.0, f64::from(p)),
+    )
+    .unwrap();
+    let (chosen, got) = extract_budgeted(&h, 4000, Some(&on));
+    assert!(matches!(chosen, Budgeted::Epsilon(_)), "{chosen:?}");
+    assert!(got <= 4000);
+}
+
+fn arb_depth() -> impl Strategy<Value = (u32, u32, Vec<f32>)> {
+    (2u32..40, 2u32..40).prop_flat_map(|(w, h)| {
+        let n = (w * h) as usize;
+        let sample = prop_oneof![
+            6 => 0.5f32..4.0,
+            1 => Just(0.0f32),
+            1 => 100.0f32..200.0,
+        ];
+        (Just(w), Just(h), proptest::collection::vec(sample, n))
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 128, ..ProptestConfig::default() })]
+
+    #[test]
+    fn budgets_are_never_exceeded(
+        (w, h, z) in arb_depth(),
+        max in prop_oneof![2u64..50, 50u64..5000],
+        eye in (-5.0f64..5.0, -5.0f64..5.0, -10.0f64..5.0),
+        yaw in -3.2f64..3.2,
+        ortho in any::<bool>(),
+        with_view in any::<bool>(),
+    ) {
+        let depth = DepthImage::from_z(w, h, z).unwrap();
+        let cam = camera(w, h);
+        let hier = DepthMesh::build(&depth, &cam, &Segmentation::default()).unwrap();
+        let projection = if ortho {
+            dmesh::camera::Projection::Orthographic { sx: 0.01, sy: 0.01, cx: 32.0, cy: 24.0 }
+        } else {
+            cam.projection
+        };
+        let view = Camera::new(64, 48, projection, DQuat::from_rotation_y(yaw), DVec3::new(eye.0, eye.1, eye.2)).unwrap();
+        let view = with_view.then_some(&view);
+        match hier.lod_for_triangles(max, view) {
+            Ok(_) => {
+                let (chosen, got) = extract_budgeted(&hier, max, view);
+                prop_assert!(got as u64 <= max, "max {}: {} triangles with {:?}", max, got, chosen);
+            }
+            Err(e) => {
+                // Only when the coarsest mesh could exceed the budget.
+                prop_assert!(e.to_string().contains("coarsest"), "{}", e);
+                prop_assert!(max < hier.coarsest_triangles(), "{}", e);
+            }
+        }
+    }
+}
