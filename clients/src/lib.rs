@@ -13,3 +13,4 @@ pub mod compare;
 pub mod http;
 pub mod loadtest;
 pub mod novel;
+pub mod report;

@@ -104,6 +104,22 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Sweep tau, epsilon, residual bits and triangle budgets over scenes with
+    /// ground truth (simulated, and Middlebury with --data): tables and curves.
+    Report {
+        /// Output folder for report.md, report.json and the SVG/PNG curves.
+        #[arg(long, default_value = "docs/report")]
+        out: PathBuf,
+        /// Folder of the Middlebury scenes (cones, teddy); left out when not given.
+        #[arg(long)]
+        data: Option<PathBuf>,
+        /// Timings are the median of this many runs.
+        #[arg(long, default_value_t = 3)]
+        repeats: usize,
+        /// A few settings on the exact simulated scene only.
+        #[arg(long)]
+        quick: bool,
+    },
     /// PSNR (valid mask) and inverse-depth RMSE between two images.
     Compare {
         /// First image (PNG).
@@ -361,6 +377,23 @@ fn run(cli: Cli) -> Result<()> {
                     report.bytes
                 );
             }
+            Ok(())
+        }
+        Command::Report {
+            out,
+            data,
+            repeats,
+            quick,
+        } => {
+            let options = dmesh_client::report::Options { quick, data, repeats };
+            let mut rows = Vec::new();
+            for case in dmesh_client::report::cases(&options)? {
+                eprintln!("sweeping {} ({} reference views)", case.name, case.references.len());
+                rows.extend(dmesh_client::report::sweep(&case, &options)?);
+            }
+            dmesh_client::report::write(&rows, &out)?;
+            print!("{}", dmesh_client::report::markdown(&rows));
+            eprintln!("wrote {}", out.display());
             Ok(())
         }
         Command::Compare {

@@ -16,12 +16,15 @@
 //! - View-dependent (Eq. 4 with nested spheres), perspective: a vertex is
 //!   selected only if `|p - E| - r <= 0` or `e > tau (|p - E| - r) / f`. The
 //!   spheres nest, so `|p - E| - r` of any vertex is at least the smallest
-//!   value `d` over the *frontier* (the centres of one level, ~1,000 of them,
-//!   ancestors of every finer vertex). Counting every vertex down to the
-//!   frontier as selected and the finer ones when `e > tau d / f`, the
-//!   histogram of the finer ones gives `tau = f sqrt(boundary) / d`. When the
-//!   eye is inside a frontier sphere (`d <= 0`) no such bound exists and the
-//!   budget falls back to the static bound (the response then says epsilon).
+//!   value `d` over a *frontier* (the centres of one level, ancestors of
+//!   every finer vertex). Counting every vertex down to the frontier as
+//!   selected and the finer ones when `e > tau d / f`, the histogram of the
+//!   finer ones gives `tau = f sqrt(boundary) / d`. Coarse frontiers count
+//!   few vertices outright but give a small `d`; fine ones the reverse, so
+//!   every level from the root down to ~1,000 centres is kept and the finest
+//!   tau over them wins. When the eye is inside every frontier's spheres no
+//!   such bound exists and the budget falls back to the static bound (the
+//!   response then says epsilon).
 //! - View-dependent, orthographic: `e > tau s`, the static case in pixels.
 //!
 //! The bound is conservative: it counts far vertices as if they were as near
@@ -47,14 +50,21 @@ const FRONTIER: usize = 1024;
 pub(crate) struct ErrorStats {
     /// `all[k]`: split vertices whose squared-error bucket is `>= k`.
     all: Vec<u32>,
-    /// The same over the vertices finer than the frontier.
-    fine: Vec<u32>,
-    /// The frontier centres.
-    frontier: Vec<Pt>,
-    /// Split vertices down to the frontier level, frontier included.
-    coarse: u32,
+    /// Frontiers, coarsest first.
+    frontiers: Vec<Frontier>,
     /// Triangles of the coarsest mesh: two per root quad.
     base: u64,
+}
+
+/// The centres of one level and what lies above and below them.
+#[derive(Clone, Debug, Default)]
+struct Frontier {
+    /// The centres.
+    centres: Vec<Pt>,
+    /// Split vertices down to this level, the centres included.
+    coarse: u32,
+    /// `fine[k]`: vertices finer than the centres whose bucket is `>= k`.
+    fine: Vec<u32>,
 }
 
 #[inline]
@@ -99,44 +109,55 @@ impl ErrorStats {
                 all[bucket(mesh.err2[grid.index((x, y))])] -= 1;
             }
         }
-        // Frontier: centres of half-side h, about FRONTIER of them.
+        // Frontiers: centres of half-side h, from the root quads' down to
+        // about FRONTIER of them.
+        let mut frontiers = Vec::new();
         let mut h = s / 2;
-        while h > 1 && grid.len() / (h as usize * h as usize) <= FRONTIER {
-            h /= 2;
-        }
-        let mut fine = all.clone();
-        let mut frontier = Vec::new();
-        let mut coarse = 0;
-        for y in (0..grid.gh()).step_by(h as usize) {
-            for x in (0..grid.gw()).step_by(h as usize) {
-                let p = (x, y);
-                let is_frontier = x % (2 * h) == h && y % (2 * h) == h;
-                let is_root = x % s == 0 && y % s == 0;
-                // Multiples of h are down to the frontier level, except the
-                // edge midpoints of half-length h, which come after it.
-                let after = (x % (2 * h) == h) != (y % (2 * h) == h);
-                if is_root || after {
-                    continue;
-                }
-                coarse += 1;
-                fine[bucket(mesh.err2[grid.index(p)])] -= 1;
-                if is_frontier {
-                    frontier.push(p);
+        loop {
+            let mut fine = all.clone();
+            let mut centres = Vec::new();
+            let mut coarse = 0;
+            for y in (0..grid.gh()).step_by(h as usize) {
+                for x in (0..grid.gw()).step_by(h as usize) {
+                    let is_root = x % s == 0 && y % s == 0;
+                    let (odd_x, odd_y) = (x % (2 * h) == h, y % (2 * h) == h);
+                    // Multiples of h are down to this level, except the edge
+                    // midpoints of half-length h, which come after it.
+                    if is_root || odd_x != odd_y {
+                        continue;
+                    }
+                    coarse += 1;
+                    fine[bucket(mesh.err2[grid.index((x, y))])] -= 1;
+                    if odd_x {
+                        centres.push((x, y));
+                    }
                 }
             }
+            frontiers.push(Frontier {
+                centres,
+                coarse,
+                fine: suffix(fine),
+            });
+            if h == 1 || grid.len() / (h as usize * h as usize) > FRONTIER {
+                break;
+            }
+            h /= 2;
         }
         Self {
             all: suffix(all),
-            fine: suffix(fine),
-            frontier,
-            coarse,
+            frontiers,
             base: 2 * u64::from(grid.m) * u64::from(grid.n),
         }
     }
 
     /// Bytes kept.
     pub(crate) fn heap_bytes(&self) -> usize {
-        4 * (self.all.capacity() + self.fine.capacity()) + 8 * self.frontier.capacity()
+        4 * self.all.capacity()
+            + self
+                .frontiers
+                .iter()
+                .map(|f| 4 * f.fine.capacity() + 8 * f.centres.capacity())
+                .sum::<usize>()
     }
 
     /// Smallest bucket `k` with `base + 2 * (extra + counts[k]) <= max`
@@ -191,17 +212,26 @@ impl DepthMesh {
         match (view.focal_pixels(), view.projection) {
             (Some(f), _) => {
                 let eye = self.camera.to_camera(view.translation);
-                let d = st
-                    .frontier
+                let finest = st
+                    .frontiers
                     .iter()
-                    .map(|&p| (self.position(p) - eye).length() - f64::from(self.radius(p)))
+                    .filter_map(|fr| {
+                        let d = fr
+                            .centres
+                            .iter()
+                            .map(|&p| (self.position(p) - eye).length() - f64::from(self.radius(p)))
+                            .fold(f64::INFINITY, f64::min);
+                        if !(d > 0.0 && d.is_finite()) {
+                            return None;
+                        }
+                        let t = st.threshold(&fr.fine, u64::from(fr.coarse), max_triangles)?;
+                        Some(eps_from(t) * f / d)
+                    })
                     .fold(f64::INFINITY, f64::min);
-                if !(d > 0.0 && d.is_finite()) {
-                    return fallback();
-                }
-                match st.threshold(&st.fine, u64::from(st.coarse), max_triangles) {
-                    Some(t) => Ok(Budgeted::Tau(eps_from(t) * f / d)),
-                    None => fallback(),
+                if finest.is_finite() {
+                    Ok(Budgeted::Tau(finest))
+                } else {
+                    fallback()
                 }
             }
             (None, Projection::Orthographic { sx, sy, .. }) => {

@@ -1,0 +1,350 @@
+//! `dmesh-client report`: what accuracy costs in time and bytes.
+//!
+//! Sweeps the level of detail (tau, epsilon, residual bits, triangle
+//! budget) over scenes with ground truth, runs the engine in process exactly
+//! as the server does for `/render` (select views, extract, encode the strip
+//! responses in bincode, decode them as a client), blends the novel view and
+//! compares it with the truth: PSNR on the valid mask and inverse-depth RMSE
+//! (Naik's protocol), triangles, bytes and milliseconds. Tables go to
+//! `report.md` and `report.json`, curves to SVG and PNG.
+
+pub mod cases;
+pub mod plot;
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use dmesh::mesh::{Budgeted, DepthMesh, Lod, Segmentation};
+use dmesh::scene::{select_views, SelectionRule};
+use dmesh::wire::{strip_response, DepthCoding};
+use serde::Serialize;
+
+use crate::blend::{blend, BlendOptions, ViewInput};
+use crate::compare::compare;
+use cases::Case;
+
+/// What to sweep and where to write.
+#[derive(Clone, Debug)]
+pub struct Options {
+    /// Fewer settings, the exact simulated scene only (for tests).
+    pub quick: bool,
+    /// Folder of the Middlebury scenes; `None` leaves them out.
+    pub data: Option<PathBuf>,
+    /// Timings are the median of this many runs.
+    pub repeats: usize,
+}
+
+/// One swept parameter.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Sweep {
+    /// View-dependent tolerance, pixels.
+    Tau,
+    /// Static tolerance as a fraction of the scene's typical depth.
+    Epsilon,
+    /// Residual bits at tau = 1.
+    Bits,
+    /// Triangle budget over the selected views.
+    Budget,
+}
+
+impl Sweep {
+    fn settings(self, quick: bool) -> Vec<f64> {
+        match (self, quick) {
+            (Self::Tau, false) => vec![0.0, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0],
+            (Self::Tau, true) => vec![0.0, 1.0, 8.0],
+            (Self::Epsilon, false) => vec![0.0, 1e-4, 3e-4, 1e-3, 3e-3, 1e-2],
+            (Self::Epsilon, true) => vec![1e-3],
+            (Self::Bits, false) => vec![0.0, 2.0, 4.0, 6.0, 8.0, 10.0, 12.0, 16.0],
+            (Self::Bits, true) => vec![0.0, 8.0, 16.0],
+            (Self::Budget, false) => vec![1e3, 3e3, 1e4, 3e4, 1e5],
+            (Self::Budget, true) => vec![3e3],
+        }
+    }
+
+    /// Column heading of the setting.
+    pub fn unit(self) -> &'static str {
+        match self {
+            Self::Tau => "tau (px)",
+            Self::Epsilon => "epsilon (x depth)",
+            Self::Bits => "bits (tau 1)",
+            Self::Budget => "max triangles",
+        }
+    }
+}
+
+/// One row: a setting on one scene, averaged over its novel views.
+#[derive(Clone, Debug, Serialize)]
+pub struct Row {
+    /// Scene name.
+    pub scene: String,
+    /// What was swept.
+    pub sweep: Sweep,
+    /// Its setting.
+    pub setting: f64,
+    /// Triangles over the selected views.
+    pub triangles: f64,
+    /// Bincode bytes of the strip responses.
+    pub bytes: f64,
+    /// Hierarchy build time per reference view.
+    pub build_ms: f64,
+    /// Extraction time over the selected views.
+    pub extract_ms: f64,
+    /// Blend time of the novel view.
+    pub blend_ms: f64,
+    /// PSNR on the valid mask, dB.
+    pub psnr: f64,
+    /// RMSE of inverse depth on the valid mask.
+    pub inverse_depth_rmse: f64,
+    /// Largest decoded depth error stated by residual coding, metres (0 for exact depths).
+    pub depth_error: f64,
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v.get(v.len() / 2).copied().unwrap_or(0.0)
+}
+
+/// The scenes of a report.
+pub fn cases(options: &Options) -> anyhow::Result<Vec<Case>> {
+    let mut out = vec![cases::simulated("demo", false, if options.quick { 1 } else { 3 })?];
+    if !options.quick {
+        out.push(cases::simulated("demo-noisy", true, 3)?);
+    }
+    if let Some(data) = &options.data {
+        for scene in ["cones", "teddy"] {
+            out.push(cases::middlebury(data, scene)?);
+        }
+    }
+    Ok(out)
+}
+
+/// Sweeps every setting over `case`.
+pub fn sweep(case: &Case, options: &Options) -> anyhow::Result<Vec<Row>> {
+    let repeats = options.repeats.max(1);
+    let mut build_ms = Vec::new();
+    let hierarchies: Vec<DepthMesh> = case
+        .references
+        .iter()
+        .map(|r| {
+            let mut best = None;
+            for _ in 0..repeats {
+                let h = DepthMesh::build(&r.depth, &r.camera, &Segmentation::default())?;
+                build_ms.push(h.stats().build_ms);
+                best = Some(h);
+            }
+            best.ok_or_else(|| anyhow::anyhow!("no build"))
+        })
+        .collect::<anyhow::Result<_>>()?;
+    let build_ms = median(build_ms);
+    let cameras: Vec<_> = case.references.iter().map(|r| r.camera).collect();
+    let rule = SelectionRule::Dmesh { max_angle_deg: 135.0 };
+    let selections = case
+        .novels
+        .iter()
+        .map(|n| select_views(&n.camera, &cameras, rule, 5))
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut rows = Vec::new();
+    for sweep in [Sweep::Tau, Sweep::Epsilon, Sweep::Bits, Sweep::Budget] {
+        for setting in sweep.settings(options.quick) {
+            let mut acc = Row {
+                scene: case.name.clone(),
+                sweep,
+                setting,
+                triangles: 0.0,
+                bytes: 0.0,
+                build_ms,
+                extract_ms: 0.0,
+                blend_ms: 0.0,
+                psnr: 0.0,
+                inverse_depth_rmse: 0.0,
+                depth_error: 0.0,
+            };
+            for (novel, selected) in case.novels.iter().zip(&selections) {
+                let mut responses = Vec::new();
+                for w in selected {
+                    let (h, r) = (&hierarchies[w.index], &case.references[w.index]);
+                    let lod = match sweep {
+                        Sweep::Tau => Lod::Tau {
+                            tau: setting,
+                            view: &novel.camera,
+                        },
+                        Sweep::Bits => Lod::Tau {
+                            tau: 1.0,
+                            view: &novel.camera,
+                        },
+                        Sweep::Epsilon => Lod::Epsilon(setting * case.depth_scale),
+                        Sweep::Budget => {
+                            let max = ((setting * w.weight) as u64).max(h.coarsest_triangles());
+                            match h.lod_for_triangles(max, Some(&novel.camera))? {
+                                Budgeted::Epsilon(e) => Lod::Epsilon(e),
+                                Budgeted::Tau(tau) => Lod::Tau {
+                                    tau,
+                                    view: &novel.camera,
+                                },
+                            }
+                        }
+                    };
+                    let mut times = Vec::new();
+                    let mut mesh = None;
+                    for _ in 0..repeats {
+                        let m = h.extract(lod)?;
+                        times.push(m.extract_ms);
+                        mesh = Some(m);
+                    }
+                    let mesh = mesh.ok_or_else(|| anyhow::anyhow!("no extraction"))?;
+                    acc.extract_ms += median(times);
+                    let coding = DepthCoding {
+                        bits: (sweep == Sweep::Bits).then_some(setting as u8),
+                        root_side: h.grid().side(),
+                        raw_grid: r.raw_grid,
+                    };
+                    let wire = strip_response(&mesh, &case.name, "v", dmesh::wire::wire_lod(&lod), &r.camera, coding)?;
+                    let bytes = dmesh_proto::to_bincode(&wire)?;
+                    acc.bytes += bytes.len() as f64;
+                    acc.triangles += f64::from(wire.triangles);
+                    let back: dmesh_proto::StripResponse = dmesh_proto::from_bincode(&bytes)?;
+                    if let dmesh_proto::Depths::Residual(res) = &back.depths {
+                        acc.depth_error = acc.depth_error.max(f64::from(res.max_error));
+                    }
+                    responses.push((w.weight, back, &r.texture));
+                }
+                let inputs: Vec<ViewInput<'_>> = responses
+                    .iter()
+                    .map(|(weight, strips, texture)| ViewInput {
+                        weight: *weight,
+                        strips,
+                        texture,
+                    })
+                    .collect();
+                let mut times = Vec::new();
+                let mut blended = None;
+                for _ in 0..repeats {
+                    let t = Instant::now();
+                    let b = blend(&novel.camera, &inputs, &BlendOptions::default())?;
+                    times.push(t.elapsed().as_secs_f64() * 1e3);
+                    blended = Some(b);
+                }
+                let b = blended.ok_or_else(|| anyhow::anyhow!("no blend"))?;
+                acc.blend_ms += median(times);
+                let c = compare(&b.rgb, &novel.rgb, Some((&b.depth, &novel.depth)))?;
+                acc.psnr += c.psnr;
+                acc.inverse_depth_rmse += c.inverse_depth_rmse.unwrap_or(0.0);
+            }
+            let n = case.novels.len().max(1) as f64;
+            for v in [
+                &mut acc.triangles,
+                &mut acc.bytes,
+                &mut acc.extract_ms,
+                &mut acc.blend_ms,
+                &mut acc.psnr,
+                &mut acc.inverse_depth_rmse,
+            ] {
+                *v /= n;
+            }
+            rows.push(acc);
+        }
+    }
+    Ok(rows)
+}
+
+/// The Markdown tables: one per scene, then PSNR against residual bits.
+pub fn markdown(rows: &[Row]) -> String {
+    use std::fmt::Write;
+    let mut out = String::new();
+    let mut scenes: Vec<&str> = rows.iter().map(|r| r.scene.as_str()).collect();
+    scenes.dedup();
+    for scene in &scenes {
+        let _ = writeln!(out, "### {scene}\n");
+        let _ = writeln!(
+            out,
+            "| sweep | setting | triangles | bytes | build ms | extract ms | blend ms | PSNR dB | inv-depth RMSE |"
+        );
+        let _ = writeln!(out, "|---|---|---|---|---|---|---|---|---|");
+        for r in rows.iter().filter(|r| r.scene == *scene) {
+            let _ = writeln!(
+                out,
+                "| {} | {} | {:.0} | {:.0} | {:.2} | {:.3} | {:.2} | {:.2} | {:.5} |",
+                r.sweep.unit(),
+                r.setting,
+                r.triangles,
+                r.bytes,
+                r.build_ms,
+                r.extract_ms,
+                r.blend_ms,
+                r.psnr,
+                r.inverse_depth_rmse
+            );
+        }
+        let _ = writeln!(out);
+    }
+    let _ = writeln!(
+        out,
+        "### PSNR against residual bits (tau = 1; Verlani Table 2's trade-off)\n"
+    );
+    let _ = writeln!(
+        out,
+        "| scene | bits | bytes | ratio to exact f32 | max depth error (m) | PSNR dB |"
+    );
+    let _ = writeln!(out, "|---|---|---|---|---|---|");
+    for scene in &scenes {
+        let exact = rows
+            .iter()
+            .find(|r| r.scene == *scene && r.sweep == Sweep::Tau && r.setting == 1.0)
+            .map_or(f64::NAN, |r| r.bytes);
+        for r in rows.iter().filter(|r| r.scene == *scene && r.sweep == Sweep::Bits) {
+            let _ = writeln!(
+                out,
+                "| {scene} | {} | {:.0} | {:.2} | {:.2e} | {:.2} |",
+                r.setting,
+                r.bytes,
+                r.bytes / exact,
+                r.depth_error,
+                r.psnr
+            );
+        }
+    }
+    out
+}
+
+/// Writes `report.md`, `report.json` and the curves (`psnr-vs-extract-ms`,
+/// `psnr-vs-bytes`, each SVG and PNG) into `out`.
+pub fn write(rows: &[Row], out: &std::path::Path) -> anyhow::Result<()> {
+    std::fs::create_dir_all(out)?;
+    std::fs::write(out.join("report.md"), markdown(rows))?;
+    std::fs::write(out.join("report.json"), serde_json::to_string_pretty(rows)?)?;
+    let mut scenes: Vec<&str> = rows.iter().map(|r| r.scene.as_str()).collect();
+    scenes.dedup();
+    let curve = |scene: &str, sweep: Sweep, x: fn(&Row) -> f64| -> Vec<(f64, f64)> {
+        rows.iter()
+            .filter(|r| r.scene == scene && r.sweep == sweep)
+            .map(|r| (x(r), r.psnr))
+            .collect()
+    };
+    plot::Chart {
+        title: "PSNR against extraction time (tau sweep)",
+        x_label: "extraction ms over the selected views (log)",
+        y_label: "PSNR dB (valid mask)",
+        series: scenes
+            .iter()
+            .map(|s| (s.to_string(), curve(s, Sweep::Tau, |r| r.extract_ms)))
+            .collect(),
+    }
+    .write(&out.join("psnr-vs-extract-ms"))?;
+    plot::Chart {
+        title: "PSNR against response bytes (tau and bits sweeps)",
+        x_label: "bincode bytes over the selected views (log)",
+        y_label: "PSNR dB (valid mask)",
+        series: scenes
+            .iter()
+            .flat_map(|s| {
+                [
+                    (format!("{s} tau"), curve(s, Sweep::Tau, |r| r.bytes)),
+                    (format!("{s} bits"), curve(s, Sweep::Bits, |r| r.bytes)),
+                ]
+            })
+            .collect(),
+    }
+    .write(&out.join("psnr-vs-bytes"))?;
+    Ok(())
+}

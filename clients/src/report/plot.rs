@@ -1,0 +1,127 @@
+//! Report curves: one line per scene, drawn with plotters to SVG and PNG.
+//! Text uses the bundled DejaVu Sans Mono (`clients/assets`), so no system
+//! font library is needed.
+
+use std::path::Path;
+use std::sync::Once;
+
+use anyhow::{anyhow, Context};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+const FONT: &[u8] = include_bytes!("../../assets/DejaVuSansMono.ttf");
+const SIZE: (u32, u32) = (800, 520);
+const COLOURS: [RGBColor; 6] = [
+    RGBColor(31, 119, 180),
+    RGBColor(214, 39, 40),
+    RGBColor(44, 160, 44),
+    RGBColor(148, 103, 189),
+    RGBColor(255, 127, 14),
+    RGBColor(23, 190, 207),
+];
+
+/// A chart: labelled series of `(x, y)` points, x on a log axis.
+pub struct Chart<'a> {
+    /// Title.
+    pub title: &'a str,
+    /// X axis label.
+    pub x_label: &'a str,
+    /// Y axis label.
+    pub y_label: &'a str,
+    /// `(name, points)`; points with a non-finite or non-positive x are left out.
+    pub series: Vec<(String, Vec<(f64, f64)>)>,
+}
+
+fn register_font() -> anyhow::Result<()> {
+    static ONCE: Once = Once::new();
+    let mut result = Ok(());
+    ONCE.call_once(|| {
+        result = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT)
+            .map_err(|_| anyhow!("the bundled font does not parse"));
+    });
+    result
+}
+
+impl Chart<'_> {
+    fn points(&self) -> Vec<(&str, Vec<(f64, f64)>)> {
+        self.series
+            .iter()
+            .map(|(name, pts)| {
+                let kept = pts
+                    .iter()
+                    .copied()
+                    .filter(|(x, y)| x.is_finite() && *x > 0.0 && y.is_finite())
+                    .collect();
+                (name.as_str(), kept)
+            })
+            .collect()
+    }
+
+    fn draw<DB: DrawingBackend>(&self, root: DrawingArea<DB, Shift>) -> anyhow::Result<()>
+    where
+        DB::ErrorType: 'static,
+    {
+        let series = self.points();
+        let all: Vec<(f64, f64)> = series.iter().flat_map(|(_, p)| p.iter().copied()).collect();
+        anyhow::ensure!(!all.is_empty(), "chart {:?} has no point to draw", self.title);
+        let (x0, x1) = all
+            .iter()
+            .fold((f64::INFINITY, 0f64), |(a, b), p| (a.min(p.0), b.max(p.0)));
+        let (y0, y1) = all
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.1), b.max(p.1)));
+        let pad = ((y1 - y0) * 0.08).max(0.5);
+        let e = |err| anyhow!("drawing {:?}: {err:?}", self.title);
+        root.fill(&WHITE).map_err(e)?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(self.title, ("sans-serif", 20))
+            .margin(12)
+            .x_label_area_size(44)
+            .y_label_area_size(56)
+            .build_cartesian_2d((x0 / 1.3..x1 * 1.3).log_scale(), (y0 - pad)..(y1 + pad))
+            .map_err(e)?;
+        chart
+            .configure_mesh()
+            .x_desc(self.x_label)
+            .y_desc(self.y_label)
+            .label_style(("sans-serif", 13))
+            .draw()
+            .map_err(e)?;
+        for (k, (name, pts)) in series.iter().enumerate() {
+            let colour = COLOURS[k % COLOURS.len()];
+            chart
+                .draw_series(LineSeries::new(pts.iter().copied(), colour.stroke_width(2)))
+                .map_err(e)?
+                .label(*name)
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], colour.stroke_width(2)));
+            chart
+                .draw_series(pts.iter().map(|&p| Circle::new(p, 3, colour.filled())))
+                .map_err(e)?;
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::LowerRight)
+            .label_font(("sans-serif", 13))
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .draw()
+            .map_err(e)?;
+        root.present().map_err(e)?;
+        Ok(())
+    }
+
+    /// Writes `base.svg` and `base.png`.
+    pub fn write(&self, base: &Path) -> anyhow::Result<()> {
+        register_font()?;
+        let svg = base.with_extension("svg");
+        self.draw(SVGBackend::new(&svg, SIZE).into_drawing_area())?;
+        let mut rgb = vec![0u8; (SIZE.0 * SIZE.1 * 3) as usize];
+        self.draw(BitMapBackend::with_buffer(&mut rgb, SIZE).into_drawing_area())?;
+        let png = base.with_extension("png");
+        image::RgbImage::from_raw(SIZE.0, SIZE.1, rgb)
+            .ok_or_else(|| anyhow!("chart buffer size"))?
+            .save(&png)
+            .with_context(|| format!("cannot write {}", png.display()))?;
+        Ok(())
+    }
+}
