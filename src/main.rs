@@ -60,9 +60,13 @@ struct ServeArgs {
     /// Largest decoded image, pixels.
     #[arg(long, default_value_t = 64 << 20)]
     max_pixels: u64,
-    /// Requests served at once; more are answered 503 with Retry-After.
+    /// Requests served at once; more wait up to --queue-wait-ms for a slot,
+    /// then are answered 503 with Retry-After.
     #[arg(long, default_value_t = 64)]
     max_concurrency: usize,
+    /// Milliseconds a request may wait for a free slot before it is shed.
+    #[arg(long, default_value_t = 5)]
+    queue_wait_ms: u64,
     /// Request timeout, seconds.
     #[arg(long, default_value_t = 30)]
     timeout_secs: u64,
@@ -402,6 +406,7 @@ fn run_serve(a: &ServeArgs) -> Result<()> {
     let state = std::sync::Arc::new(AppState::new(std::sync::Arc::new(store), settings));
     let pipeline = Pipeline {
         max_concurrency: a.max_concurrency,
+        queue_wait: std::time::Duration::from_millis(a.queue_wait_ms),
         timeout: std::time::Duration::from_secs(a.timeout_secs),
     };
     let runtime = tokio::runtime::Runtime::new().context("starting the async runtime")?;

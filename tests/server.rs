@@ -506,6 +506,7 @@ async fn overload_is_shed_with_503_and_retry_after() {
     let dir = tempfile::tempdir().unwrap();
     let pipeline = Pipeline {
         max_concurrency: 1,
+        queue_wait: std::time::Duration::from_millis(20),
         timeout: std::time::Duration::from_secs(30),
     };
     let router = start(state(dir.path(), Settings::default()), pipeline).await;
@@ -519,7 +520,7 @@ async fn overload_is_shed_with_503_and_retry_after() {
             .await
     });
     // Once the stalled upload holds the only slot, every other request is
-    // shed at once (poll until it has reached the server, however slow the machine).
+    // shed after its 20 ms queue wait (poll until it has reached the server, however slow the machine).
     let mut shed = None;
     for _ in 0..100 {
         let reply = send(&router, Request::get("/healthz").body(Body::empty()).unwrap()).await;
@@ -543,6 +544,7 @@ async fn slow_requests_time_out_with_408() {
     let pipeline = Pipeline {
         max_concurrency: 4,
         timeout: std::time::Duration::from_millis(200),
+        ..Pipeline::default()
     };
     let router = start(state(dir.path(), Settings::default()), pipeline).await;
     let (status, _, body) = send(&router, stalled_upload()).await;

@@ -181,6 +181,32 @@ impl Server {
         }
     }
 
+    /// Sends a render request without decoding the answer: its size and the
+    /// server's extraction milliseconds from `Server-Timing` (what a load
+    /// generator needs, without spending the machine's CPU on decoding).
+    pub async fn render_timed(&self, scene: &str, request: &dmesh_proto::RenderRequest) -> Result<(u64, f64), u16> {
+        let headers = [
+            (header::CONTENT_TYPE, "application/json".to_string()),
+            (header::ACCEPT, dmesh_proto::BINCODE_MEDIA_TYPE.to_string()),
+        ];
+        let body = serde_json::to_vec(request).map_err(|_| 0u16)?;
+        match self
+            .call(Method::POST, &format!("/v1/scenes/{scene}/render"), &headers, body)
+            .await
+        {
+            Ok((_, resp_headers, bytes)) => {
+                let extract_ms = resp_headers
+                    .get("server-timing")
+                    .and_then(|v| v.to_str().ok())
+                    .and_then(|v| v.split(',').find_map(|m| m.trim().strip_prefix("extract;dur=")))
+                    .and_then(|ms| ms.parse().ok())
+                    .ok_or(0u16)?;
+                Ok((bytes.len() as u64, extract_ms))
+            }
+            Err(e) => Err(e.downcast_ref::<CallError>().map_or(0, |c| c.status.as_u16())),
+        }
+    }
+
     /// A colour image by URL path, from the ETag cache when the server says it is current.
     pub async fn color(&self, path: &str) -> anyhow::Result<Vec<u8>> {
         let key = path.replace('/', "_");

@@ -185,7 +185,7 @@ pub async fn run(
                 };
                 let request = detail.request(cameras[(k as usize) % cameras.len()].clone());
                 let t = Instant::now();
-                let result = server.render_raw(&scene, &request).await;
+                let result = server.render_timed(&scene, &request).await;
                 let micros = (t.elapsed().as_micros() as u64).max(1);
                 let mut s = shared.lock().await;
                 s.report.requests += 1;
@@ -193,9 +193,9 @@ pub async fn run(
                     eprint!("\r{} requests", s.report.requests);
                 }
                 match result {
-                    Ok((bytes, response)) => {
+                    Ok((bytes, extract_ms)) => {
                         let _ = s.latency.record(micros);
-                        let _ = s.extract.record(((response.timings.extract_ms * 1e3) as u64).max(1));
+                        let _ = s.extract.record(((extract_ms * 1e3) as u64).max(1));
                         s.report.bytes += bytes;
                     }
                     Err(status) => {

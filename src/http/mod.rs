@@ -41,8 +41,11 @@ pub const DEFAULT_DATA_DIR: &str = "./dmesh-data";
 /// Concurrency and timeout of the request pipeline.
 #[derive(Clone, Copy, Debug)]
 pub struct Pipeline {
-    /// Requests served at once; more are shed with 503.
+    /// Requests served at once; more wait up to `queue_wait` for a slot,
+    /// then are shed with 503.
     pub max_concurrency: usize,
+    /// Longest a request waits for a free slot before it is shed.
+    pub queue_wait: Duration,
     /// Longest a request may take.
     pub timeout: Duration,
 }
@@ -51,6 +54,7 @@ impl Default for Pipeline {
     fn default() -> Self {
         Self {
             max_concurrency: 64,
+            queue_wait: Duration::from_millis(5),
             timeout: Duration::from_secs(30),
         }
     }
@@ -65,12 +69,20 @@ async fn timed_out(error: BoxError) -> AppError {
 }
 
 /// Load shedding with a concurrency limit shared by every route: a request
-/// that finds no free slot is answered 503 at once rather than queued.
+/// that finds no free slot waits for one at most `queue_wait` (a short queue
+/// absorbs bursts without letting latency grow), then is answered 503.
 /// (A tower layer on the router would be instantiated per route.)
-async fn shed(State(slots): State<Arc<tokio::sync::Semaphore>>, request: Request, next: Next) -> Response {
-    match slots.try_acquire() {
-        Ok(_permit) => next.run(request).await,
-        Err(_) => AppError::Overloaded(1).into_response(),
+async fn shed(
+    State((slots, wait)): State<(Arc<tokio::sync::Semaphore>, Duration)>,
+    request: Request,
+    next: Next,
+) -> Response {
+    if let Ok(_permit) = slots.try_acquire() {
+        return next.run(request).await;
+    }
+    match tokio::time::timeout(wait, slots.acquire()).await {
+        Ok(Ok(_permit)) => next.run(request).await,
+        _ => AppError::Overloaded(1).into_response(),
     }
 }
 
@@ -129,7 +141,7 @@ pub fn app(state: Arc<AppState>, pipeline: Pipeline) -> Router {
         );
     let slots = Arc::new(tokio::sync::Semaphore::new(pipeline.max_concurrency.max(1)));
     api.route_layer(middleware::from_fn_with_state(state.clone(), record))
-        .layer(middleware::from_fn_with_state(slots, shed))
+        .layer(middleware::from_fn_with_state((slots, pipeline.queue_wait), shed))
         .layer(CompressionLayer::new())
         .with_state(state)
 }

@@ -202,6 +202,7 @@ async fn strips(
     let st = state.clone();
     let response = tokio::task::spawn_blocking(move || extract(&st, &scene, &view, &loaded, &ask)).await??;
     let mut out = encode(&headers, &response)?;
+    server_timing(&mut out, response.extract_ms, response.extract_ms);
     if let Some(tag) = etag {
         if let Ok(v) = tag.parse() {
             out.headers_mut().insert(header::ETAG, v);
@@ -322,5 +323,15 @@ pub async fn render(
         })
     })
     .await??;
-    encode(&headers, &response)
+    let mut out = encode(&headers, &response)?;
+    server_timing(&mut out, response.timings.extract_ms, response.timings.total_ms);
+    Ok(out)
+}
+
+/// `Server-Timing: extract;dur=MS, total;dur=MS`, which load generators read
+/// without decoding the body.
+fn server_timing(out: &mut Response, extract_ms: f64, total_ms: f64) {
+    if let Ok(v) = format!("extract;dur={extract_ms:.3}, total;dur={total_ms:.3}").parse() {
+        out.headers_mut().insert("server-timing", v);
+    }
 }

@@ -1,0 +1,174 @@
+//! Throughput and tail latency of `/render` against the engine's own
+//! extraction rate, on this machine, in one run (issue 5's benchmark).
+//!
+//! One 513 x 513 synthetic view (terrain and boxes), novel cameras on an
+//! orbit around it, tau = 1 pixel. Phases:
+//! 1. engine: two threads extract the same requests back to back for the
+//!    phase's duration (two cores' worth of raw extraction, no HTTP);
+//! 2. server: `dmesh serve`'s stack in process (2 worker threads, shedding
+//!    above `--max-concurrency`), loaded over loopback HTTP by the load
+//!    generator with 64 clients, then 256 (four times the load).
+//!
+//! Usage: `cargo bench -p dmesh-client --bench throughput [-- SECONDS [MAX_CONCURRENCY [CLIENTS...]]]`
+//! (defaults 10 s per phase, 4 requests served at once, 64 then 256 clients).
+
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use dmesh::camera::Camera;
+use dmesh::mesh::{DepthMesh, Lod, Segmentation};
+use dmesh_client::http::Server;
+use dmesh_client::loadtest::{run, Detail, Report, Stop};
+use glam::DVec3;
+
+/// Cameras on a circle of eyes 20 degrees off the reference axis, looking at
+/// the surface point under the image centre.
+fn orbit(reference: &Camera, depth: &dmesh::image::DepthImage, count: usize) -> anyhow::Result<Vec<Camera>> {
+    let (w, h) = (reference.width, reference.height);
+    let z = f64::from(depth.z[(h / 2 * w + w / 2) as usize]);
+    let target = reference.to_world(reference.back_project(f64::from(w / 2), f64::from(h / 2), z));
+    let eye0 = reference.translation;
+    let axis = target - eye0;
+    let side = axis.cross(DVec3::Y).normalize() * axis.length() * 20f64.to_radians().tan();
+    let up = side.cross(axis).normalize() * side.length();
+    (0..count)
+        .map(|k| {
+            let t = std::f64::consts::TAU * k as f64 / count as f64;
+            let eye = eye0 + side * t.cos() + up * t.sin();
+            let rotation = dmesh::sim::rig::look_at(eye, target);
+            Ok(Camera::new(w, h, reference.projection, rotation, eye)?)
+        })
+        .collect()
+}
+
+fn engine_rate(h: &Arc<DepthMesh>, cams: &Arc<Vec<Camera>>, seconds: f64) -> (f64, f64) {
+    let stop = Arc::new(AtomicBool::new(false));
+    let done = Arc::new(AtomicU64::new(0));
+    let triangles = Arc::new(AtomicU64::new(0));
+    let threads: Vec<_> = (0..2)
+        .map(|t| {
+            let (h, cams, stop, done, triangles) =
+                (h.clone(), cams.clone(), stop.clone(), done.clone(), triangles.clone());
+            std::thread::spawn(move || {
+                let mut k = t;
+                while !stop.load(Ordering::Relaxed) {
+                    let view = &cams[k % cams.len()];
+                    if let Ok(m) = h.extract(Lod::Tau { tau: 1.0, view }) {
+                        triangles.fetch_add(m.triangles.len() as u64, Ordering::Relaxed);
+                    }
+                    done.fetch_add(1, Ordering::Relaxed);
+                    k += 2;
+                }
+            })
+        })
+        .collect();
+    let start = Instant::now();
+    std::thread::sleep(Duration::from_secs_f64(seconds));
+    stop.store(true, Ordering::Relaxed);
+    for t in threads {
+        let _ = t.join();
+    }
+    let n = done.load(Ordering::Relaxed) as f64;
+    (
+        n / start.elapsed().as_secs_f64(),
+        triangles.load(Ordering::Relaxed) as f64 / n.max(1.0),
+    )
+}
+
+fn row(name: &str, clients: usize, r: &Report) {
+    let served = r.requests - r.errors;
+    let shed = r.errors_by_status.get(&503).copied().unwrap_or(0);
+    println!(
+        "| {name} | {clients} | {:.0} | {:.2} | {:.2} | {:.2} | {:.2} | {served} | {shed} | {} |",
+        r.throughput_rps,
+        r.p50_ms,
+        r.p99_ms,
+        r.max_ms,
+        r.server_extract_p50_ms,
+        r.errors - shed
+    );
+}
+
+fn main() -> anyhow::Result<()> {
+    let args: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with("--")).collect();
+    let seconds: f64 = args.first().map_or(Ok(10.0), |s| s.parse())?;
+    let max_concurrency: usize = args.get(1).map_or(Ok(4), |s| s.parse())?;
+    let loads: Vec<usize> = if args.len() > 2 {
+        args[2..].iter().map(|s| s.parse()).collect::<Result<_, _>>()?
+    } else {
+        vec![64, 256]
+    };
+    let (depth, camera) = dmesh::synthetic::terrain_with_boxes(513, 513);
+    let hierarchy = Arc::new(DepthMesh::build(&depth, &camera, &Segmentation::default())?);
+    let cams = Arc::new(orbit(&camera, &depth, 32)?);
+
+    let (engine_rps, triangles) = engine_rate(&hierarchy, &cams, seconds);
+
+    let server_rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()?;
+    let dir = tempfile::tempdir()?;
+    let state = Arc::new(dmesh::http::AppState::new(
+        Arc::new(dmesh::store::FileStore::open(dir.path())?),
+        dmesh::http::Settings::default(),
+    ));
+    let listener = server_rt.block_on(tokio::net::TcpListener::bind("127.0.0.1:0"))?;
+    let base = format!("http://{}", listener.local_addr()?);
+    let pipeline = dmesh::http::Pipeline {
+        max_concurrency,
+        ..Default::default()
+    };
+    server_rt.spawn(dmesh::http::serve_on(listener, state, pipeline));
+
+    let client_rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()?;
+    let reports = client_rt.block_on(async {
+        let server = Server::new(&base, None);
+        let pfm = dmesh::image::encode_pfm(513, 513, &depth.z);
+        let mut png = Vec::new();
+        image::DynamicImage::ImageRgb8(image::RgbImage::from_pixel(513, 513, image::Rgb([128, 128, 128])))
+            .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)?;
+        let wire = dmesh_proto::Camera::from(&camera);
+        server
+            .put_view("bench", "v", &serde_json::to_string(&wire)?, &pfm, &png)
+            .await?;
+        let detail = Detail {
+            tau: Some(1.0),
+            max_views: Some(1),
+            ..Default::default()
+        };
+        // Warm-up, then the two loads.
+        run(&server, "bench", &cams, detail, 8, Stop::Requests(200)).await?;
+        let mut out = Vec::new();
+        for &clients in &loads {
+            let stop = Stop::Duration(Duration::from_secs_f64(seconds));
+            out.push((clients, run(&server, "bench", &cams, detail, clients, stop).await?));
+        }
+        anyhow::Ok(out)
+    })?;
+    eprintln!();
+    println!(
+        "2 cores ({} threads available), 513 x 513 view, tau = 1 px, {} orbit viewpoints, {seconds} s per phase, \
+         server sheds above {max_concurrency} requests in flight; mean {triangles:.0} triangles per mesh\n",
+        std::thread::available_parallelism().map_or(0, |n| n.get()),
+        cams.len()
+    );
+    println!("| phase | clients | served req/s | p50 ms | p99 ms | max ms | server extract p50 ms | served | shed (503) | other errors |");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
+    println!("| engine, 2 threads, no HTTP | - | {engine_rps:.0} | | | | | | | |");
+    for (clients, r) in &reports {
+        row("HTTP /render", *clients, r);
+    }
+    if let [(c0, first), (c1, second), ..] = reports.as_slice() {
+        println!(
+            "\nserved at {c0} clients / engine rate: {:.0} %; p99 at {c1} clients / p99 at {c0}: {:.2}x",
+            100.0 * first.throughput_rps / engine_rps,
+            second.p99_ms / first.p99_ms
+        );
+    }
+    Ok(())
+}
