@@ -7,7 +7,8 @@
 //!    phase's duration (two cores' worth of raw extraction, no HTTP);
 //! 2. server: `dmesh serve`'s stack in process (2 worker threads, shedding
 //!    above `--max-concurrency`), loaded over loopback HTTP by the load
-//!    generator with 64 clients, then 256 (four times the load).
+//!    generator with 64 clients, then 256 (four times the load), at tau = 1
+//!    and then with a 0.5 ms extraction budget.
 //!
 //! Usage: `cargo bench -p dmesh-client --bench throughput [-- SECONDS [MAX_CONCURRENCY [CLIENTS...]]]`
 //! (defaults 10 s per phase, 4 requests served at once, 64 then 256 clients).
@@ -94,6 +95,7 @@ fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with("--")).collect();
     let seconds: f64 = args.first().map_or(Ok(10.0), |s| s.parse())?;
     let max_concurrency: usize = args.get(1).map_or(Ok(4), |s| s.parse())?;
+    let queue_wait_us: u64 = std::env::var("QUEUE_WAIT_US").map_or(Ok(1000), |s| s.parse())?;
     let loads: Vec<usize> = if args.len() > 2 {
         args[2..].iter().map(|s| s.parse()).collect::<Result<_, _>>()?
     } else {
@@ -118,6 +120,7 @@ fn main() -> anyhow::Result<()> {
     let base = format!("http://{}", listener.local_addr()?);
     let pipeline = dmesh::http::Pipeline {
         max_concurrency,
+        queue_wait: Duration::from_micros(queue_wait_us),
         ..Default::default()
     };
     server_rt.spawn(dmesh::http::serve_on(listener, state, pipeline));
@@ -143,32 +146,41 @@ fn main() -> anyhow::Result<()> {
         };
         // Warm-up, then the two loads.
         run(&server, "bench", &cams, detail, 8, Stop::Requests(200)).await?;
+        let budget = Detail {
+            budget_ms: Some(0.5),
+            max_views: Some(1),
+            ..Default::default()
+        };
         let mut out = Vec::new();
-        for &clients in &loads {
-            let stop = Stop::Duration(Duration::from_secs_f64(seconds));
-            out.push((clients, run(&server, "bench", &cams, detail, clients, stop).await?));
+        for (name, detail) in [("tau = 1", detail), ("budget_ms = 0.5", budget)] {
+            for &clients in &loads {
+                let stop = Stop::Duration(Duration::from_secs_f64(seconds));
+                out.push((name, clients, run(&server, "bench", &cams, detail, clients, stop).await?));
+            }
         }
         anyhow::Ok(out)
     })?;
     eprintln!();
     println!(
         "2 cores ({} threads available), 513 x 513 view, tau = 1 px, {} orbit viewpoints, {seconds} s per phase, \
-         server sheds above {max_concurrency} requests in flight; mean {triangles:.0} triangles per mesh\n",
+         server sheds above {max_concurrency} requests in flight after a {queue_wait_us} us wait; mean {triangles:.0} triangles per mesh\n",
         std::thread::available_parallelism().map_or(0, |n| n.get()),
         cams.len()
     );
     println!("| phase | clients | served req/s | p50 ms | p99 ms | max ms | server extract p50 ms | served | shed (503) | other errors |");
     println!("|---|---|---|---|---|---|---|---|---|---|");
     println!("| engine, 2 threads, no HTTP | - | {engine_rps:.0} | | | | | | | |");
-    for (clients, r) in &reports {
-        row("HTTP /render", *clients, r);
+    for (name, clients, r) in &reports {
+        row(&format!("HTTP /render, {name}"), *clients, r);
     }
-    if let [(c0, first), (c1, second), ..] = reports.as_slice() {
-        println!(
-            "\nserved at {c0} clients / engine rate: {:.0} %; p99 at {c1} clients / p99 at {c0}: {:.2}x",
-            100.0 * first.throughput_rps / engine_rps,
-            second.p99_ms / first.p99_ms
-        );
+    for pair in reports.chunks(loads.len()) {
+        if let [(name, c0, first), (_, c1, second), ..] = pair {
+            println!(
+                "\n{name}: served at {c0} clients / engine rate: {:.0} %; p99 at {c1} clients / p99 at {c0}: {:.2}x",
+                100.0 * first.throughput_rps / engine_rps,
+                second.p99_ms / first.p99_ms
+            );
+        }
     }
     Ok(())
 }

@@ -1,6 +1,12 @@
 //! A bounded load generator for `/render`: novel cameras on an orbit around
 //! the scene, `concurrency` clients in flight, stopping by itself after a
 //! request count or a duration. Loopback only unless allowed otherwise.
+//!
+//! Each client sends its next request as soon as the previous one is
+//! answered, except after a 503: then it backs off as a well-behaved client
+//! does, 2 ms doubling up to 64 ms with jitter, reset by a success (the
+//! server's `Retry-After` is in whole seconds, too coarse to keep 64 clients
+//! busy). Latencies are of served requests; shed ones are counted by status.
 
 use std::net::{IpAddr, ToSocketAddrs};
 use std::sync::Arc;
@@ -167,10 +173,20 @@ pub async fn run(
     let started = Instant::now();
     let cameras: Arc<Vec<dmesh_proto::Camera>> = Arc::new(cameras.iter().map(dmesh_proto::Camera::from).collect());
     let mut workers = Vec::new();
-    for _ in 0..concurrency.max(1) {
+    for worker in 0..concurrency.max(1) {
         let (shared, cameras, server, scene) = (shared.clone(), cameras.clone(), server.clone(), scene.to_string());
         workers.push(tokio::spawn(async move {
+            let mut backoff_us = 0u64;
+            // Per-client jitter without a random number crate.
+            let mut jitter = 0x9e37_79b9_7f4a_7c15u64.wrapping_mul(1 + worker as u64);
             loop {
+                if backoff_us > 0 {
+                    jitter ^= jitter << 13;
+                    jitter ^= jitter >> 7;
+                    jitter ^= jitter << 17;
+                    let wait = backoff_us / 2 + jitter % (backoff_us / 2 + 1);
+                    tokio::time::sleep(Duration::from_micros(wait)).await;
+                }
                 let k = {
                     let mut s = shared.lock().await;
                     let done = match stop {
@@ -192,6 +208,10 @@ pub async fn run(
                 if s.report.requests % 100 == 0 {
                     eprint!("\r{} requests", s.report.requests);
                 }
+                backoff_us = match result {
+                    Err(503) => (backoff_us * 2).clamp(2_000, 64_000),
+                    _ => 0,
+                };
                 match result {
                     Ok((bytes, extract_ms)) => {
                         let _ = s.latency.record(micros);
