@@ -188,6 +188,12 @@ impl<S: Select> Walk<'_, S> {
     }
 }
 
+/// Per-thread buffers of [`DepthMesh::extract_with`].
+struct Scratch {
+    tris: Vec<[u32; 3]>,
+    slot: Vec<u32>,
+}
+
 /// Triangles whose hypotenuse spans fewer grid steps than this are not
 /// tested against the frustum (their parent straddled it).
 const CULL_MIN_SPAN: u32 = 8;
@@ -209,10 +215,11 @@ impl DepthMesh {
                     )));
                 }
                 let eps2 = (eps * eps) as f32;
-                self.walk(&Static {
+                let sel = Static {
                     eps2: if eps2.is_finite() { eps2 } else { f32::MAX },
                     all: eps == 0.0,
-                })
+                };
+                self.run(&sel, strips)
             }
             Lod::Tau { tau, view } => {
                 if !(tau.is_finite() && tau >= 0.0) {
@@ -220,21 +227,39 @@ impl DepthMesh {
                         "tau is {tau}; it must be a finite number of pixels >= 0"
                     )));
                 }
-                self.walk(&ViewDependent::new(&self.camera, view, tau))
+                self.run(&ViewDependent::new(&self.camera, view, tau), strips)
             }
         };
-        let (tris, dropped) = tris;
-        let mut mesh = self.assemble(&tris, strips);
-        mesh.dropped_triangles = dropped;
+        let mut mesh = tris;
         mesh.extract_ms = start.elapsed().as_secs_f64() * 1e3;
         Ok(mesh)
     }
 
-    fn walk<S: Select>(&self, sel: &S) -> (Vec<[u32; 3]>, usize) {
+    /// Walks and assembles with this thread's scratch buffers: the triangle
+    /// list of the walk and the grid-sized vertex map are kept between
+    /// extractions, so a request allocates only what it returns.
+    fn run<S: Select>(&self, sel: &S, strips: StripOrder) -> Mesh {
+        thread_local! {
+            static SCRATCH: std::cell::RefCell<Scratch> = const {
+                std::cell::RefCell::new(Scratch { tris: Vec::new(), slot: Vec::new() })
+            };
+        }
+        SCRATCH.with(|cell| {
+            let mut scratch = cell.borrow_mut();
+            let Scratch { tris, slot } = &mut *scratch;
+            tris.clear();
+            let dropped = self.walk(sel, tris);
+            let mut mesh = self.assemble(tris, strips, slot);
+            mesh.dropped_triangles = dropped;
+            mesh
+        })
+    }
+
+    fn walk<S: Select>(&self, sel: &S, tris: &mut Vec<[u32; 3]>) -> usize {
         let mut walk = Walk {
             mesh: self,
             sel,
-            tris: Vec::new(),
+            tris: std::mem::take(tris),
             dropped: 0,
         };
         let g = self.grid;
@@ -254,29 +279,24 @@ impl DepthMesh {
                 }
             }
         }
-        (walk.tris, walk.dropped)
+        *tris = walk.tris;
+        walk.dropped
     }
 
     /// Numbers the used vertices coarse to fine and rewrites the indices.
-    fn assemble(&self, tris: &[[u32; 3]], order_kind: StripOrder) -> Mesh {
-        // The grid-sized vertex map is kept per thread between extractions
-        // and only its touched entries are reset, so a small mesh from a big
-        // hierarchy does not pay for clearing the whole grid.
-        thread_local! {
-            static SLOT: std::cell::RefCell<Vec<u32>> = const { std::cell::RefCell::new(Vec::new()) };
+    /// `slot` is the grid-sized vertex map kept between extractions; only its
+    /// touched entries are reset, so a small mesh from a big hierarchy does
+    /// not pay for clearing the whole grid.
+    fn assemble(&self, tris: &[[u32; 3]], order_kind: StripOrder, slot: &mut Vec<u32>) -> Mesh {
+        if slot.len() < self.grid.len() {
+            slot.clear();
+            slot.resize(self.grid.len(), u32::MAX);
         }
-        SLOT.with(|cell| {
-            let mut slot = cell.borrow_mut();
-            if slot.len() < self.grid.len() {
-                slot.clear();
-                slot.resize(self.grid.len(), u32::MAX);
-            }
-            let mesh = self.assemble_with(tris, order_kind, &mut slot);
-            for v in &mesh.vertices {
-                slot[self.grid.index((u32::from(v.i), u32::from(v.j)))] = u32::MAX;
-            }
-            mesh
-        })
+        let mesh = self.assemble_with(tris, order_kind, slot);
+        for v in &mesh.vertices {
+            slot[self.grid.index((u32::from(v.i), u32::from(v.j)))] = u32::MAX;
+        }
+        mesh
     }
 
     fn assemble_with(&self, tris: &[[u32; 3]], order_kind: StripOrder, slot: &mut [u32]) -> Mesh {
@@ -317,16 +337,18 @@ impl DepthMesh {
                 }
             })
             .collect();
-        let triangles: Vec<[u32; 3]> = tris
-            .iter()
-            .filter(|t| **t != BREAK)
-            .map(|t| t.map(|i| slot[i as usize]))
-            .collect();
+        let mut triangles: Vec<[u32; 3]> = Vec::with_capacity(tris.len());
+        triangles.extend(
+            tris.iter()
+                .filter(|t| **t != BREAK)
+                .map(|t| t.map(|i| slot[i as usize])),
+        );
         let strips = if order_kind == StripOrder::Traversal {
-            stripify(tris)
-                .into_iter()
-                .map(|i| if i == super::RESTART { i } else { slot[i as usize] })
-                .collect()
+            let mut s = stripify(tris);
+            for i in s.iter_mut().filter(|i| **i != super::RESTART) {
+                *i = slot[*i as usize];
+            }
+            s
         } else {
             stripify_greedy(&triangles, order.len())
         };
