@@ -155,7 +155,11 @@ fn main() -> anyhow::Result<()> {
         for (name, detail) in [("tau = 1", detail), ("budget_ms = 0.5", budget)] {
             for &clients in &loads {
                 let stop = Stop::Duration(Duration::from_secs_f64(seconds));
-                out.push((name, clients, run(&server, "bench", &cams, detail, clients, stop).await?));
+                out.push((
+                    name,
+                    clients,
+                    run(&server, "bench", &cams, detail, clients, stop).await?,
+                ));
             }
         }
         anyhow::Ok(out)

@@ -84,6 +84,8 @@ pub struct Row {
     pub setting: f64,
     /// Triangles over the selected views.
     pub triangles: f64,
+    /// Vertices over the selected views.
+    pub vertices: f64,
     /// Bincode bytes of the strip responses.
     pub bytes: f64,
     /// Hierarchy build time per reference view.
@@ -152,6 +154,7 @@ pub fn sweep(case: &Case, options: &Options) -> anyhow::Result<Vec<Row>> {
                 sweep,
                 setting,
                 triangles: 0.0,
+                vertices: 0.0,
                 bytes: 0.0,
                 build_ms,
                 extract_ms: 0.0,
@@ -203,6 +206,7 @@ pub fn sweep(case: &Case, options: &Options) -> anyhow::Result<Vec<Row>> {
                     let bytes = dmesh_proto::to_bincode(&wire)?;
                     acc.bytes += bytes.len() as f64;
                     acc.triangles += f64::from(wire.triangles);
+                    acc.vertices += wire.vertices.len() as f64;
                     let back: dmesh_proto::StripResponse = dmesh_proto::from_bincode(&bytes)?;
                     if let dmesh_proto::Depths::Residual(res) = &back.depths {
                         acc.depth_error = acc.depth_error.max(f64::from(res.max_error));
@@ -234,6 +238,7 @@ pub fn sweep(case: &Case, options: &Options) -> anyhow::Result<Vec<Row>> {
             let n = case.novels.len().max(1) as f64;
             for v in [
                 &mut acc.triangles,
+                &mut acc.vertices,
                 &mut acc.bytes,
                 &mut acc.extract_ms,
                 &mut acc.blend_ms,
@@ -284,9 +289,9 @@ pub fn markdown(rows: &[Row]) -> String {
     );
     let _ = writeln!(
         out,
-        "| scene | bits | bytes | ratio to exact f32 | max depth error (m) | PSNR dB |"
+        "| scene | bits | bytes | bytes per vertex | ratio to exact f32 | max depth error (m) | PSNR dB |"
     );
-    let _ = writeln!(out, "|---|---|---|---|---|---|");
+    let _ = writeln!(out, "|---|---|---|---|---|---|---|");
     for scene in &scenes {
         let exact = rows
             .iter()
@@ -295,9 +300,10 @@ pub fn markdown(rows: &[Row]) -> String {
         for r in rows.iter().filter(|r| r.scene == *scene && r.sweep == Sweep::Bits) {
             let _ = writeln!(
                 out,
-                "| {scene} | {} | {:.0} | {:.2} | {:.2e} | {:.2} |",
+                "| {scene} | {} | {:.0} | {:.2} | {:.2} | {:.2e} | {:.2} |",
                 r.setting,
                 r.bytes,
+                r.bytes / r.vertices.max(1.0),
                 r.bytes / exact,
                 r.depth_error,
                 r.psnr
