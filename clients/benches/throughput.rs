@@ -11,7 +11,8 @@
 //!    and then with a 0.5 ms extraction budget.
 //!
 //! Usage: `cargo bench -p dmesh-client --bench throughput [-- SECONDS [MAX_CONCURRENCY [CLIENTS...]]]`
-//! (defaults 10 s per phase, 4 requests served at once, 64 then 256 clients).
+//! (defaults 10 s per phase, 2 requests served at once after a wait of at most
+//! `QUEUE_WAIT_US` = 1000 us, 64 then 256 clients).
 
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Arc;
@@ -94,7 +95,7 @@ fn row(name: &str, clients: usize, r: &Report) {
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with("--")).collect();
     let seconds: f64 = args.first().map_or(Ok(10.0), |s| s.parse())?;
-    let max_concurrency: usize = args.get(1).map_or(Ok(4), |s| s.parse())?;
+    let max_concurrency: usize = args.get(1).map_or(Ok(2), |s| s.parse())?;
     let queue_wait_us: u64 = std::env::var("QUEUE_WAIT_US").map_or(Ok(1000), |s| s.parse())?;
     let loads: Vec<usize> = if args.len() > 2 {
         args[2..].iter().map(|s| s.parse()).collect::<Result<_, _>>()?
