@@ -671,3 +671,58 @@ async fn residual_bits_and_triangle_budgets() {
         );
     }
 }
+
+#[tokio::test]
+async fn render_loads_only_the_selected_views_and_sees_store_changes() {
+    let dir = tempfile::tempdir().unwrap();
+    {
+        let router = start(state(dir.path(), Settings::default()), Pipeline::default()).await;
+        let pfm = encode_pfm(W, H, &depth());
+        for (k, yaw) in [0.0, 1.2, 2.4].iter().enumerate() {
+            let body = upload_body(&pfm, &[], &camera_json(*yaw, 0.0));
+            let (status, _, _) = send(&router, put(&format!("/v1/scenes/s/views/v{k}"), body)).await;
+            assert_eq!(status, StatusCode::CREATED);
+        }
+    }
+    // A fresh server over the same store: nothing is loaded yet.
+    let router = start(state(dir.path(), Settings::default()), Pipeline::default()).await;
+    let render = |max_views: u32| {
+        let body = format!(
+            r#"{{"camera": {}, "tau": 1, "max_views": {max_views}}}"#,
+            camera_json(0.1, 0.0)
+        );
+        Request::post("/v1/scenes/s/render")
+            .header(header::CONTENT_TYPE, "application/json")
+            .body(Body::from(body))
+            .unwrap()
+    };
+    let loaded = |metrics: &[u8]| {
+        String::from_utf8_lossy(metrics)
+            .lines()
+            .find_map(|l| {
+                l.strip_prefix("dmesh_views_loaded ")
+                    .map(|n| n.trim().parse::<u32>().unwrap())
+            })
+            .unwrap()
+    };
+    let (status, _, body) = send(&router, render(1)).await;
+    assert_eq!(status, StatusCode::OK, "{}", String::from_utf8_lossy(&body));
+    let r: dmesh_proto::RenderResponse = serde_json::from_slice(&body).unwrap();
+    assert_eq!(r.views.len(), 1);
+    assert!(r.views[0].color_url.contains("/v0/"), "{}", r.views[0].color_url);
+    let metrics = send(&router, Request::get("/metrics").body(Body::empty()).unwrap())
+        .await
+        .2;
+    assert_eq!(loaded(&metrics), 1, "only the selected view is built");
+    // Deleting the selected view changes the next selection at once.
+    let (status, _, _) = send(
+        &router,
+        Request::delete("/v1/scenes/s/views/v0").body(Body::empty()).unwrap(),
+    )
+    .await;
+    assert_eq!(status, StatusCode::NO_CONTENT);
+    let (status, _, body) = send(&router, render(1)).await;
+    assert_eq!(status, StatusCode::OK);
+    let r: dmesh_proto::RenderResponse = serde_json::from_slice(&body).unwrap();
+    assert!(!r.views[0].color_url.contains("/v0/"), "{}", r.views[0].color_url);
+}

@@ -104,7 +104,16 @@ pub struct AppState {
     /// Prometheus metrics.
     pub metrics: Metrics,
     cache: Mutex<Cache>,
+    /// Per scene, its views' names and cameras, read from the store's
+    /// metadata alone (view selection needs no hierarchy).
+    cameras: Mutex<HashMap<String, SceneCameras>>,
+    /// Bumped by every store change, so a listing read before a change is
+    /// not cached after it.
+    changes: std::sync::atomic::AtomicU64,
 }
+
+/// The views of a scene and their cameras, in view-id order.
+pub type SceneCameras = Arc<Vec<(String, Camera)>>;
 
 impl AppState {
     /// State over `store`.
@@ -114,7 +123,43 @@ impl AppState {
             settings,
             metrics: Metrics::default(),
             cache: Mutex::new(Cache::default()),
+            cameras: Mutex::new(HashMap::new()),
+            changes: std::sync::atomic::AtomicU64::new(0),
         }
+    }
+
+    /// The views of `scene` with their cameras (blocking: call off the async
+    /// workers). Cached until the scene changes.
+    pub fn scene_cameras(&self, scene: &str) -> Result<SceneCameras, AppError> {
+        use std::sync::atomic::Ordering;
+        let lock = || self.cameras.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some(hit) = lock().get(scene) {
+            return Ok(hit.clone());
+        }
+        let before = self.changes.load(Ordering::SeqCst);
+        let names = self
+            .store
+            .views(scene)?
+            .ok_or_else(|| AppError::NotFound(format!("no scene {scene:?}")))?;
+        let mut list = Vec::with_capacity(names.len());
+        for name in names {
+            // A view deleted since the listing is simply left out.
+            if let Some(c) = self.store.camera(scene, &name)? {
+                list.push((name, Camera::try_from(&c)?));
+            }
+        }
+        let list = Arc::new(list);
+        let mut map = lock();
+        if self.changes.load(Ordering::SeqCst) == before {
+            map.insert(scene.to_string(), list.clone());
+        }
+        Ok(list)
+    }
+
+    /// Forgets what is cached about `scene`'s list of views (after a put or a delete).
+    pub fn scene_changed(&self, scene: &str) {
+        self.changes.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+        self.cameras.lock().unwrap_or_else(|p| p.into_inner()).remove(scene);
     }
 
     fn cache(&self) -> std::sync::MutexGuard<'_, Cache> {
@@ -142,8 +187,9 @@ impl AppState {
         self.metrics.set_views_loaded(c.entries.len());
     }
 
-    /// Drops a view (or, with `view = None`, a whole scene) from the cache.
+    /// Drops a view (or, with `view = None`, a whole scene) from the caches.
     pub fn forget(&self, scene: &str, view: Option<&str>) {
+        self.scene_changed(scene);
         let mut c = self.cache();
         let keys: Vec<_> = c
             .entries

@@ -291,22 +291,20 @@ pub async fn render(
     let max_views = req.max_views.map_or(5, |m| m as usize);
     let st = state.clone();
     let response = tokio::task::spawn_blocking(move || -> Result<RenderResponse, AppError> {
-        let names = st
-            .store
-            .views(&scene)?
-            .ok_or_else(|| AppError::NotFound(format!("no scene {scene:?}")))?;
-        let loaded: Vec<Arc<Loaded>> = names.iter().map(|v| st.load(&scene, v)).collect::<Result<_, _>>()?;
-        let cameras: Vec<Camera> = loaded.iter().map(|l| l.camera).collect();
+        // Select from the cameras alone; only the selected views are loaded.
+        let candidates = st.scene_cameras(&scene)?;
+        let cameras: Vec<Camera> = candidates.iter().map(|(_, c)| *c).collect();
         let selected = select_views(&novel, &cameras, rule, max_views)?;
         let select_ms = start.elapsed().as_secs_f64() * 1e3;
         let t = Instant::now();
         let views = selected
             .iter()
             .map(|w| {
-                let name = &names[w.index];
+                let name = &candidates[w.index].0;
+                let loaded = st.load(&scene, name)?;
                 Ok(RenderedView {
                     weight: w.weight,
-                    strips: extract(&st, &scene, name, &loaded[w.index], &ask.share(w.weight))?,
+                    strips: extract(&st, &scene, name, &loaded, &ask.share(w.weight))?,
                     color_url: color_url(&scene, name),
                 })
             })

@@ -161,6 +161,7 @@ pub async fn put_view(
     })
     .await??;
     state.remember(&scene, &view, loaded.clone());
+    state.scene_changed(&scene);
     let mut response = encode(&headers, &summary(&scene, &view, &loaded))?;
     *response.status_mut() = StatusCode::CREATED;
     Ok(response)

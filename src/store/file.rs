@@ -11,7 +11,7 @@
 //! little-endian `f32`; a `u64` length and the colour image bytes.
 
 use std::fs::{self, File};
-use std::io::Write;
+use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -21,6 +21,8 @@ use super::{validate_id, SegmentationSpec, StoreError, StoredView, ViewStore};
 
 const MAGIC: &[u8; 4] = b"DMV1";
 const SUFFIX: &str = ".dmv";
+/// Metadata (camera, segmentation) is a few hundred bytes of JSON.
+const MAX_META_BYTES: u64 = 1 << 20;
 
 /// Views as files under a data directory.
 #[derive(Debug)]
@@ -195,6 +197,31 @@ impl ViewStore for FileStore {
         }
     }
 
+    fn camera(&self, scene: &str, view: &str) -> Result<Option<dmesh_proto::Camera>, StoreError> {
+        let path = self.view_path(scene, view)?;
+        let name = format!("{scene}/{view}");
+        let damaged = |why: &str| StoreError::Damaged(name.clone(), why.to_string());
+        let mut file = match File::open(&path) {
+            Ok(f) => f,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+            Err(e) => return Err(e.into()),
+        };
+        // Magic and metadata length, then the metadata alone.
+        let mut head = [0u8; 12];
+        file.read_exact(&mut head).map_err(|_| damaged("truncated"))?;
+        if &head[..4] != MAGIC {
+            return Err(damaged("bad magic"));
+        }
+        let n = u64::from_le_bytes(head[4..].try_into().map_err(|_| damaged("truncated"))?);
+        if n > MAX_META_BYTES {
+            return Err(damaged("metadata too long"));
+        }
+        let mut meta = vec![0u8; n as usize];
+        file.read_exact(&mut meta).map_err(|_| damaged("truncated"))?;
+        let meta: Meta = serde_json::from_slice(&meta).map_err(|e| damaged(&e.to_string()))?;
+        Ok(Some(meta.camera))
+    }
+
     fn scenes(&self) -> Result<Vec<String>, StoreError> {
         Self::list(&self.root.join("scenes"), true)
     }
@@ -277,6 +304,8 @@ mod tests {
         store.put("s", "b", &view(2.0)).unwrap();
         store.put("s", "a", &view(3.0)).unwrap();
         assert_eq!(store.get("s", "a").unwrap().unwrap(), view(3.0));
+        assert_eq!(store.camera("s", "a").unwrap(), Some(view(3.0).camera));
+        assert_eq!(store.camera("s", "nope").unwrap(), None);
         assert_eq!(store.views("s").unwrap().unwrap(), vec!["a", "b"]);
         assert!(store.views("t").unwrap().is_none());
         assert!(store.bytes_stored().unwrap() > 0);
@@ -311,5 +340,16 @@ mod tests {
             fs::write(&path, &bytes[..cut]).unwrap();
             assert!(matches!(store.get("s", "a"), Err(StoreError::Damaged(..))), "cut {cut}");
         }
+        for cut in [0, 3, 10, 20] {
+            fs::write(&path, &bytes[..cut]).unwrap();
+            assert!(
+                matches!(store.camera("s", "a"), Err(StoreError::Damaged(..))),
+                "cut {cut}"
+            );
+        }
+        let mut huge = bytes.clone();
+        huge[4..12].copy_from_slice(&u64::MAX.to_le_bytes());
+        fs::write(&path, &huge).unwrap();
+        assert!(matches!(store.camera("s", "a"), Err(StoreError::Damaged(..))));
     }
 }

@@ -112,6 +112,8 @@ pub trait ViewStore: Send + Sync {
     fn put(&self, scene: &str, view: &str, v: &StoredView) -> Result<(), StoreError>;
     /// Reads a view, `None` when absent.
     fn get(&self, scene: &str, view: &str) -> Result<Option<StoredView>, StoreError>;
+    /// Reads only a view's camera (no depth, no colour), `None` when absent.
+    fn camera(&self, scene: &str, view: &str) -> Result<Option<dmesh_proto::Camera>, StoreError>;
     /// Scene ids, sorted.
     fn scenes(&self) -> Result<Vec<String>, StoreError>;
     /// View ids of a scene, sorted; `None` when the scene does not exist.
