@@ -68,7 +68,7 @@ pub struct RawGrid {
 }
 
 /// Why residual depths do not decode.
-#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum ResidualError {
     /// `bits` above [`MAX_BITS`].
     #[error("bits is {0}; it must be 0..=16")]
@@ -79,6 +79,9 @@ pub enum ResidualError {
     /// Fewer anchors or residual bits than the vertices need.
     #[error("residual depths are truncated: {0}")]
     Truncated(&'static str),
+    /// The codes decode to a depth that is not finite and positive.
+    #[error("residual depths decode to {0}, not a finite positive depth")]
+    Invalid(f32),
     /// Depths and vertices differ in number.
     #[error("{depths} depths for {vertices} vertices")]
     Count {
@@ -210,6 +213,11 @@ impl ResidualDepths {
             out.max_error = out.max_error.max((decoded[k] - z).abs());
         }
         out.residuals = writer.finish();
+        // A coarsened raw grid can round past the depth range; with a
+        // negative scale that could reach zero. The range grid cannot.
+        if raw.is_some() && decoded.iter().any(|z| !(z.is_finite() && *z > 0.0)) {
+            return Self::encode(ij, depths, bits, root_side, None);
+        }
         Ok(out)
     }
 
@@ -285,6 +293,9 @@ impl ResidualDepths {
                     codes[k] = n;
                     out[k] = self.depth_of(n);
                 }
+            }
+            if !(out[k].is_finite() && out[k] > 0.0) {
+                return Err(ResidualError::Invalid(out[k]));
             }
         }
         Ok(out)
@@ -476,6 +487,77 @@ mod tests {
         r.residuals.clear();
         r.anchors.clear();
         assert!(r.decode(&ij).is_err());
+    }
+
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
+
+        #[test]
+        fn any_subset_and_depths_decode_positive_and_within_the_stated_error(
+            keep in proptest::collection::vec(any::<bool>(), 289),
+            logs in proptest::collection::vec(-3.0f64..4.0, 289),
+            bits in 0u8..=16,
+        ) {
+            let ij: Vec<(u16, u16)> = grid_vertices()
+                .into_iter()
+                .zip(&keep)
+                .filter(|(_, k)| **k)
+                .map(|(v, _)| v)
+                .collect();
+            let z: Vec<f32> = logs.iter().take(ij.len()).map(|l| 10f64.powf(*l) as f32).collect();
+            let r = ResidualDepths::encode(&ij, &z, bits, 16, None).unwrap();
+            let back = r.decode(&ij).unwrap();
+            let zmax = z.iter().copied().fold(0f32, f32::max);
+            for (a, b) in back.iter().zip(&z) {
+                prop_assert!(a.is_finite() && *a > 0.0, "{a}");
+                prop_assert!((a - b).abs() <= r.max_error, "{a} vs {b}");
+            }
+            if bits > 0 {
+                let bound = r.step() / 2.0 + 1e-6 * f64::from(zmax);
+                prop_assert!(f64::from(r.max_error) <= bound, "{} > {bound}", r.max_error);
+            }
+        }
+
+        #[test]
+        fn raw_grids_of_either_sign_stay_positive(
+            raws in proptest::collection::vec(0u16..=u16::MAX, 289),
+            negative in any::<bool>(),
+            bits in 1u8..=16,
+        ) {
+            let ij = grid_vertices();
+            let grid = if negative {
+                RawGrid { scale: -0.001, offset: 65.6 }
+            } else {
+                RawGrid { scale: 0.001, offset: 0.0 }
+            };
+            let z: Vec<f32> = raws
+                .iter()
+                .map(|&r| ((f64::from(r) * grid.scale + grid.offset) as f32).max(1e-3))
+                .collect();
+            let r = ResidualDepths::encode(&ij, &z, bits, 16, Some(grid)).unwrap();
+            let back = r.decode(&ij).unwrap();
+            for (a, b) in back.iter().zip(&z) {
+                prop_assert!(a.is_finite() && *a > 0.0, "{a}");
+                prop_assert!((a - b).abs() <= r.max_error, "{a} vs {b}");
+            }
+            if bits == 16 && z.iter().all(|&v| v > 1e-3) {
+                prop_assert_eq!(back, z);
+            }
+        }
+    }
+
+    #[test]
+    fn corrupt_headers_are_errors_not_infinities() {
+        let ij = grid_vertices();
+        let z = surface(&ij);
+        let mut r = ResidualDepths::encode(&ij, &z, 8, 16, None).unwrap();
+        r.scale = f64::MAX;
+        assert!(matches!(r.decode(&ij), Err(ResidualError::Invalid(_))));
+        r.scale = 0.0;
+        r.offset = -1.0;
+        assert!(matches!(r.decode(&ij), Err(ResidualError::Invalid(_))));
     }
 
     #[test]
