@@ -225,7 +225,8 @@ impl DepthMesh {
                             return None;
                         }
                         let t = st.threshold(&fr.fine, u64::from(fr.coarse), max_triangles)?;
-                        Some(eps_from(t) * f / d)
+                        // Finite even for a huge focal length over a tiny distance.
+                        Some((eps_from(t) * f / d).min(f64::MAX))
                     })
                     .fold(f64::INFINITY, f64::min);
                 if finest.is_finite() {
@@ -236,7 +237,7 @@ impl DepthMesh {
             }
             (None, Projection::Orthographic { sx, sy, .. }) => {
                 let t = st.threshold(&st.all, 0, max_triangles).ok_or_else(coarsest)?;
-                Ok(Budgeted::Tau(eps_from(t) / sx.min(sy)))
+                Ok(Budgeted::Tau((eps_from(t) / sx.min(sy)).min(f64::MAX)))
             }
             (None, Projection::Perspective { .. }) => fallback(),
         }
