@@ -57,6 +57,9 @@ pub struct Metrics {
     views_loaded: AtomicU64,
     /// Moving average of extraction milliseconds per triangle (f64 bits; 0 until measured).
     ms_per_triangle: AtomicU64,
+    /// Moving average of the fraction of a time budget's triangle allowance
+    /// that meshes used (f64 bits; 0 until measured).
+    budget_fill: AtomicU64,
 }
 
 /// Assumed extraction cost before the first measurement: 100 ns per triangle,
@@ -79,6 +82,29 @@ impl Metrics {
         match f64::from_bits(self.ms_per_triangle.load(Ordering::Relaxed)) {
             v if v > 0.0 && v.is_finite() => v,
             _ => DEFAULT_MS_PER_TRIANGLE,
+        }
+    }
+
+    /// The fraction of their triangle allowance that time-budgeted meshes
+    /// have used lately, in `[0.05, 1]` (0.5 before any).
+    pub fn budget_fill(&self) -> f64 {
+        match f64::from_bits(self.budget_fill.load(Ordering::Relaxed)) {
+            v if v > 0.0 && v.is_finite() => v.clamp(0.05, 1.0),
+            _ => 0.5,
+        }
+    }
+
+    /// Records the fraction of its allowance one time-budgeted mesh used.
+    pub fn budget_filled(&self, fraction: f64) {
+        if fraction.is_finite() && fraction > 0.0 {
+            let old = f64::from_bits(self.budget_fill.load(Ordering::Relaxed));
+            let new = if old > 0.0 {
+                0.9 * old + 0.1 * fraction
+            } else {
+                fraction
+            };
+            self.budget_fill
+                .store(new.clamp(0.05, 1.0).to_bits(), Ordering::Relaxed);
         }
     }
 

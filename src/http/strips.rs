@@ -157,18 +157,29 @@ pub(crate) fn extract(
         })
     }
     let h = &loaded.hierarchy;
+    let mut time_budget = None;
     let lod = match &ask.tol {
         Tolerance::Epsilon(e) => Lod::Epsilon(*e),
         Tolerance::Tau(t, c) => Lod::Tau { tau: *t, view: c },
         Tolerance::Triangles(m, c) => budget(loaded, *m, c.as_ref())?,
-        Tolerance::Millis(ms, c) => budget(
-            loaded,
-            (ms / state.metrics.ms_per_triangle()).floor() as u64,
-            c.as_ref(),
-        )?,
+        Tolerance::Millis(ms, c) => {
+            // The triangle bound is conservative; a time budget needs no
+            // proof, so it allows as many more as meshes have recently
+            // fallen short of their allowance, and never less than the
+            // coarsest mesh.
+            let target = ms / state.metrics.ms_per_triangle();
+            let allowed = ((target / state.metrics.budget_fill()) as u64).max(h.coarsest_triangles());
+            time_budget = Some(allowed);
+            budget(loaded, allowed, c.as_ref())?
+        }
     };
     let mesh = h.extract(lod)?;
     state.metrics.extraction(mesh.extract_ms, mesh.triangles.len());
+    if let Some(allowed) = time_budget {
+        state
+            .metrics
+            .budget_filled(mesh.triangles.len() as f64 / allowed as f64);
+    }
     let coding = DepthCoding {
         bits: ask.bits,
         root_side: h.grid().side(),
