@@ -4,7 +4,7 @@
 //!
 //! Each client sends its next request as soon as the previous one is
 //! answered, except after a 503: then it backs off as a well-behaved client
-//! does, 2 ms doubling up to 64 ms with jitter, reset by a success (the
+//! does, 5 ms doubling up to 160 ms with jitter, reset by a success (the
 //! server's `Retry-After` is in whole seconds, too coarse to keep 64 clients
 //! busy). Latencies are of served requests; shed ones are counted by status.
 
@@ -209,7 +209,7 @@ pub async fn run(
                     eprint!("\r{} requests", s.report.requests);
                 }
                 backoff_us = match result {
-                    Err(503) => (backoff_us * 2).clamp(2_000, 64_000),
+                    Err(503) => (backoff_us * 2).clamp(5_000, 160_000),
                     _ => 0,
                 };
                 match result {
