@@ -7,8 +7,9 @@
 //!    phase's duration (two cores' worth of raw extraction, no HTTP);
 //! 2. server: `dmesh serve`'s stack in process (2 worker threads, shedding
 //!    above `--max-concurrency`), loaded over loopback HTTP by the load
-//!    generator with 64 clients, then 256 (four times the load), at tau = 1
-//!    and then with a 0.5 ms extraction budget.
+//!    generator (one thread, as `dmesh-client loadtest`) with 64 clients, then
+//!    256 (four times the load), at tau = 1 and then with a 0.5 ms extraction
+//!    budget.
 //!
 //! Usage: `cargo bench -p dmesh-client --bench throughput [-- SECONDS [MAX_CONCURRENCY [CLIENTS...]]]`
 //! (defaults 10 s per phase, 2 requests served at once after a wait of at most
@@ -126,10 +127,8 @@ fn main() -> anyhow::Result<()> {
     };
     server_rt.spawn(dmesh::http::serve_on(listener, state, pipeline));
 
-    let client_rt = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(2)
-        .enable_all()
-        .build()?;
+    // The load generator on one thread, as `dmesh-client loadtest` runs.
+    let client_rt = tokio::runtime::Builder::new_current_thread().enable_all().build()?;
     let reports = client_rt.block_on(async {
         let server = Server::new(&base, None);
         let pfm = dmesh::image::encode_pfm(513, 513, &depth.z);

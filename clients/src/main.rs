@@ -297,7 +297,9 @@ fn coverage_png(b: &dmesh_client::blend::Blended) -> Result<Vec<u8>> {
 }
 
 fn run(cli: Cli) -> Result<()> {
-    let rt = tokio::runtime::Runtime::new()?;
+    // One thread: the client waits on the network, and a load test on the
+    // server's machine should take as little of it as it can.
+    let rt = tokio::runtime::Builder::new_current_thread().enable_all().build()?;
     match cli.command {
         Command::Ingest {
             server,
