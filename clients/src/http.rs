@@ -160,30 +160,10 @@ impl Server {
         Ok(out)
     }
 
-    /// Like [`Server::render`], for the load test: the response's size, or the
-    /// failing status (0 for a transport error).
-    pub async fn render_raw(
-        &self,
-        scene: &str,
-        request: &dmesh_proto::RenderRequest,
-    ) -> Result<(u64, dmesh_proto::RenderResponse), u16> {
-        let headers = [
-            (header::CONTENT_TYPE, "application/json".to_string()),
-            (header::ACCEPT, dmesh_proto::BINCODE_MEDIA_TYPE.to_string()),
-        ];
-        let body = serde_json::to_vec(request).map_err(|_| 0u16)?;
-        match self
-            .call(Method::POST, &format!("/v1/scenes/{scene}/render"), &headers, body)
-            .await
-        {
-            Ok((_, _, bytes)) => Ok((bytes.len() as u64, dmesh_proto::from_bincode(&bytes).map_err(|_| 0u16)?)),
-            Err(e) => Err(e.downcast_ref::<CallError>().map_or(0, |c| c.status.as_u16())),
-        }
-    }
-
     /// Sends a render request without decoding the answer: its size and the
     /// server's extraction milliseconds from `Server-Timing` (what a load
-    /// generator needs, without spending the machine's CPU on decoding).
+    /// generator needs, without spending the machine's CPU on decoding), or
+    /// the failing status (0 for a transport error).
     pub async fn render_timed(&self, scene: &str, request: &dmesh_proto::RenderRequest) -> Result<(u64, f64), u16> {
         let headers = [
             (header::CONTENT_TYPE, "application/json".to_string()),
