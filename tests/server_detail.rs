@@ -1,0 +1,162 @@
+//! Residual bit-depth and budgets end to end, and view selection from the
+//! store's metadata, through the real server (see `server_support`).
+
+mod common;
+mod server_support;
+
+use axum::body::Body;
+use axum::http::{header, Request, StatusCode};
+use dmesh::http::{Pipeline, Settings};
+use dmesh::image::encode_pfm;
+use dmesh_proto::StripResponse;
+use server_support::*;
+
+fn get_strips(uri: &str) -> Request<Body> {
+    Request::get(uri)
+        .header(header::ACCEPT, dmesh_proto::BINCODE_MEDIA_TYPE)
+        .body(Body::empty())
+        .unwrap()
+}
+
+#[tokio::test]
+async fn residual_bits_and_triangle_budgets() {
+    let dir = tempfile::tempdir().unwrap();
+    let router = start(state(dir.path(), Settings::default()), Pipeline::default()).await;
+    // 16-bit depth over most of the range, smooth with one step.
+    let img = image::ImageBuffer::<image::Luma<u16>, _>::from_fn(W, H, |x, y| {
+        let smooth = 9000.0 + 4000.0 * (x as f64 * 0.3).sin() + 57.0 * f64::from(y);
+        image::Luma([smooth as u16 + if x > 30 { 40_000 } else { 0 }])
+    });
+    let mut png = Vec::new();
+    image::DynamicImage::ImageLuma16(img)
+        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+        .unwrap();
+    let body = upload_body(&png, &[("scale", b"0.0001")], &camera_json(0.0, 0.0));
+    let (status, _, body) = send(&router, put("/v1/scenes/r/views/v", body)).await;
+    assert_eq!(status, StatusCode::CREATED, "{}", String::from_utf8_lossy(&body));
+
+    let fetch = |uri: String| {
+        let router = &router;
+        async move {
+            let (status, headers, body) = send(router, get_strips(&uri)).await;
+            assert_eq!(status, StatusCode::OK, "{uri}: {}", String::from_utf8_lossy(&body));
+            (
+                headers,
+                dmesh_proto::from_bincode::<StripResponse>(&body).unwrap(),
+                body.len(),
+            )
+        }
+    };
+    let (_, exact, exact_bytes) = fetch("/v1/scenes/r/views/v/strips?epsilon=0".into()).await;
+    check_strips(&exact);
+    let truth = exact.decode_depths().unwrap();
+    let (_, lossless, _) = fetch("/v1/scenes/r/views/v/strips?epsilon=0&bits=16".into()).await;
+    assert_eq!(
+        lossless.decode_depths().unwrap(),
+        truth,
+        "bits = 16 must be lossless for 16-bit input"
+    );
+    let mut last_bytes = usize::MAX;
+    for bits in (0..=16).rev() {
+        let (headers, r, bytes) = fetch(format!("/v1/scenes/r/views/v/strips?epsilon=0&bits={bits}")).await;
+        let dmesh_proto::Depths::Residual(res) = &r.depths else {
+            panic!("bits {bits}: exact depths")
+        };
+        assert!(headers[header::ETAG].to_str().unwrap().contains(&format!("-b{bits}")));
+        let back = r.decode_depths().unwrap();
+        for (a, b) in back.iter().zip(&truth) {
+            assert!((a - b).abs() <= res.max_error, "bits {bits}: {a} vs {b}");
+        }
+        if bits > 0 {
+            assert!(f64::from(res.max_error) <= res.step() / 2.0 + 1e-6, "bits {bits}");
+        }
+        assert!(bytes <= last_bytes && bytes < exact_bytes, "bits {bits}: {bytes} bytes");
+        last_bytes = bytes;
+    }
+
+    // Budgets: never above max_triangles; the response says the tolerance used.
+    for max in [50u32, 300, 1000, 100_000] {
+        let (_, r, _) = fetch(format!("/v1/scenes/r/views/v/strips?max_triangles={max}")).await;
+        check_strips(&r);
+        assert!(r.triangles <= max, "{} > {max}", r.triangles);
+        assert!(matches!(r.lod, dmesh_proto::Lod::Epsilon(e) if e >= 0.0));
+        let cam = camera_json(0.2, 0.3);
+        let uri = format!(
+            "/v1/scenes/r/views/v/strips?max_triangles={max}&camera={}",
+            urlencode(&cam)
+        );
+        let (_, r, _) = fetch(uri).await;
+        assert!(r.triangles <= max, "{} > {max}", r.triangles);
+    }
+    let (_, r, _) = fetch("/v1/scenes/r/views/v/strips?budget_ms=0.5&bits=8".into()).await;
+    assert!(r.triangles > 0);
+    for (uri, why) in [
+        ("/v1/scenes/r/views/v/strips?epsilon=0&bits=17", "bits is 17"),
+        ("/v1/scenes/r/views/v/strips?epsilon=0&max_triangles=9", "exactly one"),
+        ("/v1/scenes/r/views/v/strips?max_triangles=1", "coarsest"),
+        ("/v1/scenes/r/views/v/strips?budget_ms=-1", "budget_ms"),
+    ] {
+        let (status, _, body) = send(&router, get_strips(uri)).await;
+        assert_eq!(status, StatusCode::BAD_REQUEST, "{uri}");
+        assert!(
+            String::from_utf8_lossy(&body).contains(why),
+            "{uri}: {}",
+            String::from_utf8_lossy(&body)
+        );
+    }
+}
+
+#[tokio::test]
+async fn render_loads_only_the_selected_views_and_sees_store_changes() {
+    let dir = tempfile::tempdir().unwrap();
+    {
+        let router = start(state(dir.path(), Settings::default()), Pipeline::default()).await;
+        let pfm = encode_pfm(W, H, &depth());
+        for (k, yaw) in [0.0, 1.2, 2.4].iter().enumerate() {
+            let body = upload_body(&pfm, &[], &camera_json(*yaw, 0.0));
+            let (status, _, _) = send(&router, put(&format!("/v1/scenes/s/views/v{k}"), body)).await;
+            assert_eq!(status, StatusCode::CREATED);
+        }
+    }
+    // A fresh server over the same store: nothing is loaded yet.
+    let router = start(state(dir.path(), Settings::default()), Pipeline::default()).await;
+    let render = |max_views: u32| {
+        let body = format!(
+            r#"{{"camera": {}, "tau": 1, "max_views": {max_views}}}"#,
+            camera_json(0.1, 0.0)
+        );
+        Request::post("/v1/scenes/s/render")
+            .header(header::CONTENT_TYPE, "application/json")
+            .body(Body::from(body))
+            .unwrap()
+    };
+    let loaded = |metrics: &[u8]| {
+        String::from_utf8_lossy(metrics)
+            .lines()
+            .find_map(|l| {
+                l.strip_prefix("dmesh_views_loaded ")
+                    .map(|n| n.trim().parse::<u32>().unwrap())
+            })
+            .unwrap()
+    };
+    let (status, _, body) = send(&router, render(1)).await;
+    assert_eq!(status, StatusCode::OK, "{}", String::from_utf8_lossy(&body));
+    let r: dmesh_proto::RenderResponse = serde_json::from_slice(&body).unwrap();
+    assert_eq!(r.views.len(), 1);
+    assert!(r.views[0].color_url.contains("/v0/"), "{}", r.views[0].color_url);
+    let metrics = send(&router, Request::get("/metrics").body(Body::empty()).unwrap())
+        .await
+        .2;
+    assert_eq!(loaded(&metrics), 1, "only the selected view is built");
+    // Deleting the selected view changes the next selection at once.
+    let (status, _, _) = send(
+        &router,
+        Request::delete("/v1/scenes/s/views/v0").body(Body::empty()).unwrap(),
+    )
+    .await;
+    assert_eq!(status, StatusCode::NO_CONTENT);
+    let (status, _, body) = send(&router, render(1)).await;
+    assert_eq!(status, StatusCode::OK);
+    let r: dmesh_proto::RenderResponse = serde_json::from_slice(&body).unwrap();
+    assert!(!r.views[0].color_url.contains("/v0/"), "{}", r.views[0].color_url);
+}
