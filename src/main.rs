@@ -13,7 +13,7 @@ use anyhow::{anyhow, bail, Context, Result};
 use clap::{ArgGroup, Parser, Subcommand, ValueEnum};
 use dmesh::camera::{camera_from_json, Camera};
 use dmesh::image::{decode_color, decode_depth, decode_mask, ColorImage, DepthKind, DepthOptions, Limits};
-use dmesh::mesh::{DepthMesh, Lod, Mesh, Method, Segmentation, StripOrder};
+use dmesh::mesh::{Budgeted, DepthMesh, Lod, Mesh, Method, Segmentation, StripOrder};
 
 #[derive(Parser)]
 #[command(
@@ -99,7 +99,7 @@ enum SegmentArg {
 }
 
 #[derive(clap::Args)]
-#[command(group(ArgGroup::new("lod").required(true).args(["epsilon", "tau"])))]
+#[command(group(ArgGroup::new("lod").required(true).args(["epsilon", "tau", "max_triangles"])))]
 struct MeshArgs {
     /// Depth image: OpenEXR (float), PNG (8/16-bit grey) or PFM.
     #[arg(long)]
@@ -134,9 +134,13 @@ struct MeshArgs {
     /// View-dependent tolerance in pixels of --view (0: full resolution).
     #[arg(long, requires = "view", allow_negative_numbers = true)]
     tau: Option<f64>,
-    /// Requesting camera JSON for --tau.
+    /// Requesting camera JSON for --tau (or --max-triangles, view-dependent).
     #[arg(long)]
     view: Option<PathBuf>,
+    /// At most this many triangles: the finest tolerance that provably meets
+    /// it (view-dependent with --view, else static) is chosen and printed.
+    #[arg(long)]
+    max_triangles: Option<u64>,
     /// Rubber-sheet test.
     #[arg(long, value_enum, default_value = "orthogonality")]
     segment: SegmentArg,
@@ -245,10 +249,21 @@ fn run_mesh(a: &MeshArgs) -> Result<()> {
     };
     let hierarchy = DepthMesh::build(&depth, &camera, &seg)?;
     let view = a.view.as_deref().map(|p| read_camera(p, "view camera")).transpose()?;
-    let lod = match (a.epsilon, a.tau, &view) {
-        (Some(e), None, _) => Lod::Epsilon(e),
-        (None, Some(t), Some(v)) => Lod::Tau { tau: t, view: v },
-        _ => bail!("give either --epsilon E or --tau T with --view VIEWCAM.json"),
+    let lod = match (a.epsilon, a.tau, a.max_triangles, &view) {
+        (Some(e), None, None, _) => Lod::Epsilon(e),
+        (None, Some(t), None, Some(v)) => Lod::Tau { tau: t, view: v },
+        (None, None, Some(m), v) => match hierarchy.lod_for_triangles(m, v.as_ref())? {
+            Budgeted::Epsilon(e) => Lod::Epsilon(e),
+            Budgeted::Tau(tau) => Lod::Tau {
+                tau,
+                view: v.as_ref().unwrap_or(&camera),
+            },
+        },
+        _ => bail!("give one of --epsilon E, --tau T with --view VIEWCAM.json, or --max-triangles N"),
+    };
+    let (lod_name, lod_value) = match lod {
+        Lod::Epsilon(e) => ("epsilon", e),
+        Lod::Tau { tau, .. } => ("tau", tau),
     };
     let order = match a.strips {
         StripsArg::Traversal => StripOrder::Traversal,
@@ -273,6 +288,7 @@ fn run_mesh(a: &MeshArgs) -> Result<()> {
             "extract_ms": mesh.extract_ms,
             "peak_bytes": stats.build_peak_bytes,
             "peak_rss_bytes": peak_rss_bytes(),
+            lod_name: lod_value,
         });
         println!("{figures}");
     } else {
@@ -281,7 +297,7 @@ fn run_mesh(a: &MeshArgs) -> Result<()> {
             depth.width, depth.height, stats.grid_vertices, stats.segmented_triangles, stats.build_ms
         );
         println!(
-            "{} vertices, {} triangles in {} strips ({} indices, {:.3} per triangle), extracted in {:.2} ms",
+            "{lod_name} {lod_value}: {} vertices, {} triangles in {} strips ({} indices, {:.3} per triangle), extracted in {:.2} ms",
             mesh.vertices.len(),
             mesh.triangles.len(),
             mesh.strip_count(),

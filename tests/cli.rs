@@ -65,6 +65,36 @@ fn json_figures_describe_the_mesh() {
 }
 
 #[test]
+fn a_triangle_budget_is_met_and_its_tolerance_printed() {
+    let dir = tempfile::tempdir().unwrap();
+    let (depth, _, cam) = scene(dir.path());
+    let view = dir.path().join("view.json");
+    std::fs::write(&view, r#"{"width": 64, "height": 48, "projection": {"perspective": {"fx": 60, "fy": 60, "cx": 31.5, "cy": 23.5}}, "pose": {"rotation": [0, 0, 0, 1], "translation": [0.1, 0, -2]}}"#).unwrap();
+    let view = view.to_str().unwrap().to_string();
+    for (extra, key) in [(vec![], "epsilon"), (vec!["--view", view.as_str()], "tau")] {
+        let mut args = vec![
+            "mesh",
+            "--depth",
+            &depth,
+            "--camera",
+            &cam,
+            "--max-triangles",
+            "2000",
+            "--json",
+        ];
+        args.extend(extra);
+        let (code, out, err) = dmesh(&args);
+        assert_eq!(code, 0, "{err}");
+        let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
+        assert!(v["triangles"].as_u64().unwrap() <= 2000, "{out}");
+        assert!(v[key].as_f64().is_some_and(|t| t.is_finite() && t >= 0.0), "{out}");
+    }
+    let (code, _, err) = dmesh(&["mesh", "--depth", &depth, "--camera", &cam, "--max-triangles", "1"]);
+    assert_ne!(code, 0);
+    assert!(err.contains("max_triangles is 1") && err.lines().count() == 1, "{err}");
+}
+
+#[test]
 fn ply_has_a_header_that_matches_the_figures() {
     let dir = tempfile::tempdir().unwrap();
     let (depth, _, cam) = scene(dir.path());
