@@ -37,7 +37,7 @@ pub struct StripQuery {
 
 /// What a request asks for: one level of detail and a depth coding.
 #[derive(Clone, Debug)]
-pub(crate) struct Ask {
+struct Ask {
     tol: Tolerance,
     bits: Option<u8>,
 }
@@ -53,20 +53,25 @@ enum Tolerance {
 }
 
 /// The level-of-detail fields of a strip or render request.
-pub(crate) struct Fields {
-    pub epsilon: Option<f64>,
-    pub tau: Option<f64>,
-    pub camera: Option<Camera>,
-    pub max_triangles: Option<u32>,
-    pub budget_ms: Option<f64>,
-    pub bits: Option<u8>,
+struct Fields {
+    epsilon: Option<f64>,
+    tau: Option<f64>,
+    camera: Option<Camera>,
+    max_triangles: Option<u32>,
+    budget_ms: Option<f64>,
+    bits: Option<u8>,
 }
 
 impl Ask {
-    pub(crate) fn new(f: Fields) -> Result<Self, AppError> {
+    fn new(f: Fields) -> Result<Self, AppError> {
         if let Some(b) = f.bits.filter(|&b| b > dmesh_proto::residual::MAX_BITS) {
             return Err(AppError::BadRequest(format!("bits is {b}; it must be 0..=16")));
         }
+        let exactly_one = || {
+            AppError::BadRequest(
+                "give exactly one of epsilon (metres), tau (pixels, with camera), max_triangles or budget_ms".into(),
+            )
+        };
         let given = [
             f.epsilon.is_some(),
             f.tau.is_some(),
@@ -74,9 +79,7 @@ impl Ask {
             f.budget_ms.is_some(),
         ];
         if given.iter().filter(|&&g| g).count() != 1 {
-            return Err(AppError::BadRequest(
-                "give exactly one of epsilon (metres), tau (pixels, with camera), max_triangles or budget_ms".into(),
-            ));
+            return Err(exactly_one());
         }
         let tol = match f {
             Fields {
@@ -114,13 +117,13 @@ impl Ask {
                     "budget_ms is {ms}; it must be a finite number of milliseconds > 0"
                 )))
             }
-            _ => unreachable!("exactly one level of detail was checked above"),
+            _ => return Err(exactly_one()),
         };
         Ok(Self { tol, bits: f.bits })
     }
 
     /// The same request with a share of a render request's budget.
-    pub(crate) fn share(&self, fraction: f64) -> Self {
+    fn share(&self, fraction: f64) -> Self {
         let tol = match &self.tol {
             Tolerance::Triangles(m, c) => Tolerance::Triangles((*m as f64 * fraction).floor() as u64, *c),
             Tolerance::Millis(ms, c) => Tolerance::Millis(ms * fraction, *c),
@@ -140,7 +143,7 @@ impl Ask {
     }
 }
 
-pub(crate) fn extract(
+fn extract(
     state: &AppState,
     scene: &str,
     view: &str,
