@@ -6,6 +6,7 @@ use std::collections::{HashMap, HashSet};
 use dmesh::camera::Camera;
 use dmesh::image::DepthImage;
 use dmesh::mesh::{decode_strips, DepthMesh, Mesh};
+use proptest::prelude::*;
 
 /// A grid point in signed coordinates.
 type P = (i64, i64);
@@ -226,4 +227,19 @@ pub fn assert_monotone(h: &DepthMesh) {
             }
         }
     }
+}
+
+/// Random depth images up to `max_side - 1` samples a side: mostly smooth
+/// values, with invalid samples (0 and NaN) and a far layer mixed in.
+pub fn arb_depth(max_side: u32) -> impl Strategy<Value = (u32, u32, Vec<f32>)> {
+    (2u32..max_side, 2u32..max_side).prop_flat_map(|(w, h)| {
+        let n = (w * h) as usize;
+        let sample = prop_oneof![
+            6 => 0.5f32..4.0,
+            1 => Just(0.0f32),
+            1 => Just(f32::NAN),
+            1 => 100.0f32..200.0,
+        ];
+        (Just(w), Just(h), proptest::collection::vec(sample, n))
+    })
 }
