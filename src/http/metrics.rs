@@ -55,11 +55,30 @@ pub struct Metrics {
     extract: Mutex<Histogram>,
     triangles: Mutex<Histogram>,
     views_loaded: AtomicU64,
-    /// Moving average of extraction milliseconds per triangle (f64 bits; 0 until measured).
-    ms_per_triangle: AtomicU64,
-    /// Moving average of the fraction of a time budget's triangle allowance
-    /// that meshes used (f64 bits; 0 until measured).
-    budget_fill: AtomicU64,
+    /// Extraction milliseconds per triangle.
+    ms_per_triangle: MovingAverage,
+    /// The fraction of a time budget's triangle allowance that meshes used.
+    budget_fill: MovingAverage,
+}
+
+/// An exponential moving average (weight 0.1 per sample) shared between
+/// threads; a lost race between two updates drops one sample, harmlessly.
+#[derive(Default)]
+struct MovingAverage(AtomicU64);
+
+impl MovingAverage {
+    /// The average, `None` until the first sample.
+    fn get(&self) -> Option<f64> {
+        Some(f64::from_bits(self.0.load(Ordering::Relaxed))).filter(|v| *v > 0.0 && v.is_finite())
+    }
+
+    /// Adds a positive finite `sample`, keeping the average in `[lo, hi]`.
+    fn add(&self, sample: f64, lo: f64, hi: f64) {
+        if sample.is_finite() && sample > 0.0 {
+            let new = self.get().map_or(sample, |old| 0.9 * old + 0.1 * sample);
+            self.0.store(new.clamp(lo, hi).to_bits(), Ordering::Relaxed);
+        }
+    }
 }
 
 /// Assumed extraction cost before the first measurement: 100 ns per triangle,
@@ -79,43 +98,25 @@ impl Metrics {
     /// extractions of 1,000 triangles or more (which includes the slowdown
     /// of a loaded machine, so budgets shrink under load).
     pub fn ms_per_triangle(&self) -> f64 {
-        match f64::from_bits(self.ms_per_triangle.load(Ordering::Relaxed)) {
-            v if v > 0.0 && v.is_finite() => v,
-            _ => DEFAULT_MS_PER_TRIANGLE,
-        }
+        self.ms_per_triangle.get().unwrap_or(DEFAULT_MS_PER_TRIANGLE)
     }
 
     /// The fraction of their triangle allowance that time-budgeted meshes
     /// have used lately, in `[0.05, 1]` (0.5 before any).
     pub fn budget_fill(&self) -> f64 {
-        match f64::from_bits(self.budget_fill.load(Ordering::Relaxed)) {
-            v if v > 0.0 && v.is_finite() => v.clamp(0.05, 1.0),
-            _ => 0.5,
-        }
+        self.budget_fill.get().map_or(0.5, |v| v.clamp(0.05, 1.0))
     }
 
     /// Records the fraction of its allowance one time-budgeted mesh used.
     pub fn budget_filled(&self, fraction: f64) {
-        if fraction.is_finite() && fraction > 0.0 {
-            let old = f64::from_bits(self.budget_fill.load(Ordering::Relaxed));
-            let new = if old > 0.0 {
-                0.9 * old + 0.1 * fraction
-            } else {
-                fraction
-            };
-            self.budget_fill
-                .store(new.clamp(0.05, 1.0).to_bits(), Ordering::Relaxed);
-        }
+        self.budget_fill.add(fraction, 0.05, 1.0);
     }
 
     /// Records one extraction.
     pub fn extraction(&self, ms: f64, triangles: usize) {
-        if triangles >= 1000 && ms.is_finite() && ms > 0.0 {
-            let sample = ms / triangles as f64;
-            // A lost race between two updates drops one sample: harmless.
-            let old = f64::from_bits(self.ms_per_triangle.load(Ordering::Relaxed));
-            let new = if old > 0.0 { 0.9 * old + 0.1 * sample } else { sample };
-            self.ms_per_triangle.store(new.to_bits(), Ordering::Relaxed);
+        if triangles >= 1000 {
+            self.ms_per_triangle
+                .add(ms / triangles as f64, f64::MIN_POSITIVE, f64::MAX);
         }
         self.extract
             .lock()
