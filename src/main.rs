@@ -13,7 +13,7 @@ use anyhow::{anyhow, bail, Context, Result};
 use clap::{ArgGroup, Parser, Subcommand, ValueEnum};
 use dmesh::camera::{camera_from_json, Camera};
 use dmesh::image::{decode_color, decode_depth, decode_mask, ColorImage, DepthKind, DepthOptions, Limits};
-use dmesh::mesh::{Budgeted, DepthMesh, Lod, Mesh, Method, Segmentation, StripOrder};
+use dmesh::mesh::{DepthMesh, Lod, Mesh, Method, Segmentation, StripOrder};
 
 #[derive(Parser)]
 #[command(
@@ -252,13 +252,9 @@ fn run_mesh(a: &MeshArgs) -> Result<()> {
     let lod = match (a.epsilon, a.tau, a.max_triangles, &view) {
         (Some(e), None, None, _) => Lod::Epsilon(e),
         (None, Some(t), None, Some(v)) => Lod::Tau { tau: t, view: v },
-        (None, None, Some(m), v) => match hierarchy.lod_for_triangles(m, v.as_ref())? {
-            Budgeted::Epsilon(e) => Lod::Epsilon(e),
-            Budgeted::Tau(tau) => Lod::Tau {
-                tau,
-                view: v.as_ref().unwrap_or(&camera),
-            },
-        },
+        (None, None, Some(m), v) => hierarchy
+            .lod_for_triangles(m, v.as_ref())?
+            .lod(v.as_ref().unwrap_or(&camera)),
         _ => bail!("give one of --epsilon E, --tau T with --view VIEWCAM.json, or --max-triangles N"),
     };
     let (lod_name, lod_value) = match lod {

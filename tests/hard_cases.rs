@@ -7,7 +7,7 @@ mod common;
 use common::*;
 use dmesh::camera::{Camera, Projection};
 use dmesh::image::DepthImage;
-use dmesh::mesh::{Budgeted, DepthMesh, Lod, Method, Segmentation};
+use dmesh::mesh::{DepthMesh, Lod, Method, Segmentation};
 use glam::{DQuat, DVec3};
 
 const W: u32 = 33;
@@ -123,11 +123,9 @@ fn check(name: &str, depth: &DepthImage, cam: &Camera) {
             // Budgets resolve to a usable tolerance and are met.
             for max in [h.coarsest_triangles(), 100, 10_000] {
                 let max = max.max(h.coarsest_triangles());
-                let m = match h.lod_for_triangles(max, Some(&view)).unwrap() {
-                    Budgeted::Tau(tau) => h.extract(Lod::Tau { tau, view: &view }),
-                    Budgeted::Epsilon(e) => h.extract(Lod::Epsilon(e)),
-                }
-                .unwrap_or_else(|e| panic!("{name}: budget {max}: {e}"));
+                let m = h
+                    .extract(h.lod_for_triangles(max, Some(&view)).unwrap().lod(&view))
+                    .unwrap_or_else(|e| panic!("{name}: budget {max}: {e}"));
                 assert!(m.triangles.len() as u64 <= max, "{name}: budget {max}");
                 assert_finite(&m, W, H);
             }

@@ -11,7 +11,7 @@ use dmesh_proto::{RenderRequest, RenderResponse, RenderedView, Selection, StripR
 use serde::Deserialize;
 
 use crate::camera::{camera_from_json, Camera};
-use crate::mesh::{Budgeted, Lod};
+use crate::mesh::Lod;
 use crate::scene::{select_views, SelectionRule};
 use crate::store::validate_id;
 use crate::wire::{strip_response, wire_lod, DepthCoding};
@@ -151,13 +151,8 @@ fn extract(
     ask: &Ask,
 ) -> Result<dmesh_proto::StripResponse, AppError> {
     fn budget<'a>(loaded: &'a Loaded, max: u64, camera: Option<&'a Camera>) -> Result<Lod<'a>, AppError> {
-        Ok(match loaded.hierarchy.lod_for_triangles(max, camera)? {
-            Budgeted::Epsilon(e) => Lod::Epsilon(e),
-            Budgeted::Tau(tau) => Lod::Tau {
-                tau,
-                view: camera.unwrap_or(&loaded.camera),
-            },
-        })
+        let chosen = loaded.hierarchy.lod_for_triangles(max, camera)?;
+        Ok(chosen.lod(camera.unwrap_or(&loaded.camera)))
     }
     let h = &loaded.hierarchy;
     let mut time_budget = None;

@@ -32,6 +32,7 @@
 //! mesh usually has fewer triangles than allowed. The cost per request is one
 //! pass over the frontier and two over 4,096 buckets.
 
+use super::extract::Lod;
 use super::grid::Pt;
 use super::hierarchy::DepthMesh;
 use crate::camera::{Camera, Projection};
@@ -92,6 +93,17 @@ pub enum Budgeted {
     Epsilon(f64),
     /// View-dependent tolerance in pixels of the requesting camera.
     Tau(f64),
+}
+
+impl Budgeted {
+    /// The level of detail to extract: `view` is the requesting camera the
+    /// budget was resolved for (unused for a static answer).
+    pub fn lod(self, view: &Camera) -> Lod<'_> {
+        match self {
+            Self::Epsilon(e) => Lod::Epsilon(e),
+            Self::Tau(tau) => Lod::Tau { tau, view },
+        }
+    }
 }
 
 impl ErrorStats {

@@ -14,7 +14,7 @@ pub mod plot;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use dmesh::mesh::{Budgeted, DepthMesh, Lod, Segmentation};
+use dmesh::mesh::{DepthMesh, Lod, Segmentation};
 use dmesh::scene::{select_views, SelectionRule};
 use dmesh::wire::{strip_response, DepthCoding};
 use serde::Serialize;
@@ -179,13 +179,7 @@ pub fn sweep(case: &Case, options: &Options) -> anyhow::Result<Vec<Row>> {
                         Sweep::Epsilon => Lod::Epsilon(setting * case.depth_scale),
                         Sweep::Budget => {
                             let max = ((setting * w.weight) as u64).max(h.coarsest_triangles());
-                            match h.lod_for_triangles(max, Some(&novel.camera))? {
-                                Budgeted::Epsilon(e) => Lod::Epsilon(e),
-                                Budgeted::Tau(tau) => Lod::Tau {
-                                    tau,
-                                    view: &novel.camera,
-                                },
-                            }
+                            h.lod_for_triangles(max, Some(&novel.camera))?.lod(&novel.camera)
                         }
                     };
                     let mut times = Vec::new();
