@@ -12,91 +12,87 @@
 
 use super::grid::Pt;
 
-/// The rows of one half of a diamond, as `(y, x_lo, x_hi)`.
-pub(crate) struct HalfRows {
-    shape: Shape,
-    h: i64,
-    v: (i64, i64),
-    apex: (i64, i64),
-    k: i64,
-    count: i64,
+/// Rows `y0 + dy * k` for `k` in `0..rows`, each the interval
+/// `[lo0 + dlo * k, hi0 + dhi * k]`: a trapezoid of samples.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Trapezoid {
+    y0: i64,
+    dy: i64,
+    rows: i64,
+    lo0: i64,
+    dlo: i64,
+    hi0: i64,
+    dhi: i64,
 }
 
-#[derive(Clone, Copy)]
-enum Shape {
-    /// Centre: the half of the square around `v` with its right angle at the apex.
-    Diagonal,
-    /// Edge midpoint on a row: rows from the apex to the hypotenuse.
-    Row,
-    /// Edge midpoint on a column: rows of the hypotenuse column.
-    Column,
+impl Trapezoid {
+    /// Its rows as `(y, x_lo, x_hi)`.
+    #[cfg(test)]
+    fn rows(self) -> impl Iterator<Item = (u32, u32, u32)> {
+        (0..self.rows).map(move |k| {
+            (
+                (self.y0 + self.dy * k) as u32,
+                (self.lo0 + self.dlo * k) as u32,
+                (self.hi0 + self.dhi * k) as u32,
+            )
+        })
+    }
 }
+
+/// The samples of one half of a diamond: one or two trapezoids.
+pub(crate) type HalfRows = ([Trapezoid; 2], usize);
 
 /// The rows of the half with apex `apex` of the diamond split by `v`, of
 /// half-size `h`, bisecting along a row, a column or a diagonal.
 pub(crate) fn half_rows(v: Pt, h: u32, apex: Pt, along_row: bool, diagonal: bool) -> HalfRows {
-    let shape = if diagonal {
-        Shape::Diagonal
-    } else if along_row {
-        Shape::Row
-    } else {
-        Shape::Column
-    };
     let h = i64::from(h);
-    let count = if matches!(shape, Shape::Row) { h + 1 } else { 2 * h + 1 };
-    HalfRows {
-        shape,
-        h,
-        v: (i64::from(v.0), i64::from(v.1)),
-        apex: (i64::from(apex.0), i64::from(apex.1)),
-        k: 0,
-        count,
-    }
-}
-
-impl Iterator for HalfRows {
-    type Item = (u32, u32, u32);
-
-    #[inline]
-    fn next(&mut self) -> Option<Self::Item> {
-        if self.k >= self.count {
-            return None;
-        }
-        let (k, h, (vx, vy), (cx, cy)) = (self.k, self.h, self.v, self.apex);
-        self.k += 1;
-        let (y, lo, hi) = match self.shape {
-            Shape::Diagonal => {
-                let y = vy - h + k;
-                let w = 2 * h - (y - cy).abs();
-                if cx < vx {
-                    (y, cx, cx + w)
-                } else {
-                    (y, cx - w, cx)
-                }
-            }
-            Shape::Row => (if cy < vy { cy + k } else { cy - k }, vx - k, vx + k),
-            Shape::Column => {
-                let y = vy - h + k;
-                let w = h - (y - vy).abs();
-                if cx < vx {
-                    (y, vx - w, vx)
-                } else {
-                    (y, vx, vx + w)
-                }
-            }
+    let (vx, vy) = (i64::from(v.0), i64::from(v.1));
+    let (cx, cy) = (i64::from(apex.0), i64::from(apex.1));
+    // The slope of an interval end: +1 widening, -1 narrowing, 0 fixed.
+    let span = |y0, dy, rows, lo0, dlo, hi0, dhi| Trapezoid {
+        y0,
+        dy,
+        rows,
+        lo0,
+        dlo,
+        hi0,
+        dhi,
+    };
+    let none = span(0, 0, 0, 0, 0, 0, 0);
+    if diagonal {
+        // The right angle at the apex: rows from vy - h down; the width
+        // 2h - |y - cy| shrinks away from the apex row.
+        let (w0, dw) = if cy < vy { (2 * h, -1) } else { (0, 1) };
+        let t = if cx < vx {
+            span(vy - h, 1, 2 * h + 1, cx, 0, cx + w0, dw)
+        } else {
+            span(vy - h, 1, 2 * h + 1, cx - w0, -dw, cx, 0)
         };
-        Some((y as u32, lo as u32, hi as u32))
+        ([t, none], 1)
+    } else if along_row {
+        // From the apex row towards the hypotenuse row, widening both ways.
+        let dy = if cy < vy { 1 } else { -1 };
+        ([span(cy, dy, h + 1, vx, -1, vx, 1), none], 1)
+    } else {
+        // The hypotenuse column, with a tent of widths 0..h..0 towards the apex.
+        let (up, down) = if cx < vx {
+            (
+                span(vy - h, 1, h + 1, vx, -1, vx, 0),
+                span(vy + 1, 1, h, vx - h + 1, 1, vx, 0),
+            )
+        } else {
+            (
+                span(vy - h, 1, h + 1, vx, 0, vx, 1),
+                span(vy + 1, 1, h, vx, 0, vx + h - 1, -1),
+            )
+        };
+        ([up, down], 2)
     }
 }
 
 /// Largest deviation of the samples in `rows` from the affine interpolation
 /// of the corners `(a, b, c)`. All samples in it must be valid.
-pub(crate) fn max_deviation(
-    z: &[f32],
-    gw: usize,
-    [a, b, c]: [Pt; 3],
-    rows: impl Iterator<Item = (u32, u32, u32)>,
-) -> f64 {
+pub(crate) fn max_deviation(z: &[f32], gw: usize, [a, b, c]: [Pt; 3], (spans, count): HalfRows) -> f64 {
     let at = |p: Pt| f64::from(z[p.1 as usize * gw + p.0 as usize]);
     let (za, zb, zc) = (at(a), at(b), at(c));
     let (ax, ay) = (f64::from(a.0), f64::from(a.1));
@@ -106,31 +102,38 @@ pub(crate) fn max_deviation(
     if det == 0.0 {
         return 0.0;
     }
-    // Gradient of the interpolant over the grid.
+    // Gradient of the interpolant over the grid, and its value at (0, 0).
     let gx = ((zb - za) * vy - uy * (zc - za)) / det;
     let gy = (ux * (zc - za) - (zb - za) * vx) / det;
+    let origin = za - gy * ay - gx * ax;
     let mut worst = 0f64;
-    for (y, lo, hi) in rows {
-        let start = y as usize * gw;
-        let base = za + gy * (f64::from(y) - ay) + gx * (f64::from(lo) - ax);
-        worst = worst.max(row_max_deviation(
-            &z[start + lo as usize..=start + hi as usize],
-            base,
-            gx,
-        ));
+    for t in &spans[..count] {
+        let (mut y, mut lo, mut hi) = (t.y0, t.lo0, t.hi0);
+        for _ in 0..t.rows {
+            let start = y as usize * gw;
+            let base = origin + gy * y as f64 + gx * lo as f64;
+            let d = row_max_deviation(&z[start + lo as usize..=start + hi as usize], base, gx);
+            worst = if d > worst { d } else { worst };
+            y += t.dy;
+            lo += t.dlo;
+            hi += t.dhi;
+        }
     }
     worst
 }
 
-/// Largest `|row[i] - (base + i * step)|`, with four independent running
-/// maxima so the loop pipelines (and vectorises where the target allows).
+/// Largest `|row[i] - (base + i * step)|`: a plain loop for the short rows
+/// of fine levels, four independent running maxima for long rows so the
+/// loop pipelines (and vectorises where the target allows).
 #[inline]
 fn row_max_deviation(row: &[f32], base: f64, step: f64) -> f64 {
-    if row.len() < 8 {
+    if row.len() < 16 {
         let mut worst = 0f64;
-        for (i, &s) in row.iter().enumerate() {
-            let d = (f64::from(s) - (base + step * i as f64)).abs();
+        let mut lin = base;
+        for &s in row {
+            let d = (f64::from(s) - lin).abs();
             worst = if d > worst { d } else { worst };
+            lin += step;
         }
         return worst;
     }
@@ -177,12 +180,52 @@ mod tests {
     fn half_rows_cover_exactly_the_half() {
         // Count samples: a half of side 2h holds (2h + 1)(2h + 2) / 2 samples,
         // an edge-midpoint half (h + 1)^2.
-        let n = |it: HalfRows| it.map(|(_, lo, hi)| hi - lo + 1).sum::<u32>();
+        let all = |(t, n): HalfRows| t.into_iter().take(n).flat_map(Trapezoid::rows).collect::<Vec<_>>();
+        let n = |r: HalfRows| all(r).iter().map(|&(_, lo, hi)| hi - lo + 1).sum::<u32>();
         assert_eq!(n(half_rows((4, 4), 4, (0, 8), false, true)), 45);
         assert_eq!(n(half_rows((4, 4), 4, (4, 0), true, false)), 25);
         assert_eq!(n(half_rows((4, 4), 4, (8, 4), false, false)), 25);
-        let rows: Vec<_> = half_rows((4, 4), 4, (0, 4), false, false).collect();
+        let rows = all(half_rows((4, 4), 4, (0, 4), false, false));
         assert_eq!(rows[0], (0, 4, 4));
         assert_eq!(rows[4], (4, 0, 4));
+    }
+
+    #[test]
+    fn half_rows_are_exactly_the_samples_of_the_triangle() {
+        let cross = |o: (i64, i64), p: (i64, i64), q: (i64, i64)| (p.0 - o.0) * (q.1 - o.1) - (p.1 - o.1) * (q.0 - o.0);
+        for h in 1..=6i64 {
+            let (vx, vy) = (8i64, 8i64);
+            let mut cases = Vec::new();
+            for (cx, cy) in [(vx - h, vy - h), (vx + h, vy - h), (vx - h, vy + h), (vx + h, vy + h)] {
+                cases.push((true, false, (cx, cy), (cx, 2 * vy - cy), (2 * vx - cx, cy)));
+            }
+            for cy in [vy - h, vy + h] {
+                cases.push((false, true, (vx, cy), (vx - h, vy), (vx + h, vy)));
+            }
+            for cx in [vx - h, vx + h] {
+                cases.push((false, false, (cx, vy), (vx, vy - h), (vx, vy + h)));
+            }
+            for (diagonal, along_row, c, a, b) in cases {
+                let pt = |p: (i64, i64)| (p.0 as u32, p.1 as u32);
+                let (spans, n) = half_rows(pt((vx, vy)), h as u32, pt(c), along_row, diagonal);
+                let mut got: Vec<(i64, i64)> = spans[..n]
+                    .iter()
+                    .flat_map(|t| t.rows())
+                    .flat_map(|(y, lo, hi)| (lo..=hi).map(move |x| (i64::from(x), i64::from(y))))
+                    .collect();
+                got.sort_unstable();
+                let mut want = Vec::new();
+                for y in 0..=16 {
+                    for x in 0..=16 {
+                        let s = [cross(a, b, (x, y)), cross(b, c, (x, y)), cross(c, a, (x, y))];
+                        if s.iter().all(|&d| d >= 0) || s.iter().all(|&d| d <= 0) {
+                            want.push((x, y));
+                        }
+                    }
+                }
+                want.sort_unstable();
+                assert_eq!(got, want, "h {h} apex {c:?} diagonal {diagonal} row {along_row}");
+            }
+        }
     }
 }
