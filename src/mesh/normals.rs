@@ -34,6 +34,19 @@ pub fn oct_encode(n: DVec3) -> [u8; 2] {
     [q(px), q(py)]
 }
 
+/// [`oct_encode`] of a direction already known to be non-zero and finite,
+/// without branches so the per-sample loop stays straight.
+#[inline(always)]
+fn oct_encode_finite(n: DVec3) -> [u8; 2] {
+    let inv = 1.0 / (n.x.abs() + n.y.abs() + n.z.abs());
+    let (px, py) = (n.x * inv, n.y * inv);
+    let lower = n.z < 0.0;
+    let fx = if lower { (1.0 - py.abs()).copysign(px) } else { px };
+    let fy = if lower { (1.0 - px.abs()).copysign(py) } else { py };
+    let q = |v: f64| (v * 127.5 + 128.0) as u8;
+    [q(fx), q(fy)]
+}
+
 /// The encoding of -z, the normal facing the reference camera.
 const OCT_FACING: [u8; 2] = [128, 128];
 
@@ -77,7 +90,9 @@ pub fn normals_and_quality(grid: &Grid, camera: &Camera, bp: &BackProject, z: &[
         let dot = n.dot(v);
         let norms = (n.length_squared() * v.length_squared()).sqrt();
         if norms > 0.0 && norms.is_finite() {
-            normals[idx] = oct_encode(if dot > 0.0 { -n } else { n });
+            // Face the camera: flip n when it points away (no branch).
+            let flip = if dot > 0.0 { -1.0 } else { 1.0 };
+            normals[idx] = oct_encode_finite(n * flip);
             rho[idx] = rho_to_byte(dot.abs() / norms);
         } else {
             normals[idx] = oct_encode(-v);
