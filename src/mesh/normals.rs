@@ -34,12 +34,11 @@ pub fn oct_encode(n: DVec3) -> [u8; 2] {
     [q(px), q(py)]
 }
 
-/// [`oct_encode`] of a direction already known to be non-zero and finite,
+/// [`oct_encode`] of a non-zero finite direction `n` given `1 / |n|_1`,
 /// without branches so the per-sample loop stays straight.
 #[inline(always)]
-fn oct_encode_finite(n: DVec3) -> [u8; 2] {
-    let inv = 1.0 / (n.x.abs() + n.y.abs() + n.z.abs());
-    let (px, py) = (n.x * inv, n.y * inv);
+fn oct_encode_scaled(n: DVec3, inv_l1: f64) -> [u8; 2] {
+    let (px, py) = (n.x * inv_l1, n.y * inv_l1);
     let lower = n.z < 0.0;
     let fx = if lower { (1.0 - py.abs()).copysign(px) } else { px };
     let fy = if lower { (1.0 - px.abs()).copysign(py) } else { py };
@@ -66,6 +65,30 @@ pub fn rho_to_byte(rho: f64) -> u8 {
     (rho * 255.0 + 0.5) as u8
 }
 
+/// The encoded normal (turned to face the camera) and quality byte of a
+/// sample with normal direction `n` (any length, possibly zero) seen along
+/// `v` (any length). Neither needs normalising: the octahedral map divides
+/// by the L1 norm, and rho = |n . v| / (|n| |v|) takes one square root. One
+/// reciprocal serves both divisions.
+#[inline(always)]
+fn encode(n: DVec3, v: DVec3) -> ([u8; 2], u8) {
+    let dot = n.dot(v);
+    let nn = n.length_squared() * v.length_squared();
+    let l1 = n.x.abs() + n.y.abs() + n.z.abs();
+    if !(nn > 0.0 && nn.is_finite()) {
+        return (oct_encode(-v), 0);
+    }
+    let norms = nn.sqrt();
+    let r = 1.0 / (l1 * norms);
+    // Face the camera: flip n when it points away (no branch).
+    let flip = if dot > 0.0 { -1.0 } else { 1.0 };
+    if r > 0.0 && r.is_finite() {
+        (oct_encode_scaled(n * flip, norms * r), rho_to_byte(dot.abs() * l1 * r))
+    } else {
+        (oct_encode(n * flip), rho_to_byte(dot.abs() / norms))
+    }
+}
+
 /// Computes the encoded normal and quality byte of every grid vertex.
 #[inline(never)]
 pub fn normals_and_quality(grid: &Grid, camera: &Camera, bp: &BackProject, z: &[f32]) -> (Vec<[u8; 2]>, Vec<u8>) {
@@ -83,24 +106,10 @@ pub fn normals_and_quality(grid: &Grid, camera: &Camera, bp: &BackProject, z: &[
         (Some(l), None) => Some(c - l),
         (None, None) => None,
     };
-    let mut finish = |idx: usize, n: DVec3, p: DVec3| {
-        // Neither n nor v needs normalising: the octahedral map divides by
-        // the L1 norm, and rho = |n . p| / (|n| |p|) takes one square root.
-        let v = if ortho { DVec3::Z } else { p };
-        let dot = n.dot(v);
-        let norms = (n.length_squared() * v.length_squared()).sqrt();
-        if norms > 0.0 && norms.is_finite() {
-            // Face the camera: flip n when it points away (no branch).
-            let flip = if dot > 0.0 { -1.0 } else { 1.0 };
-            normals[idx] = oct_encode_finite(n * flip);
-            rho[idx] = rho_to_byte(dot.abs() / norms);
-        } else {
-            normals[idx] = oct_encode(-v);
-        }
-    };
     for y in 0..h {
         let row = y * gw;
         let (ay, by) = bp.row(y);
+
         // Row factors of the neighbours, hoisted (any row when off the image:
         // only the interior fast path reads them).
         let ((ayu, byu), (ayd, byd)) = (bp.row(y.saturating_sub(1)), bp.row((y + 1).min(h - 1)));
@@ -122,7 +131,7 @@ pub fn normals_and_quality(grid: &Grid, camera: &Camera, bp: &BackProject, z: &[
                     let ((axl, bxl), (axr, bxr)) = (bp.col(x - 1), bp.col(x + 1));
                     let dx = DVec3::new(axr + bxr * zr - axl - bxl * zl, by * (zr - zl), zr - zl);
                     let dy = DVec3::new(bx * (zd - zu), ayd + byd * zd - ayu - byu * zu, zd - zu);
-                    finish(idx, dy.cross(dx), p);
+                    (normals[idx], rho[idx]) = encode(dy.cross(dx), if ortho { DVec3::Z } else { p });
                     continue;
                 }
             }
@@ -138,7 +147,7 @@ pub fn normals_and_quality(grid: &Grid, camera: &Camera, bp: &BackProject, z: &[
                 (Some(dx), Some(dy)) => dy.cross(dx),
                 _ => DVec3::ZERO,
             };
-            finish(idx, n, p);
+            (normals[idx], rho[idx]) = encode(n, if ortho { DVec3::Z } else { p });
         }
     }
     (normals, rho)
