@@ -200,8 +200,8 @@ impl DepthMesh {
         let grid = self.grid;
         let (gw, gh) = (grid.gw(), grid.gh());
         // Level 0 is three quarters of all vertices: dedicated passes.
-        self.finest_edges(flags, zmax, Bisects::Row);
-        self.finest_edges(flags, zmax, Bisects::Column);
+        self.finest_edges::<true>(flags, zmax);
+        self.finest_edges::<false>(flags, zmax);
         self.finest_centres(flags, zmax);
         for g in 1..grid.k {
             let h = 1u32 << g;
@@ -252,9 +252,11 @@ impl DepthMesh {
     /// the radius is 0 and the deviation interval is the detail itself.
     /// Same results as [`Self::split_vertex`], in a tight loop.
     #[inline(never)]
-    fn finest_edges(&mut self, flags: &mut [u8], zmax: f32, bisects: Bisects) {
+    /// `ROW`: edges along rows, else along columns (a constant, so each
+    /// direction compiles to its own straight loop).
+    fn finest_edges<const ROW: bool>(&mut self, flags: &mut [u8], zmax: f32) {
         let (gw, gh) = (self.grid.gw() as usize, self.grid.gh() as usize);
-        let row = bisects == Bisects::Row;
+        let row = ROW;
         // Step between a and v, and between v and an apex, in the flat index.
         let (along, across) = if row { (1, gw) } else { (gw, 1) };
         // Cells holding the two finest triangles of each half, and their bits:
