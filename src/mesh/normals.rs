@@ -75,14 +75,15 @@ fn encode(n: DVec3, v: DVec3) -> ([u8; 2], u8) {
     let dot = n.dot(v);
     let nn = n.length_squared() * v.length_squared();
     let l1 = n.x.abs() + n.y.abs() + n.z.abs();
-    if !(nn > 0.0 && nn.is_finite()) {
+    // Two comparisons (NaN fails both) instead of is_finite's bit tests.
+    if !(nn > 0.0 && nn < f64::INFINITY) {
         return (oct_encode(-v), 0);
     }
     let norms = nn.sqrt();
     let r = 1.0 / (l1 * norms);
     // Face the camera: flip n when it points away (no branch).
     let flip = if dot > 0.0 { -1.0 } else { 1.0 };
-    if r > 0.0 && r.is_finite() {
+    if r > 0.0 && r < f64::INFINITY {
         (oct_encode_scaled(n * flip, norms * r), rho_to_byte(dot.abs() * l1 * r))
     } else {
         (oct_encode(n * flip), rho_to_byte(dot.abs() / norms))
