@@ -1,7 +1,9 @@
 //! Build and extraction benchmarks (criterion), plus a table of mesh sizes.
 //!
-//! `cargo bench --bench mesh` measures, single-threaded:
-//! - `build/<scene>`: the hierarchy build from a depth image;
+//! `cargo bench --bench mesh` measures:
+//! - `build/<scene>`: the hierarchy build from a depth image on one thread;
+//! - `build2t/<scene>`: the same with the normals on a second thread (what
+//!   `DepthMesh::build` does on a machine with two cores);
 //! - `static/<scene>`: extraction at a static epsilon (0.5 % of the median depth);
 //! - `tau1/<scene>`: view-dependent extraction at tau = 1 px from a camera
 //!   10 % of the depth to the side of the reference and turned towards it.
@@ -19,7 +21,7 @@ use std::time::Duration;
 use criterion::{criterion_group, criterion_main, Criterion};
 use dmesh::camera::Camera;
 use dmesh::image::DepthImage;
-use dmesh::mesh::{DepthMesh, Lod, Mesh, Segmentation, StripOrder};
+use dmesh::mesh::{DepthMesh, Lod, Mesh, Segmentation, StripOrder, Threads};
 
 fn all_scenes() -> Vec<(String, DepthImage, Camera)> {
     let mut out: Vec<(String, DepthImage, Camera)> = Vec::new();
@@ -89,7 +91,10 @@ fn bench(c: &mut Criterion) {
     for (name, depth, cam) in &scenes {
         let seg = Segmentation::default();
         g.bench_function(format!("build/{name}"), |b| {
-            b.iter(|| DepthMesh::build(black_box(depth), cam, &seg).unwrap())
+            b.iter(|| DepthMesh::build_with(black_box(depth), cam, &seg, Threads::Single).unwrap())
+        });
+        g.bench_function(format!("build2t/{name}"), |b| {
+            b.iter(|| DepthMesh::build_with(black_box(depth), cam, &seg, Threads::Parallel).unwrap())
         });
         let h = DepthMesh::build(depth, cam, &seg).unwrap();
         let eps = 0.005 * median_depth(depth);

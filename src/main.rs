@@ -13,7 +13,7 @@ use anyhow::{anyhow, bail, Context, Result};
 use clap::{ArgGroup, Parser, Subcommand, ValueEnum};
 use dmesh::camera::{camera_from_json, Camera};
 use dmesh::image::{decode_color, decode_depth, decode_mask, ColorImage, DepthKind, DepthOptions, Limits};
-use dmesh::mesh::{DepthMesh, Lod, Mesh, Method, Segmentation, StripOrder};
+use dmesh::mesh::{DepthMesh, Lod, Mesh, Method, Segmentation, StripOrder, Threads};
 
 #[derive(Parser)]
 #[command(
@@ -162,6 +162,9 @@ struct MeshArgs {
     /// Largest accepted image, in pixels.
     #[arg(long, default_value_t = 64 << 20)]
     max_pixels: u64,
+    /// Build threads: 2 computes normals beside the error pass (same result).
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=2))]
+    threads: u8,
     /// Write the mesh as binary little-endian PLY.
     #[arg(long)]
     ply: Option<PathBuf>,
@@ -247,7 +250,12 @@ fn run_mesh(a: &MeshArgs) -> Result<()> {
         },
         lambda: a.lambda,
     };
-    let hierarchy = DepthMesh::build(&depth, &camera, &seg)?;
+    let threads = if a.threads == 1 {
+        Threads::Single
+    } else {
+        Threads::Parallel
+    };
+    let hierarchy = DepthMesh::build_with(&depth, &camera, &seg, threads)?;
     let view = a.view.as_deref().map(|p| read_camera(p, "view camera")).transpose()?;
     let lod = match (a.epsilon, a.tau, a.max_triangles, &view) {
         (Some(e), None, None, _) => Lod::Epsilon(e),

@@ -7,7 +7,7 @@ mod common;
 use common::*;
 use dmesh::camera::Camera;
 use dmesh::image::DepthImage;
-use dmesh::mesh::{DepthMesh, Lod, Method, Segmentation, StripOrder};
+use dmesh::mesh::{DepthMesh, Lod, Method, Segmentation, StripOrder, Threads};
 use proptest::prelude::*;
 
 fn check_all(depth: &DepthImage, cam: &Camera, seg: &Segmentation, eps: f64) {
@@ -258,6 +258,65 @@ fn hierarchy_stays_within_24_bytes_per_grid_vertex() {
         "build peak {}",
         s.build_peak_bytes
     );
+}
+
+/// Error, radius and depth bits and the two cell flags of one grid vertex.
+type VertexAnswer = (u32, u32, u32, bool, bool);
+
+/// Everything a hierarchy answers, as comparable values.
+fn answers(h: &DepthMesh) -> (Vec<VertexAnswer>, dmesh::mesh::Mesh) {
+    let g = *h.grid();
+    let per_vertex = (0..g.gh())
+        .flat_map(|y| (0..g.gw()).map(move |x| (x, y)))
+        .map(|p| {
+            (
+                h.error(p).to_bits(),
+                h.radius(p).to_bits(),
+                h.depth(p).to_bits(),
+                h.cell_segmented(p, 0),
+                h.cell_segmented(p, 1),
+            )
+        })
+        .collect();
+    (per_vertex, h.extract(Lod::Epsilon(0.0)).unwrap())
+}
+
+#[test]
+fn one_thread_and_two_build_the_same_hierarchy() {
+    let (w, h) = (97, 61);
+    let mut depth = step(w, h);
+    // Invalid samples and a ramp, so normals, quality and flags all vary.
+    for (i, z) in depth.z.iter_mut().enumerate() {
+        if i % 37 == 0 {
+            *z = 0.0;
+        } else {
+            *z += (i % w as usize) as f32 * 1e-3;
+        }
+    }
+    for method in [
+        Method::Orthogonality { omega_deg: 5.0 },
+        Method::Connectedness { kappa: 0.5 },
+        Method::None,
+    ] {
+        let seg = Segmentation {
+            method,
+            ..Segmentation::default()
+        };
+        let one = DepthMesh::build_with(&depth, &camera(w, h), &seg, Threads::Single).unwrap();
+        let two = DepthMesh::build_with(&depth, &camera(w, h), &seg, Threads::Parallel).unwrap();
+        let (a, b) = (answers(&one), answers(&two));
+        assert!(
+            a.1.vertices.iter().any(|v| v.rho > 0),
+            "{method:?}: no quality computed"
+        );
+        assert!(a.0 == b.0, "{method:?}: per-vertex data differ");
+        let (ma, mb) = (&a.1, &b.1);
+        assert!(
+            ma.vertices == mb.vertices && ma.triangles == mb.triangles && ma.strips == mb.strips,
+            "{method:?}: meshes differ"
+        );
+        assert_eq!(one.stats().build_peak_bytes, two.stats().build_peak_bytes);
+    }
 }
 
 proptest! {

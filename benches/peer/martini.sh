@@ -80,7 +80,7 @@ for e in $errors; do
   # dmesh at epsilon = maxError, then at the bound martini actually achieved.
   for eps in "$e" "$actual"; do
     for r in $(seq "$RUNS"); do
-      target/release/dmesh mesh --depth "$tmp/height.pfm" --camera "$tmp/camera.json" --epsilon "$eps" --segment none --json
+      target/release/dmesh mesh --depth "$tmp/height.pfm" --camera "$tmp/camera.json" --epsilon "$eps" --segment none --threads 1 --json
     done > "$tmp/dmesh.jsonl"
     M="$m" python3 - "$tmp/dmesh.jsonl" "$e" "$eps" <<'PY'
 import json, os, statistics, sys

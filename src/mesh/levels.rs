@@ -1,0 +1,366 @@
+//! The bottom-up pass of the build over the levels of the 4-8 hierarchy,
+//! finest first: flags, own and saturated errors and nested radii of every
+//! split vertex (DMesh Sec. 4.2 and 5.3; what each term is, is documented in
+//! `hierarchy.rs`). It reads depths and writes errors and radii only, so it
+//! can run beside the normals.
+
+use super::backproject::BackProject;
+use super::deviation::{half_rows, max_deviation};
+use super::error_metric::{norm_bound, point_line_2d_sq, point_line_3d_sq};
+use super::grid::{half_of, Grid, Pt};
+use super::hierarchy::{and_bit, cell_bit, or_bit};
+use crate::camera::Camera;
+
+/// Which edge a split vertex bisects: Eq. 1 for diagonals, Eq. 2 in the
+/// x,z-plane for an edge along a row and in the y,z-plane along a column.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Bisects {
+    Diagonal,
+    Row,
+    Column,
+}
+
+/// `v` as f32, rounded up (an error or radius may grow, never shrink),
+/// saturated at `f32::MAX`.
+fn round_up(v: f64) -> f32 {
+    let f = v as f32;
+    if f64::from(f) < v { f.next_up() } else { f }.min(f32::MAX)
+}
+
+/// What the pass reads and writes.
+pub(crate) struct Levels<'a> {
+    pub grid: Grid,
+    pub camera: &'a Camera,
+    pub bp: &'a BackProject,
+    /// Depth per grid vertex, 0 for invalid and padding.
+    pub z: &'a [f32],
+    /// Saturated squared errors, written.
+    pub err2: &'a mut [f32],
+    /// Nested radii, written.
+    pub radius: &'a mut [f32],
+}
+
+impl Levels<'_> {
+    /// The bottom-up pass over all levels, finest first.
+    #[inline(never)]
+    pub(crate) fn run(&mut self, flags: &mut [u8], zmax: f32) {
+        let grid = self.grid;
+        let (gw, gh) = (grid.gw(), grid.gh());
+        // Level 0 is three quarters of all vertices: dedicated passes.
+        self.finest_edges::<true>(flags, zmax);
+        self.finest_edges::<false>(flags, zmax);
+        self.finest_centres(flags, zmax);
+        for g in 1..grid.k {
+            let h = 1u32 << g;
+            let step = 2 * h as usize;
+            // Edge midpoints of level g depend on centres of level g - 1,
+            // centres of level g on edge midpoints of level g. Level 0 edge
+            // midpoints were done above.
+            if g > 0 {
+                for y in (0..gh).step_by(step) {
+                    for x in (h..gw).step_by(step) {
+                        let apex = [(y >= h).then(|| (x, y - h)), (y + h < gh).then_some((x, y + h))];
+                        self.split_vertex(flags, zmax, (x, y), (x - h, y), (x + h, y), apex, Bisects::Row);
+                    }
+                }
+                for y in (h..gh).step_by(step) {
+                    for x in (0..gw).step_by(step) {
+                        let apex = [(x >= h).then(|| (x - h, y)), (x + h < gw).then_some((x + h, y))];
+                        self.split_vertex(flags, zmax, (x, y), (x, y - h), (x, y + h), apex, Bisects::Column);
+                    }
+                }
+            }
+            for y in (h..gh).step_by(step) {
+                let py = if ((y - h) / (2 * h)) % 2 == 1 { y - h } else { y + h };
+                for x in (h..gw).step_by(step) {
+                    let px = if ((x - h) / (2 * h)) % 2 == 1 { x - h } else { x + h };
+                    let (qx, qy) = (2 * x - px, 2 * y - py);
+                    let apex = if px < qx {
+                        [(px, qy), (qx, py)]
+                    } else {
+                        [(qx, py), (px, qy)]
+                    };
+                    self.split_vertex(
+                        flags,
+                        zmax,
+                        (x, y),
+                        (px, py),
+                        (qx, qy),
+                        apex.map(Some),
+                        Bisects::Diagonal,
+                    );
+                }
+            }
+        }
+    }
+
+    /// The edge midpoints of level 0, which bisect an edge of length 2: their
+    /// halves are finest triangles, so there are no children to saturate over,
+    /// the radius is 0 and the deviation interval is the detail itself.
+    /// Same results as [`Self::split_vertex`], in a tight loop.
+    #[inline(never)]
+    /// `ROW`: edges along rows, else along columns (a constant, so each
+    /// direction compiles to its own straight loop).
+    fn finest_edges<const ROW: bool>(&mut self, flags: &mut [u8], zmax: f32) {
+        let (gw, gh) = (self.grid.gw() as usize, self.grid.gh() as usize);
+        let row = ROW;
+        // Step between a and v, and between v and an apex, in the flat index.
+        let (along, across) = if row { (1, gw) } else { (gw, 1) };
+        // Cells holding the two finest triangles of each half, and their bits:
+        // half 0 (apex before v across the edge), half 1 (after).
+        let cells: [[(isize, u8); 2]; 2] = if row {
+            let g = gw as isize;
+            [
+                [(-g - 1, cell_bit(1)), (-g, cell_bit(0))],
+                [(-1, cell_bit(1)), (0, cell_bit(0))],
+            ]
+        } else {
+            let g = gw as isize;
+            [
+                [(-g - 1, cell_bit(1)), (-1, cell_bit(1))],
+                [(-g, cell_bit(0)), (0, cell_bit(0))],
+            ]
+        };
+        let (ys, xs) = if row {
+            ((0..gh).step_by(2), 1)
+        } else {
+            ((1..gh).step_by(2), 0)
+        };
+        for y in ys {
+            for x in (xs..gw).step_by(2) {
+                let vi = y * gw + x;
+                let exists = if row { [y > 0, y + 1 < gh] } else { [x > 0, x + 1 < gw] };
+                let (za, zv, zb) = (self.z[vi - along], self.z[vi], self.z[vi + along]);
+                let mut bits = flags[vi] & 0xf0;
+                let mut unflagged = false;
+                let mut partial = false;
+                for half in 0..2 {
+                    if !exists[half] {
+                        bits |= or_bit(half) | and_bit(half);
+                        continue;
+                    }
+                    let [(o0, b0), (o1, b1)] = cells[half];
+                    let s0 = flags[(vi as isize + o0) as usize] & b0 != 0;
+                    let s1 = flags[(vi as isize + o1) as usize] & b1 != 0;
+                    if s0 || s1 {
+                        bits |= or_bit(half);
+                    }
+                    if s0 && s1 {
+                        bits |= and_bit(half);
+                    }
+                    unflagged |= !(s0 || s1);
+                    partial |= (s0 || s1) && !(s0 && s1);
+                }
+                flags[vi] = bits;
+                let mut own = 0f64;
+                if unflagged {
+                    let detail = f64::from(zv) - 0.5 * (f64::from(za) + f64::from(zb));
+                    let (xv, yv) = ((x as u32), (y as u32));
+                    let pv = self.bp.point(xv, yv, zv);
+                    let (pa, pb) = if row {
+                        (self.bp.point(xv - 1, yv, za), self.bp.point(xv + 1, yv, zb))
+                    } else {
+                        (self.bp.point(xv, yv - 1, za), self.bp.point(xv, yv + 1, zb))
+                    };
+                    let eq2 = if row {
+                        point_line_2d_sq((pv.x, pv.z), (pa.x, pa.z), (pb.x, pb.z))
+                    } else {
+                        point_line_2d_sq((pv.y, pv.z), (pa.y, pa.z), (pb.y, pb.z))
+                    };
+                    own = eq2.max(detail * detail);
+                }
+                if partial {
+                    let zapex = match exists {
+                        [true, true] => self.z[vi - across].max(self.z[vi + across]),
+                        [true, false] => self.z[vi - across],
+                        [false, true] => self.z[vi + across],
+                        [false, false] => 0.0,
+                    };
+                    let zref = [za, zb, zv, zapex].into_iter().fold(0f32, f32::max);
+                    let zref = if zref > 0.0 { zref } else { zmax };
+                    let extent = 2.0 * self.camera.pixel_size(f64::from(zref));
+                    own = own.max(extent * extent);
+                }
+                self.err2[vi] = round_up(own);
+                self.radius[vi] = 0.0;
+            }
+        }
+    }
+
+    /// The centres of level 0, which bisect the diagonal of a unit cell
+    /// pair: their four children are the finest edge midpoints around them
+    /// (radius 0). A half's deviation is the largest detail of `v` and of
+    /// the two leg midpoints; the latter are already in those children's
+    /// errors whenever the half is unflagged, so only `v`'s own detail is
+    /// added. Same results as [`Self::split_vertex`], in a tight loop.
+    #[inline(never)]
+    fn finest_centres(&mut self, flags: &mut [u8], zmax: f32) {
+        let (gw, gh) = (self.grid.gw() as usize, self.grid.gh() as usize);
+        for y in (1..gh).step_by(2) {
+            // The diagonal through v runs from (px, py) to (qx, qy).
+            let py = if (y - 1) / 2 % 2 == 1 { y - 1 } else { y + 1 };
+            let qy = 2 * y - py;
+            for x in (1..gw).step_by(2) {
+                let px = if (x - 1) / 2 % 2 == 1 { x - 1 } else { x + 1 };
+                let qx = 2 * x - px;
+                let vi = y * gw + x;
+                let (ai, bi) = (py * gw + px, qy * gw + qx);
+                // Half 0 has its apex at x - 1, half 1 at x + 1; each holds
+                // the child beside v on its side and the one above or below
+                // v on its apex's row. Children before v (left, or above)
+                // hold v in their half 1, those after in half 0.
+                let (apex0_y, apex1_y) = if px < qx { (qy, py) } else { (py, qy) };
+                let vertical = |apex_y: usize| if apex_y < y { (vi - gw, 1) } else { (vi + gw, 0) };
+                let halves = [[(vi - 1, 1usize), vertical(apex0_y)], [(vi + 1, 0), vertical(apex1_y)]];
+                let apexes = [apex0_y * gw + x - 1, apex1_y * gw + x + 1];
+                let mut bits = flags[vi] & 0xf0;
+                let mut unflagged = false;
+                let mut partial_zapex = None::<f32>;
+                for (half, kids) in halves.iter().enumerate() {
+                    let [(c0, h0), (c1, h1)] = *kids;
+                    let (f0, f1) = (flags[c0], flags[c1]);
+                    let or = (f0 & or_bit(h0)) | (f1 & or_bit(h1)) != 0;
+                    let and = f0 & and_bit(h0) != 0 && f1 & and_bit(h1) != 0;
+                    if or {
+                        bits |= or_bit(half);
+                    }
+                    if and {
+                        bits |= and_bit(half);
+                    }
+                    unflagged |= !or;
+                    if or && !and {
+                        let za = self.z[apexes[half]];
+                        partial_zapex = Some(partial_zapex.map_or(za, |z: f32| z.max(za)));
+                    }
+                }
+                flags[vi] = bits;
+                let zv = self.z[vi];
+                let (za, zb) = (self.z[ai], self.z[bi]);
+                let pv = self.bp.point(x as u32, y as u32, zv);
+                let mut err = 0f32;
+                let mut radius = 0f64;
+                for (ci, cx, cy) in [
+                    (vi - 1, x - 1, y),
+                    (vi + 1, x + 1, y),
+                    (vi - gw, x, y - 1),
+                    (vi + gw, x, y + 1),
+                ] {
+                    err = err.max(self.err2[ci]);
+                    radius = radius.max(norm_bound(pv - self.bp.point(cx as u32, cy as u32, self.z[ci])));
+                }
+                let mut own = 0f64;
+                if unflagged {
+                    let detail = f64::from(zv) - 0.5 * (f64::from(za) + f64::from(zb));
+                    let pa = self.bp.point(px as u32, py as u32, za);
+                    let pb = self.bp.point(qx as u32, qy as u32, zb);
+                    own = point_line_3d_sq(pv, pa, pb).max(detail * detail);
+                }
+                if let Some(zapex) = partial_zapex {
+                    // Each partial half's footprint; the larger apex depth
+                    // covers both when both are partial.
+                    let zref = [za, zb, zv, zapex].into_iter().fold(0f32, f32::max);
+                    let zref = if zref > 0.0 { zref } else { zmax };
+                    let extent = 2.0 * std::f64::consts::SQRT_2 * self.camera.pixel_size(f64::from(zref));
+                    own = own.max(extent * extent);
+                }
+                self.err2[vi] = err.max(round_up(own));
+                self.radius[vi] = round_up(radius);
+            }
+        }
+    }
+
+    /// Computes flags, own and saturated error and radius of the split vertex
+    /// `v` (any but a level-0 edge midpoint, see [`Self::finest_edges`]),
+    /// which bisects `a-b`; `apex` are its halves' apexes (`None` off the
+    /// grid). Children are finer and already done.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn split_vertex(
+        &mut self,
+        flags: &mut [u8],
+        zmax: f32,
+        v: Pt,
+        a: Pt,
+        b: Pt,
+        apex: [Option<Pt>; 2],
+        bisects: Bisects,
+    ) {
+        let gw = self.grid.gw() as usize;
+        let at = |p: Pt| p.1 as usize * gw + p.0 as usize;
+        let h = a.0.abs_diff(b.0).max(a.1.abs_diff(b.1)) / 2;
+        let vi = at(v);
+        let (za, zb, zv) = (self.z[at(a)], self.z[at(b)], self.z[vi]);
+        let pv = self.bp.point(v.0, v.1, zv);
+        let mut bits = flags[vi] & 0xf0;
+        let mut own = 0f64;
+        let mut err = 0f32;
+        let mut radius = 0f64;
+        let mut eq12_done = false;
+        for (half, apex) in apex.into_iter().enumerate() {
+            let Some(apex) = apex else {
+                bits |= or_bit(half) | and_bit(half);
+                continue;
+            };
+            // The half's children: hypotenuses a-apex and apex-b, both with apex v.
+            let mut or = false;
+            let mut and = true;
+            for (e0, e1) in [(a, apex), (apex, b)] {
+                let c = ((e0.0 + e1.0) / 2, (e0.1 + e1.1) / 2);
+                let ci = at(c);
+                let hh = half_of(c, v);
+                or |= flags[ci] & or_bit(hh) != 0;
+                and &= flags[ci] & and_bit(hh) != 0;
+                // Saturation and nesting over the DAG children.
+                err = err.max(self.err2[ci]);
+                let d = pv - self.bp.point(c.0, c.1, self.z[ci]);
+                radius = radius.max(norm_bound(d) + f64::from(self.radius[ci]));
+            }
+            if or {
+                bits |= or_bit(half);
+            }
+            if and {
+                bits |= and_bit(half);
+            }
+            if !or {
+                let dev = if h == 1 {
+                    // A half of a 2 x 2 square holds its corners (deviation
+                    // 0), v and the two leg midpoints: three details.
+                    let detail = |m: Pt, e0: Pt, e1: Pt| {
+                        (f64::from(self.z[at(m)]) - 0.5 * (f64::from(self.z[at(e0)]) + f64::from(self.z[at(e1)]))).abs()
+                    };
+                    let mid = |p: Pt, q: Pt| ((p.0 + q.0) / 2, (p.1 + q.1) / 2);
+                    detail(v, a, b)
+                        .max(detail(mid(a, apex), a, apex))
+                        .max(detail(mid(apex, b), apex, b))
+                } else {
+                    let rows = half_rows(v, h, apex, bisects == Bisects::Row, bisects == Bisects::Diagonal);
+                    max_deviation(self.z, gw, [a, b, apex], rows)
+                };
+                own = own.max(dev * dev);
+                if !eq12_done {
+                    eq12_done = true;
+                    let (pa, pb) = (self.bp.point(a.0, a.1, za), self.bp.point(b.0, b.1, zb));
+                    own = own.max(match bisects {
+                        Bisects::Diagonal => point_line_3d_sq(pv, pa, pb),
+                        Bisects::Row => point_line_2d_sq((pv.x, pv.z), (pa.x, pa.z), (pb.x, pb.z)),
+                        Bisects::Column => point_line_2d_sq((pv.y, pv.z), (pa.y, pa.z), (pb.y, pb.z)),
+                    });
+                }
+            } else if !and {
+                let zref = [za, zb, zv, self.z[at(apex)]].into_iter().fold(0f32, f32::max);
+                let zref = if zref > 0.0 { zref } else { zmax };
+                let len = f64::from(2 * h)
+                    * if bisects == Bisects::Diagonal {
+                        std::f64::consts::SQRT_2
+                    } else {
+                        1.0
+                    };
+                let extent = len * self.camera.pixel_size(f64::from(zref));
+                own = own.max(extent * extent);
+            }
+        }
+        flags[vi] = bits;
+        self.err2[vi] = err.max(round_up(own));
+        self.radius[vi] = round_up(radius);
+    }
+}
