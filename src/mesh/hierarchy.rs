@@ -34,7 +34,7 @@
 //!
 //! Errors are stored squared (Eq. 3) in f32, rounded up, saturated at `f32::MAX`.
 
-use std::sync::OnceLock;
+use std::sync::{mpsc, OnceLock};
 use std::time::Instant;
 
 use glam::DVec3;
@@ -42,7 +42,7 @@ use glam::DVec3;
 use super::backproject::BackProject;
 use super::budget::ErrorStats;
 use super::grid::{Grid, Pt};
-use super::levels::Levels;
+use super::levels::{coarse_deviations, Levels};
 use super::normals::normals_and_quality;
 use super::segmentation::{leaf_flags, Method, Samples, Segmentation};
 use crate::camera::Camera;
@@ -163,22 +163,30 @@ impl DepthMesh {
         let zmax = z.iter().copied().fold(0f32, f32::max);
         let mut err2 = vec![0f32; grid.len()];
         let mut radius = vec![0f32; grid.len()];
-        // Connectedness compares normals across triangle legs, so its leaf
-        // flags wait for them; otherwise the normals run beside the levels.
-        let beside = threads == Threads::Parallel && !matches!(seg.method, Method::Connectedness { .. }) && cores() > 1;
-        let (normal, rho, segmented, flags) = std::thread::scope(|scope| {
-            let pending = if beside {
-                Err(scope.spawn(|| normals_and_quality(&grid, camera, &bp, &z)))
-            } else {
-                Ok(normals_and_quality(&grid, camera, &bp, &z))
-            };
+        // The exact deviations of the levels above the finest and the
+        // normals read only the depths: a second thread computes the first,
+        // then the second unless the segmentation needs them first
+        // (connectedness compares normals across triangle legs).
+        let helper = threads == Threads::Parallel && cores() > 1;
+        let normals_first = !helper || matches!(seg.method, Method::Connectedness { .. });
+        let (normal, rho, segmented, flags, dev_bytes) = std::thread::scope(|scope| {
+            let (send, receive) = mpsc::channel();
+            let (zs, bps) = (&z, &bp);
+            let job = helper.then(|| {
+                scope.spawn(move || {
+                    // The receiver outlives this thread: sending cannot fail.
+                    let _ = send.send(coarse_deviations(grid, zs));
+                    (!normals_first).then(|| normals_and_quality(&grid, camera, bps, zs))
+                })
+            });
+            let early = normals_first.then(|| normals_and_quality(&grid, camera, &bp, &z));
             let cells = leaf_flags(
                 &Samples {
                     grid: &grid,
                     camera,
                     bp: &bp,
                     z: &z,
-                    normals: pending.as_ref().map_or(&[][..], |(n, _)| n),
+                    normals: early.as_ref().map_or(&[][..], |(n, _)| n),
                 },
                 seg,
             );
@@ -189,18 +197,38 @@ impl DepthMesh {
                 }
             }
             let mut flags: Vec<u8> = cells.into_iter().map(|c| (c & 3) << 4).collect();
-            Levels {
+            let mut levels = Levels {
                 grid,
                 camera,
                 bp: &bp,
                 z: &z,
                 err2: &mut err2,
                 radius: &mut radius,
-            }
-            .run(&mut flags, zmax);
-            let (normal, rho) =
-                pending.unwrap_or_else(|job| job.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic)));
-            (normal, rho, segmented, flags)
+            };
+            levels.run_finest(&mut flags, zmax);
+            let join = |job: std::thread::ScopedJoinHandle<'_, _>| {
+                job.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic))
+            };
+            let deviations = match job {
+                Some(_) => receive.recv().ok(),
+                None => Some(coarse_deviations(grid, &z)),
+            };
+            let (deviations, job) = match deviations {
+                Some(d) => (d, job),
+                None => {
+                    // The helper panicked before sending: pass its panic on.
+                    let _ = job.map(join);
+                    (Vec::new(), None)
+                }
+            };
+            levels.run_coarse(&mut flags, zmax, &deviations);
+            let late = job.and_then(join);
+            let (normal, rho) = match (early, late) {
+                (Some(done), _) | (None, Some(done)) => done,
+                // Not reached: exactly one of the two computed them.
+                (None, None) => normals_and_quality(&grid, camera, &bp, &z),
+            };
+            (normal, rho, segmented, flags, deviations.capacity() * 8)
         });
         let mut mesh = Self {
             grid,
@@ -219,8 +247,9 @@ impl DepthMesh {
         };
         // Everything kept was allocated before the levels ran, and the leaf
         // flags became the node flags in place: the peak is what is kept
-        // (the statistics come after).
-        mesh.build_peak_bytes = mesh.heap_bytes();
+        // plus the deviations of the coarse levels (the statistics come
+        // after).
+        mesh.build_peak_bytes = mesh.heap_bytes() + dev_bytes;
         mesh.stats = ErrorStats::gather(&mesh);
         mesh.build_ms = start.elapsed().as_secs_f64() * 1e3;
         Ok(mesh)

@@ -40,67 +40,127 @@ pub(crate) struct Levels<'a> {
     pub radius: &'a mut [f32],
 }
 
+/// A split vertex above level 0: `v` bisects `a-b`; `apex` are its halves'
+/// apexes (`None` off the grid).
+#[derive(Clone, Copy)]
+struct Split {
+    v: Pt,
+    a: Pt,
+    b: Pt,
+    apex: [Option<Pt>; 2],
+    bisects: Bisects,
+}
+
+impl Split {
+    /// Half the length of the bisected edge along the grid axes.
+    fn h(&self) -> u32 {
+        self.a.0.abs_diff(self.b.0).max(self.a.1.abs_diff(self.b.1)) / 2
+    }
+}
+
+/// Calls `f` on every split vertex above level 0 in the order the pass
+/// needs them: level by level from fine to coarse, and within a level the
+/// edge midpoints (which depend on the centres of the level below) before
+/// the centres (which depend on them).
+fn for_each_coarse(grid: Grid, mut f: impl FnMut(Split)) {
+    let (gw, gh) = (grid.gw(), grid.gh());
+    for g in 1..grid.k {
+        let h = 1u32 << g;
+        let step = 2 * h as usize;
+        for y in (0..gh).step_by(step) {
+            for x in (h..gw).step_by(step) {
+                f(Split {
+                    v: (x, y),
+                    a: (x - h, y),
+                    b: (x + h, y),
+                    apex: [(y >= h).then(|| (x, y - h)), (y + h < gh).then_some((x, y + h))],
+                    bisects: Bisects::Row,
+                });
+            }
+        }
+        for y in (h..gh).step_by(step) {
+            for x in (0..gw).step_by(step) {
+                f(Split {
+                    v: (x, y),
+                    a: (x, y - h),
+                    b: (x, y + h),
+                    apex: [(x >= h).then(|| (x - h, y)), (x + h < gw).then_some((x + h, y))],
+                    bisects: Bisects::Column,
+                });
+            }
+        }
+        for y in (h..gh).step_by(step) {
+            let py = if ((y - h) / (2 * h)) % 2 == 1 { y - h } else { y + h };
+            for x in (h..gw).step_by(step) {
+                let px = if ((x - h) / (2 * h)) % 2 == 1 { x - h } else { x + h };
+                let (qx, qy) = (2 * x - px, 2 * y - py);
+                let apex = if px < qx {
+                    [(px, qy), (qx, py)]
+                } else {
+                    [(qx, py), (px, qy)]
+                };
+                f(Split {
+                    v: (x, y),
+                    a: (px, py),
+                    b: (qx, qy),
+                    apex: apex.map(Some),
+                    bisects: Bisects::Diagonal,
+                });
+            }
+        }
+    }
+}
+
+/// The exact depth deviation of each half of every split vertex above
+/// level 0, squared and rounded up (0 where a half does not exist), in the
+/// order [`Levels::run_coarse`] takes them. It reads only the depths, so it
+/// can run on another thread while the finest level is built. Halves that
+/// turn out segmented get a value too, which the pass ignores (it is finite:
+/// invalid samples are 0).
+pub(crate) fn coarse_deviations(grid: Grid, z: &[f32]) -> Vec<[f32; 2]> {
+    let mut count = 0;
+    for_each_coarse(grid, |_| count += 1);
+    let gw = grid.gw() as usize;
+    let mut out = Vec::with_capacity(count);
+    for_each_coarse(grid, |s| {
+        let h = s.h();
+        out.push(s.apex.map(|apex| {
+            apex.map_or(0.0, |apex| {
+                let rows = half_rows(s.v, h, apex, s.bisects == Bisects::Row, s.bisects == Bisects::Diagonal);
+                let dev = max_deviation(z, gw, [s.a, s.b, apex], rows);
+                round_up(dev * dev)
+            })
+        }));
+    });
+    out
+}
+
 impl Levels<'_> {
-    /// The bottom-up pass over all levels, finest first.
+    /// The finest level (three quarters of all vertices), in dedicated passes.
     #[inline(never)]
-    pub(crate) fn run(&mut self, flags: &mut [u8], zmax: f32) {
-        let grid = self.grid;
-        let (gw, gh) = (grid.gw(), grid.gh());
-        // Level 0 is three quarters of all vertices: dedicated passes.
+    pub(crate) fn run_finest(&mut self, flags: &mut [u8], zmax: f32) {
         self.finest_edges::<true>(flags, zmax);
         self.finest_edges::<false>(flags, zmax);
         self.finest_centres(flags, zmax);
-        for g in 1..grid.k {
-            let h = 1u32 << g;
-            let step = 2 * h as usize;
-            // Edge midpoints of level g depend on centres of level g - 1,
-            // centres of level g on edge midpoints of level g. Level 0 edge
-            // midpoints were done above.
-            if g > 0 {
-                for y in (0..gh).step_by(step) {
-                    for x in (h..gw).step_by(step) {
-                        let apex = [(y >= h).then(|| (x, y - h)), (y + h < gh).then_some((x, y + h))];
-                        self.split_vertex(flags, zmax, (x, y), (x - h, y), (x + h, y), apex, Bisects::Row);
-                    }
-                }
-                for y in (h..gh).step_by(step) {
-                    for x in (0..gw).step_by(step) {
-                        let apex = [(x >= h).then(|| (x - h, y)), (x + h < gw).then_some((x + h, y))];
-                        self.split_vertex(flags, zmax, (x, y), (x, y - h), (x, y + h), apex, Bisects::Column);
-                    }
-                }
-            }
-            for y in (h..gh).step_by(step) {
-                let py = if ((y - h) / (2 * h)) % 2 == 1 { y - h } else { y + h };
-                for x in (h..gw).step_by(step) {
-                    let px = if ((x - h) / (2 * h)) % 2 == 1 { x - h } else { x + h };
-                    let (qx, qy) = (2 * x - px, 2 * y - py);
-                    let apex = if px < qx {
-                        [(px, qy), (qx, py)]
-                    } else {
-                        [(qx, py), (px, qy)]
-                    };
-                    self.split_vertex(
-                        flags,
-                        zmax,
-                        (x, y),
-                        (px, py),
-                        (qx, qy),
-                        apex.map(Some),
-                        Bisects::Diagonal,
-                    );
-                }
-            }
-        }
+    }
+
+    /// The levels above the finest, given their [`coarse_deviations`].
+    #[inline(never)]
+    pub(crate) fn run_coarse(&mut self, flags: &mut [u8], zmax: f32, deviations: &[[f32; 2]]) {
+        let mut next = deviations.iter();
+        for_each_coarse(self.grid, |s| {
+            let dev2 = next.next().copied().unwrap_or_default();
+            self.split_vertex(flags, zmax, s, dev2);
+        });
     }
 
     /// The edge midpoints of level 0, which bisect an edge of length 2: their
     /// halves are finest triangles, so there are no children to saturate over,
     /// the radius is 0 and the deviation interval is the detail itself.
-    /// Same results as [`Self::split_vertex`], in a tight loop.
+    /// Same results as [`Self::split_vertex`], in a tight loop. `ROW`: edges
+    /// along rows, else along columns (a constant, so each direction
+    /// compiles to its own straight loop).
     #[inline(never)]
-    /// `ROW`: edges along rows, else along columns (a constant, so each
-    /// direction compiles to its own straight loop).
     fn finest_edges<const ROW: bool>(&mut self, flags: &mut [u8], zmax: f32) {
         let (gw, gh) = (self.grid.gw() as usize, self.grid.gh() as usize);
         let row = ROW;
@@ -270,29 +330,23 @@ impl Levels<'_> {
     }
 
     /// Computes flags, own and saturated error and radius of the split vertex
-    /// `v` (any but a level-0 edge midpoint, see [`Self::finest_edges`]),
-    /// which bisects `a-b`; `apex` are its halves' apexes (`None` off the
-    /// grid). Children are finer and already done.
-    #[allow(clippy::too_many_arguments)]
+    /// `s` (above level 0), given its halves' squared deviations. Children
+    /// are finer and already done.
     #[inline(always)]
-    fn split_vertex(
-        &mut self,
-        flags: &mut [u8],
-        zmax: f32,
-        v: Pt,
-        a: Pt,
-        b: Pt,
-        apex: [Option<Pt>; 2],
-        bisects: Bisects,
-    ) {
+    fn split_vertex(&mut self, flags: &mut [u8], zmax: f32, s: Split, dev2: [f32; 2]) {
+        let Split { v, a, b, apex, bisects } = s;
         let gw = self.grid.gw() as usize;
         let at = |p: Pt| p.1 as usize * gw + p.0 as usize;
-        let h = a.0.abs_diff(b.0).max(a.1.abs_diff(b.1)) / 2;
+        let h = s.h();
         let vi = at(v);
         let (za, zb, zv) = (self.z[at(a)], self.z[at(b)], self.z[vi]);
         let pv = self.bp.point(v.0, v.1, zv);
         let mut bits = flags[vi] & 0xf0;
         let mut own = 0f64;
+        // Squared deviations arrive rounded up; the maximum of rounded-up
+        // values is the rounded-up maximum, so this is the same as adding
+        // them to `own`.
+        let mut own_dev2 = 0f32;
         let mut err = 0f32;
         let mut radius = 0f64;
         let mut eq12_done = false;
@@ -322,21 +376,7 @@ impl Levels<'_> {
                 bits |= and_bit(half);
             }
             if !or {
-                let dev = if h == 1 {
-                    // A half of a 2 x 2 square holds its corners (deviation
-                    // 0), v and the two leg midpoints: three details.
-                    let detail = |m: Pt, e0: Pt, e1: Pt| {
-                        (f64::from(self.z[at(m)]) - 0.5 * (f64::from(self.z[at(e0)]) + f64::from(self.z[at(e1)]))).abs()
-                    };
-                    let mid = |p: Pt, q: Pt| ((p.0 + q.0) / 2, (p.1 + q.1) / 2);
-                    detail(v, a, b)
-                        .max(detail(mid(a, apex), a, apex))
-                        .max(detail(mid(apex, b), apex, b))
-                } else {
-                    let rows = half_rows(v, h, apex, bisects == Bisects::Row, bisects == Bisects::Diagonal);
-                    max_deviation(self.z, gw, [a, b, apex], rows)
-                };
-                own = own.max(dev * dev);
+                own_dev2 = own_dev2.max(dev2[half]);
                 if !eq12_done {
                     eq12_done = true;
                     let (pa, pb) = (self.bp.point(a.0, a.1, za), self.bp.point(b.0, b.1, zb));
@@ -360,7 +400,7 @@ impl Levels<'_> {
             }
         }
         flags[vi] = bits;
-        self.err2[vi] = err.max(round_up(own));
+        self.err2[vi] = err.max(round_up(own)).max(own_dev2);
         self.radius[vi] = round_up(radius);
     }
 }
