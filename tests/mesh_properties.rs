@@ -315,7 +315,8 @@ fn one_thread_and_two_build_the_same_hierarchy() {
             ma.vertices == mb.vertices && ma.triangles == mb.triangles && ma.strips == mb.strips,
             "{method:?}: meshes differ"
         );
-        assert_eq!(one.stats().build_peak_bytes, two.stats().build_peak_bytes);
+        // The helper keeps the coarse levels' deviations until they are used.
+        assert!(one.stats().build_peak_bytes <= two.stats().build_peak_bytes);
     }
 }
 

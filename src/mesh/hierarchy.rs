@@ -209,26 +209,31 @@ impl DepthMesh {
             let join = |job: std::thread::ScopedJoinHandle<'_, _>| {
                 job.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic))
             };
-            let deviations = match job {
-                Some(_) => receive.recv().ok(),
-                None => Some(coarse_deviations(grid, &z)),
-            };
-            let (deviations, job) = match deviations {
-                Some(d) => (d, job),
-                None => {
+            // On one thread each unsegmented half's deviation is computed as
+            // the pass comes to it; the helper computes all of them.
+            let (deviations, job) = match job.map(|job| (receive.recv(), job)) {
+                Some((Ok(d), job)) => (Some(d), Some(job)),
+                Some((Err(_), job)) => {
                     // The helper panicked before sending: pass its panic on.
-                    let _ = job.map(join);
-                    (Vec::new(), None)
+                    let _ = join(job);
+                    (None, None)
                 }
+                None => (None, None),
             };
-            levels.run_coarse(&mut flags, zmax, &deviations);
+            levels.run_coarse(&mut flags, zmax, deviations.as_deref());
             let late = job.and_then(join);
             let (normal, rho) = match (early, late) {
                 (Some(done), _) | (None, Some(done)) => done,
                 // Not reached: exactly one of the two computed them.
                 (None, None) => normals_and_quality(&grid, camera, &bp, &z),
             };
-            (normal, rho, segmented, flags, deviations.capacity() * 8)
+            (
+                normal,
+                rho,
+                segmented,
+                flags,
+                deviations.map_or(0, |d| d.capacity() * 8),
+            )
         });
         let mut mesh = Self {
             grid,

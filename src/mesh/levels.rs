@@ -124,15 +124,19 @@ pub(crate) fn coarse_deviations(grid: Grid, z: &[f32]) -> Vec<[f32; 2]> {
     let mut out = Vec::with_capacity(count);
     for_each_coarse(grid, |s| {
         let h = s.h();
-        out.push(s.apex.map(|apex| {
-            apex.map_or(0.0, |apex| {
-                let rows = half_rows(s.v, h, apex, s.bisects == Bisects::Row, s.bisects == Bisects::Diagonal);
-                let dev = max_deviation(z, gw, [s.a, s.b, apex], rows);
-                round_up(dev * dev)
-            })
-        }));
+        out.push(
+            s.apex
+                .map(|apex| apex.map_or(0.0, |apex| half_deviation2(z, gw, s, h, apex))),
+        );
     });
     out
+}
+
+/// The squared exact deviation of the half of `s` with apex `apex`, rounded up.
+fn half_deviation2(z: &[f32], gw: usize, s: Split, h: u32, apex: Pt) -> f32 {
+    let rows = half_rows(s.v, h, apex, s.bisects == Bisects::Row, s.bisects == Bisects::Diagonal);
+    let dev = max_deviation(z, gw, [s.a, s.b, apex], rows);
+    round_up(dev * dev)
 }
 
 impl Levels<'_> {
@@ -144,12 +148,13 @@ impl Levels<'_> {
         self.finest_centres(flags, zmax);
     }
 
-    /// The levels above the finest, given their [`coarse_deviations`].
+    /// The levels above the finest, given their [`coarse_deviations`] or
+    /// (`None`) computing each unsegmented half's as it comes.
     #[inline(never)]
-    pub(crate) fn run_coarse(&mut self, flags: &mut [u8], zmax: f32, deviations: &[[f32; 2]]) {
-        let mut next = deviations.iter();
+    pub(crate) fn run_coarse(&mut self, flags: &mut [u8], zmax: f32, deviations: Option<&[[f32; 2]]>) {
+        let mut next = deviations.map(|d| d.iter());
         for_each_coarse(self.grid, |s| {
-            let dev2 = next.next().copied().unwrap_or_default();
+            let dev2 = next.as_mut().map(|it| it.next().copied().unwrap_or_default());
             self.split_vertex(flags, zmax, s, dev2);
         });
     }
@@ -333,7 +338,7 @@ impl Levels<'_> {
     /// `s` (above level 0), given its halves' squared deviations. Children
     /// are finer and already done.
     #[inline(always)]
-    fn split_vertex(&mut self, flags: &mut [u8], zmax: f32, s: Split, dev2: [f32; 2]) {
+    fn split_vertex(&mut self, flags: &mut [u8], zmax: f32, s: Split, dev2: Option<[f32; 2]>) {
         let Split { v, a, b, apex, bisects } = s;
         let gw = self.grid.gw() as usize;
         let at = |p: Pt| p.1 as usize * gw + p.0 as usize;
@@ -376,7 +381,10 @@ impl Levels<'_> {
                 bits |= and_bit(half);
             }
             if !or {
-                own_dev2 = own_dev2.max(dev2[half]);
+                own_dev2 = own_dev2.max(match dev2 {
+                    Some(d) => d[half],
+                    None => half_deviation2(self.z, gw, s, h, apex),
+                });
                 if !eq12_done {
                     eq12_done = true;
                     let (pa, pb) = (self.bp.point(a.0, a.1, za), self.bp.point(b.0, b.1, zb));
