@@ -162,7 +162,8 @@ struct MeshArgs {
     /// Largest accepted image, in pixels.
     #[arg(long, default_value_t = 64 << 20)]
     max_pixels: u64,
-    /// Build threads: 2 computes normals beside the error pass (same result).
+    /// Build threads: 2 (where the machine has them) computes deviations and
+    /// normals beside the error pass; the result is the same.
     #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=2))]
     threads: u8,
     /// Write the mesh as binary little-endian PLY.
@@ -253,7 +254,7 @@ fn run_mesh(a: &MeshArgs) -> Result<()> {
     let threads = if a.threads == 1 {
         Threads::Single
     } else {
-        Threads::Parallel
+        Threads::available()
     };
     let hierarchy = DepthMesh::build_with(&depth, &camera, &seg, threads)?;
     let view = a.view.as_deref().map(|p| read_camera(p, "view camera")).transpose()?;

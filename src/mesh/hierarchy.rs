@@ -91,16 +91,27 @@ pub struct DepthMesh {
     build_ms: f64,
 }
 
-/// Threads a build may use. The result does not depend on it.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+/// Threads a build uses. The result does not depend on it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Threads {
     /// Everything on the calling thread.
     Single,
-    /// Normals and quality on a second thread, beside the levels, when the
-    /// machine has more than one core and the segmentation does not need
-    /// the normals first (connectedness).
-    #[default]
+    /// A helper thread computes the exact deviations of the levels above
+    /// the finest while the calling thread builds the finest level, then
+    /// the normals and quality (unless the segmentation needs them first:
+    /// connectedness) while the calling thread builds the rest.
     Parallel,
+}
+
+impl Threads {
+    /// `Parallel` where this process may use more than one core.
+    pub fn available() -> Self {
+        if cores() > 1 {
+            Self::Parallel
+        } else {
+            Self::Single
+        }
+    }
 }
 
 /// Cores available to this process, asked once (the answer reads cgroup
@@ -127,9 +138,10 @@ pub struct BuildStats {
 
 impl DepthMesh {
     /// Builds the hierarchy of `depth` seen by `camera` (same size),
-    /// segmented with `seg`, on two threads where the machine has them.
+    /// segmented with `seg`, on two threads where the machine has them
+    /// ([`Threads::available`]).
     pub fn build(depth: &DepthImage, camera: &Camera, seg: &Segmentation) -> Result<Self> {
-        Self::build_with(depth, camera, seg, Threads::Parallel)
+        Self::build_with(depth, camera, seg, Threads::available())
     }
 
     /// [`Self::build`] with a choice of threads; the result is the same.
@@ -167,7 +179,7 @@ impl DepthMesh {
         // normals read only the depths: a second thread computes the first,
         // then the second unless the segmentation needs them first
         // (connectedness compares normals across triangle legs).
-        let helper = threads == Threads::Parallel && cores() > 1;
+        let helper = threads == Threads::Parallel;
         let normals_first = !helper || matches!(seg.method, Method::Connectedness { .. });
         let (normal, rho, segmented, flags, dev_bytes) = std::thread::scope(|scope| {
             let (send, receive) = mpsc::channel();
