@@ -202,12 +202,16 @@ impl DepthMesh {
                 },
                 seg,
             );
-            let mut segmented = 0;
-            for y in 0..depth.height - 1 {
-                for x in 0..depth.width - 1 {
-                    segmented += cells[grid.index((x, y))].count_ones() as usize;
-                }
-            }
+            let cells_per_row = depth.width as usize - 1;
+            let segmented: usize = (0..depth.height - 1)
+                .map(|y| {
+                    let row = grid.index((0, y));
+                    cells[row..row + cells_per_row]
+                        .iter()
+                        .map(|c| c.count_ones() as usize)
+                        .sum::<usize>()
+                })
+                .sum();
             let mut flags: Vec<u8> = cells.into_iter().map(|c| (c & 3) << 4).collect();
             let mut levels = Levels {
                 grid,

@@ -119,15 +119,21 @@ pub(crate) fn leaf_flags(s: &Samples<'_>, seg: &Segmentation) -> Vec<u8> {
         _ => 0.0,
     };
     let mut out = vec![0u8; grid.len()];
+    let (w, lambda) = (gw as usize, seg.lambda);
+    // Per row, first the cells whose four corners are valid and span too
+    // little depth for Eq. 11 (both triangles unsegmented: most cells), in
+    // a branch-free loop over whole rows that vectorises; then the rest.
+    let mut quiet = vec![false; w - 1];
     for y in 0..gh - 1 {
+        let i0 = grid.index((0, y));
+        let (top, bottom) = (&s.z[i0..i0 + w], &s.z[i0 + w..i0 + 2 * w]);
+        for ((q, t), b) in quiet.iter_mut().zip(top.windows(2)).zip(bottom.windows(2)) {
+            let lo = t[0].min(t[1]).min(b[0].min(b[1]));
+            let hi = t[0].max(t[1]).max(b[0].max(b[1]));
+            *q = lo > 0.0 && f64::from(hi) - f64::from(lo) <= lambda * f64::from(lo);
+        }
         for x in 0..gw - 1 {
-            // Fast path: four valid corners spanning too little depth for
-            // Eq. 11 leave both triangles of the cell unsegmented.
-            let i = grid.index((x, y));
-            let q = [s.z[i], s.z[i + 1], s.z[i + gw as usize], s.z[i + gw as usize + 1]];
-            let lo = q[0].min(q[1]).min(q[2].min(q[3]));
-            let hi = q[0].max(q[1]).max(q[2].max(q[3]));
-            if lo > 0.0 && f64::from(hi) - f64::from(lo) <= seg.lambda * f64::from(lo) {
+            if quiet[x as usize] {
                 continue;
             }
             let d: Diamond = grid.cell((x, y));
