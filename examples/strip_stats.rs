@@ -1,8 +1,28 @@
-//! Strip statistics of the demo scene: strips, swaps and restarts per order.
-use dmesh::mesh::{DepthMesh, Lod, StripOrder, RESTART};
+//! Strip statistics of the demo scene per strip order: indices per
+//! triangle, strips, swaps, and a lower bound that holds for any stripifier.
+//!
+//! The bound: every index of a strip (a repeated one for a swap included) is
+//! a corner of at most three consecutive triangles, so a vertex with `k`
+//! incident triangles is written at least `ceil(k / 3)` times; the sum over
+//! vertices, divided by the triangles, bounds the indices per triangle from
+//! below (restarts not counted). Usage: `cargo run --release --example strip_stats`.
+use dmesh::mesh::{DepthMesh, Lod, Mesh, StripOrder, RESTART};
+
+/// Indices per triangle no stripification of `m` can go below.
+fn bound(m: &Mesh) -> f64 {
+    let mut incident = vec![0u32; m.vertices.len()];
+    for t in &m.triangles {
+        for &v in t {
+            incident[v as usize] += 1;
+        }
+    }
+    let writes: u64 = incident.iter().map(|&k| u64::from(k.div_ceil(3))).sum();
+    writes as f64 / m.triangles.len().max(1) as f64
+}
+
 fn main() {
     let (d, c) = dmesh::synthetic::terrain_with_boxes(513, 513);
-    let h = DepthMesh::build(&d, &c, &Default::default()).unwrap();
+    let h = DepthMesh::build(&d, &c, &Default::default()).expect("the demo scene builds");
     let view = dmesh::camera::Camera::new(
         513,
         513,
@@ -10,14 +30,14 @@ fn main() {
         glam::DQuat::from_rotation_y(-0.1),
         glam::DVec3::new(0.5, 0.0, 0.0),
     )
-    .unwrap();
+    .expect("a valid camera");
     for (name, lod) in [
         ("eps 1cm", Lod::Epsilon(0.01)),
         ("tau 1", Lod::Tau { tau: 1.0, view: &view }),
         ("full", Lod::Epsilon(0.0)),
     ] {
         for order in [StripOrder::Traversal, StripOrder::Greedy] {
-            let m = h.extract_with(lod, order).unwrap();
+            let m = h.extract_with(lod, order).expect("extracts");
             let strips = m.strip_count();
             let t = m.triangles.len();
             let idx = m.strips.len();
@@ -30,9 +50,12 @@ fn main() {
                         .count()
                 })
                 .sum();
-            let lens: Vec<usize> = m.strips.split(|&i| i == RESTART).map(|r| r.len()).collect();
-            let singles = lens.iter().filter(|&&l| l == 3).count();
-            println!("{name:8} {order:?}: {t} tris, {idx} idx ({:.3}), {strips} strips ({singles} single), {degenerate} swaps", idx as f64 / t as f64);
+            let singles = m.strips.split(|&i| i == RESTART).filter(|r| r.len() == 3).count();
+            println!(
+                "{name:8} {order:?}: {t} tris, {idx} idx ({:.3}, bound {:.3}), {strips} strips ({singles} single), {degenerate} swaps",
+                idx as f64 / t as f64,
+                bound(&m)
+            );
         }
     }
 }
