@@ -121,6 +121,122 @@ fn cores() -> usize {
     *CORES.get_or_init(|| std::thread::available_parallelism().map_or(1, usize::from))
 }
 
+/// Depths on the padded grid; invalid samples and padding are 0.
+fn grid_depths(depth: &DepthImage, grid: &Grid) -> Vec<f32> {
+    let mut z = vec![0f32; grid.len()];
+    let (w, gw) = (depth.width as usize, grid.gw() as usize);
+    for (row, src) in depth.z.chunks_exact(w).enumerate() {
+        let dst = row * gw;
+        for (d, &s) in z[dst..dst + w].iter_mut().zip(src) {
+            *d = if s.is_finite() && s > 0.0 { s } else { 0.0 };
+        }
+    }
+    z
+}
+
+/// What the passes of a build compute from the depths.
+struct Passes {
+    normal: Vec<[u8; 2]>,
+    rho: Vec<u8>,
+    flags: Vec<u8>,
+    err2: Vec<f32>,
+    radius: Vec<f32>,
+    /// Full-resolution triangles of the image that are segmented.
+    segmented: usize,
+    /// Bytes held only while the passes ran (the helper's deviations).
+    scratch_bytes: usize,
+}
+
+impl Passes {
+    /// Normals, leaf segmentation and the bottom-up pass over the levels,
+    /// from the depths `z` on `grid`.
+    ///
+    /// The exact deviations of the levels above the finest and the normals
+    /// read only the depths: with [`Threads::Parallel`] a helper thread
+    /// computes the first while this thread builds the finest level, then
+    /// the second while this thread builds the rest, unless the segmentation
+    /// needs them first (connectedness compares normals across triangle legs).
+    fn run(grid: &Grid, camera: &Camera, bp: &BackProject, z: &[f32], seg: &Segmentation, threads: Threads) -> Self {
+        let grid = *grid;
+        let zmax = z.iter().copied().fold(0f32, f32::max);
+        let mut err2 = vec![0f32; grid.len()];
+        let mut radius = vec![0f32; grid.len()];
+        let helper = threads == Threads::Parallel;
+        let normals_first = !helper || matches!(seg.method, Method::Connectedness { .. });
+        std::thread::scope(|scope| {
+            let (send, receive) = mpsc::channel();
+            let job = helper.then(|| {
+                scope.spawn(move || {
+                    // The receiver outlives this thread: sending cannot fail.
+                    let _ = send.send(coarse_deviations(grid, z));
+                    (!normals_first).then(|| normals_and_quality(&grid, camera, bp, z))
+                })
+            });
+            let early = normals_first.then(|| normals_and_quality(&grid, camera, bp, z));
+            let cells = leaf_flags(
+                &Samples {
+                    grid: &grid,
+                    camera,
+                    bp,
+                    z,
+                    normals: early.as_ref().map_or(&[][..], |(n, _)| n),
+                },
+                seg,
+            );
+            let cells_per_row = grid.width as usize - 1;
+            let segmented: usize = (0..grid.height - 1)
+                .map(|y| {
+                    let row = grid.index((0, y));
+                    cells[row..row + cells_per_row]
+                        .iter()
+                        .map(|c| c.count_ones() as usize)
+                        .sum::<usize>()
+                })
+                .sum();
+            let mut flags: Vec<u8> = cells.into_iter().map(|c| (c & 3) << 4).collect();
+            let mut levels = Levels {
+                grid,
+                camera,
+                bp,
+                z,
+                err2: &mut err2,
+                radius: &mut radius,
+            };
+            levels.run_finest(&mut flags, zmax);
+            let join = |job: std::thread::ScopedJoinHandle<'_, _>| {
+                job.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic))
+            };
+            // On one thread each unsegmented half's deviation is computed as
+            // the pass comes to it; the helper computes all of them.
+            let (deviations, job) = match job.map(|job| (receive.recv(), job)) {
+                Some((Ok(d), job)) => (Some(d), Some(job)),
+                Some((Err(_), job)) => {
+                    // The helper panicked before sending: pass its panic on.
+                    let _ = join(job);
+                    (None, None)
+                }
+                None => (None, None),
+            };
+            levels.run_coarse(&mut flags, zmax, deviations.as_deref());
+            let late = job.and_then(join);
+            let (normal, rho) = match (early, late) {
+                (Some(done), _) | (None, Some(done)) => done,
+                // Not reached: exactly one of the two computed them.
+                (None, None) => normals_and_quality(&grid, camera, bp, z),
+            };
+            Self {
+                normal,
+                rho,
+                flags,
+                err2,
+                radius,
+                segmented,
+                scratch_bytes: deviations.map_or(0, |d| d.capacity() * 8),
+            }
+        })
+    }
+}
+
 /// Figures of a built hierarchy.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BuildStats {
@@ -164,105 +280,20 @@ impl DepthMesh {
         let (gw, gh) = (grid.gw(), grid.gh());
         let bp = BackProject::new(camera, gw, gh);
 
-        let mut z = vec![0f32; grid.len()];
-        let w = depth.width as usize;
-        for (row, src) in depth.z.chunks_exact(w).enumerate() {
-            let dst = row * gw as usize;
-            for (d, &s) in z[dst..dst + w].iter_mut().zip(src) {
-                *d = if s.is_finite() && s > 0.0 { s } else { 0.0 };
-            }
-        }
-        let zmax = z.iter().copied().fold(0f32, f32::max);
-        let mut err2 = vec![0f32; grid.len()];
-        let mut radius = vec![0f32; grid.len()];
-        // The exact deviations of the levels above the finest and the
-        // normals read only the depths: a second thread computes the first,
-        // then the second unless the segmentation needs them first
-        // (connectedness compares normals across triangle legs).
-        let helper = threads == Threads::Parallel;
-        let normals_first = !helper || matches!(seg.method, Method::Connectedness { .. });
-        let (normal, rho, segmented, flags, dev_bytes) = std::thread::scope(|scope| {
-            let (send, receive) = mpsc::channel();
-            let (zs, bps) = (&z, &bp);
-            let job = helper.then(|| {
-                scope.spawn(move || {
-                    // The receiver outlives this thread: sending cannot fail.
-                    let _ = send.send(coarse_deviations(grid, zs));
-                    (!normals_first).then(|| normals_and_quality(&grid, camera, bps, zs))
-                })
-            });
-            let early = normals_first.then(|| normals_and_quality(&grid, camera, &bp, &z));
-            let cells = leaf_flags(
-                &Samples {
-                    grid: &grid,
-                    camera,
-                    bp: &bp,
-                    z: &z,
-                    normals: early.as_ref().map_or(&[][..], |(n, _)| n),
-                },
-                seg,
-            );
-            let cells_per_row = depth.width as usize - 1;
-            let segmented: usize = (0..depth.height - 1)
-                .map(|y| {
-                    let row = grid.index((0, y));
-                    cells[row..row + cells_per_row]
-                        .iter()
-                        .map(|c| c.count_ones() as usize)
-                        .sum::<usize>()
-                })
-                .sum();
-            let mut flags: Vec<u8> = cells.into_iter().map(|c| (c & 3) << 4).collect();
-            let mut levels = Levels {
-                grid,
-                camera,
-                bp: &bp,
-                z: &z,
-                err2: &mut err2,
-                radius: &mut radius,
-            };
-            levels.run_finest(&mut flags, zmax);
-            let join = |job: std::thread::ScopedJoinHandle<'_, _>| {
-                job.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic))
-            };
-            // On one thread each unsegmented half's deviation is computed as
-            // the pass comes to it; the helper computes all of them.
-            let (deviations, job) = match job.map(|job| (receive.recv(), job)) {
-                Some((Ok(d), job)) => (Some(d), Some(job)),
-                Some((Err(_), job)) => {
-                    // The helper panicked before sending: pass its panic on.
-                    let _ = join(job);
-                    (None, None)
-                }
-                None => (None, None),
-            };
-            levels.run_coarse(&mut flags, zmax, deviations.as_deref());
-            let late = job.and_then(join);
-            let (normal, rho) = match (early, late) {
-                (Some(done), _) | (None, Some(done)) => done,
-                // Not reached: exactly one of the two computed them.
-                (None, None) => normals_and_quality(&grid, camera, &bp, &z),
-            };
-            (
-                normal,
-                rho,
-                segmented,
-                flags,
-                deviations.map_or(0, |d| d.capacity() * 8),
-            )
-        });
+        let z = grid_depths(depth, &grid);
+        let p = Passes::run(&grid, camera, &bp, &z, seg, threads);
         let mut mesh = Self {
             grid,
             camera: *camera,
             bp,
             z,
-            err2,
-            radius,
-            normal,
-            rho,
-            flags,
+            err2: p.err2,
+            radius: p.radius,
+            normal: p.normal,
+            rho: p.rho,
+            flags: p.flags,
             stats: ErrorStats::default(),
-            segmented,
+            segmented: p.segmented,
             build_peak_bytes: 0,
             build_ms: 0.0,
         };
@@ -270,7 +301,7 @@ impl DepthMesh {
         // flags became the node flags in place: the peak is what is kept
         // plus the deviations of the coarse levels (the statistics come
         // after).
-        mesh.build_peak_bytes = mesh.heap_bytes() + dev_bytes;
+        mesh.build_peak_bytes = mesh.heap_bytes() + p.scratch_bytes;
         mesh.stats = ErrorStats::gather(&mesh);
         mesh.build_ms = start.elapsed().as_secs_f64() * 1e3;
         Ok(mesh)
