@@ -28,9 +28,10 @@
 //!   view-dependent test of Eq. 4 monotone.
 //!
 //! The pass itself is in `levels.rs`; the finest level (three quarters of
-//! all vertices) gets dedicated loops there. Normals and quality do not
-//! depend on it: unless the segmentation needs them (connectedness), they
-//! are computed on a second thread meanwhile ([`Threads`]).
+//! all vertices) gets dedicated loops there. The exact deviations of the
+//! levels above it and the normals and quality read only the depths, so with
+//! [`Threads::Parallel`] a helper thread computes them meanwhile (the
+//! normals first when the segmentation needs them: connectedness).
 //!
 //! Errors are stored squared (Eq. 3) in f32, rounded up, saturated at `f32::MAX`.
 

@@ -6,8 +6,9 @@
 //! - `deviation`: the exact depth deviation of a hierarchy triangle;
 //! - [`normals`]: per-vertex normals and quality rho (Sec. 4.2);
 //! - [`segmentation`]: orthogonality, disparity, connectedness, gated by lambda (Sec. 5.2);
-//! - [`hierarchy`]: the bottom-up build with saturated errors, nested radii
-//!   and propagated segmentation flags (Sec. 4.2, 5.3);
+//! - [`hierarchy`]: the build, on one thread or two (Sec. 4.2, 5.3);
+//! - `levels`: its bottom-up pass: saturated errors, nested radii and
+//!   propagated segmentation flags (Sec. 4.2, 5.3);
 //! - `select`: static (Eq. 3) and view-dependent (Eq. 4) selection;
 //! - [`extract`]: the top-down traversal emitting a conforming mesh (Sec. 4.3-4.4);
 //! - [`strips`]: generalised strips with primitive restart (Fig. 13).
