@@ -333,6 +333,18 @@ proptest! {
     }
 
     #[test]
+    fn random_depths_build_the_same_on_one_thread_and_two((w, h, z) in arb_depth(24), kappa in prop_oneof![Just(None), (0.1f64..2.0).prop_map(Some)]) {
+        let depth = DepthImage::from_z(w, h, z).unwrap();
+        let method = kappa.map_or(Method::Orthogonality { omega_deg: 5.0 }, |kappa| Method::Connectedness { kappa });
+        let seg = Segmentation { method, lambda: 0.01 };
+        let one = DepthMesh::build_with(&depth, &camera(w, h), &seg, Threads::Single).unwrap();
+        let two = DepthMesh::build_with(&depth, &camera(w, h), &seg, Threads::Parallel).unwrap();
+        let (a, b) = (answers(&one), answers(&two));
+        prop_assert!(a.0 == b.0, "per-vertex data differ");
+        prop_assert!(a.1.vertices == b.1.vertices && a.1.triangles == b.1.triangles && a.1.strips == b.1.strips);
+    }
+
+    #[test]
     fn random_views_give_conforming_finite_meshes(
         (w, h, z) in arb_depth(24),
         tau in prop_oneof![Just(0.0), 0.0f64..4.0, 10.0f64..1000.0],
