@@ -1,8 +1,11 @@
 //! The bottom-up pass of the build over the levels of the 4-8 hierarchy,
 //! finest first: flags, own and saturated errors and nested radii of every
 //! split vertex (DMesh Sec. 4.2 and 5.3; what each term is, is documented in
-//! `hierarchy.rs`). It reads depths and writes errors and radii only, so it
-//! can run beside the normals.
+//! `hierarchy.rs`). It reads the depths and writes flags, errors and radii
+//! only, so the normals can be computed beside it; the exact deviations of
+//! the levels above the finest, which need the depths alone, can be computed
+//! beforehand on another thread ([`coarse_deviations`]) while this pass
+//! builds the finest level.
 
 use super::backproject::BackProject;
 use super::deviation::{half_rows, max_deviation};
