@@ -39,6 +39,12 @@ impl BackProject {
         self.cols[x]
     }
 
+    /// `(ax, bx)` of every column.
+    #[inline]
+    pub fn cols(&self) -> &[(f64, f64)] {
+        &self.cols
+    }
+
     /// `(ay, by)` of row `y`: camera-frame `y = ay + by * z`.
     #[inline]
     pub fn row(&self, y: usize) -> (f64, f64) {

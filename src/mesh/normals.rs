@@ -99,56 +99,73 @@ pub fn normals_and_quality(grid: &Grid, camera: &Camera, bp: &BackProject, z: &[
     let mut normals = vec![facing; grid.len()];
     let mut rho = vec![0u8; grid.len()];
     let ortho = camera.is_orthographic();
-    // Difference across a sample along one axis, one-sided where a neighbour
-    // is invalid (depth 0) or off the image.
-    let diff = |c: DVec3, lo: Option<DVec3>, hi: Option<DVec3>| match (lo, hi) {
-        (Some(l), Some(h)) => Some(h - l),
-        (None, Some(h)) => Some(h - c),
-        (Some(l), None) => Some(c - l),
-        (None, None) => None,
+    let view = |p: DVec3| if ortho { DVec3::Z } else { p };
+    // Any sample: differences across it along the row and the column,
+    // one-sided where a neighbour is invalid (depth 0) or off the image.
+    let general = |x: usize, y: usize| {
+        let diff = |c: DVec3, lo: Option<DVec3>, hi: Option<DVec3>| match (lo, hi) {
+            (Some(l), Some(h)) => Some(h - l),
+            (None, Some(h)) => Some(h - c),
+            (Some(l), None) => Some(c - l),
+            (None, None) => None,
+        };
+        let at = |xx: usize, yy: usize| {
+            let d = z[yy * gw + xx];
+            (d > 0.0).then(|| bp.point(xx as u32, yy as u32, d))
+        };
+        let p = bp.point(x as u32, y as u32, z[y * gw + x]);
+        let left = if x > 0 { at(x - 1, y) } else { None };
+        let right = if x + 1 < w { at(x + 1, y) } else { None };
+        let up = if y > 0 { at(x, y - 1) } else { None };
+        let down = if y + 1 < h { at(x, y + 1) } else { None };
+        let n = match (diff(p, left, right), diff(p, up, down)) {
+            (Some(dx), Some(dy)) => dy.cross(dx),
+            _ => DVec3::ZERO,
+        };
+        encode(n, view(p))
     };
     for y in 0..h {
         let row = y * gw;
-        let (ay, by) = bp.row(y);
-
-        // Row factors of the neighbours, hoisted (any row when off the image:
-        // only the interior fast path reads them).
-        let ((ayu, byu), (ayd, byd)) = (bp.row(y.saturating_sub(1)), bp.row((y + 1).min(h - 1)));
-        let interior_row = y > 0 && y + 1 < h;
-        for x in 0..w {
-            let idx = row + x;
-            let zz = z[idx];
-            if zz <= 0.0 {
+        let (nrow, rrow) = (&mut normals[row..row + w], &mut rho[row..row + w]);
+        let zrow = &z[row..row + w];
+        if y == 0 || y + 1 == h || w < 3 {
+            for x in (0..w).filter(|&x| zrow[x] > 0.0) {
+                (nrow[x], rrow[x]) = general(x, y);
+            }
+            continue;
+        }
+        // Interior rows: central differences where all four neighbours are
+        // valid, over row slices so the loop carries no bounds checks.
+        let (zup, zdown) = (&z[row - gw..row - gw + w], &z[row + gw..row + gw + w]);
+        let cols = &bp.cols()[..w];
+        let ((ay, by), (ayu, byu), (ayd, byd)) = (bp.row(y), bp.row(y - 1), bp.row(y + 1));
+        for x in 1..w - 1 {
+            let zc = zrow[x];
+            if zc <= 0.0 {
                 continue;
             }
-            let (ax, bx) = bp.col(x);
-            let zf = f64::from(zz);
-            let p = DVec3::new(ax + bx * zf, ay + by * zf, zf);
-            // Fast path: all four neighbours valid, central differences.
-            if interior_row && x > 0 && x + 1 < w {
-                let (zl, zr, zu, zd) = (z[idx - 1], z[idx + 1], z[idx - gw], z[idx + gw]);
-                if zl > 0.0 && zr > 0.0 && zu > 0.0 && zd > 0.0 {
-                    let (zl, zr, zu, zd) = (f64::from(zl), f64::from(zr), f64::from(zu), f64::from(zd));
-                    let ((axl, bxl), (axr, bxr)) = (bp.col(x - 1), bp.col(x + 1));
-                    let dx = DVec3::new(axr + bxr * zr - axl - bxl * zl, by * (zr - zl), zr - zl);
-                    let dy = DVec3::new(bx * (zd - zu), ayd + byd * zd - ayu - byu * zu, zd - zu);
-                    (normals[idx], rho[idx]) = encode(dy.cross(dx), if ortho { DVec3::Z } else { p });
-                    continue;
-                }
+            let (zl, zr, zu, zd) = (zrow[x - 1], zrow[x + 1], zup[x], zdown[x]);
+            if !(zl > 0.0 && zr > 0.0 && zu > 0.0 && zd > 0.0) {
+                (nrow[x], rrow[x]) = general(x, y);
+                continue;
             }
-            let at = |xx: usize, yy: usize| {
-                let d = z[yy * gw + xx];
-                (d > 0.0).then(|| bp.point(xx as u32, yy as u32, d))
-            };
-            let left = if x > 0 { at(x - 1, y) } else { None };
-            let right = if x + 1 < w { at(x + 1, y) } else { None };
-            let up = if y > 0 { at(x, y - 1) } else { None };
-            let down = if y + 1 < h { at(x, y + 1) } else { None };
-            let n = match (diff(p, left, right), diff(p, up, down)) {
-                (Some(dx), Some(dy)) => dy.cross(dx),
-                _ => DVec3::ZERO,
-            };
-            (normals[idx], rho[idx]) = encode(n, if ortho { DVec3::Z } else { p });
+            let (zc, zl, zr, zu, zd) = (
+                f64::from(zc),
+                f64::from(zl),
+                f64::from(zr),
+                f64::from(zu),
+                f64::from(zd),
+            );
+            let ((axl, bxl), (ax, bx), (axr, bxr)) = (cols[x - 1], cols[x], cols[x + 1]);
+            let p = DVec3::new(ax + bx * zc, ay + by * zc, zc);
+            let dx = DVec3::new(axr + bxr * zr - axl - bxl * zl, by * (zr - zl), zr - zl);
+            let dy = DVec3::new(bx * (zd - zu), ayd + byd * zd - ayu - byu * zu, zd - zu);
+            (nrow[x], rrow[x]) = encode(dy.cross(dx), view(p));
+        }
+        for x in [0, w - 1] {
+            if zrow[x] > 0.0 {
+                (nrow[x], rrow[x]) = general(x, y);
+            }
         }
     }
     (normals, rho)
