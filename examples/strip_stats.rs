@@ -5,7 +5,10 @@
 //! a corner of at most three consecutive triangles, so a vertex with `k`
 //! incident triangles is written at least `ceil(k / 3)` times; the sum over
 //! vertices, divided by the triangles, bounds the indices per triangle from
-//! below (restarts not counted). Usage: `cargo run --release --example strip_stats`.
+//! below (restarts not counted). Beside the strips, the fewest strips any
+//! stripifier needs (triangles with one neighbour end a strip, those with
+//! none are one) and the extraction time. Usage:
+//! `cargo run --release --example strip_stats`.
 use dmesh::mesh::{DepthMesh, Lod, Mesh, StripOrder, RESTART};
 
 /// Indices per triangle no stripification of `m` can go below.
@@ -36,7 +39,7 @@ fn main() {
         ("tau 1", Lod::Tau { tau: 1.0, view: &view }),
         ("full", Lod::Epsilon(0.0)),
     ] {
-        for order in [StripOrder::Traversal, StripOrder::Greedy] {
+        for order in [StripOrder::Traversal, StripOrder::Greedy, StripOrder::Tunnelled] {
             let m = h.extract_with(lod, order).expect("extracts");
             let strips = m.strip_count();
             let t = m.triangles.len();
@@ -52,10 +55,38 @@ fn main() {
                 .sum();
             let singles = m.strips.split(|&i| i == RESTART).filter(|r| r.len() == 3).count();
             println!(
-                "{name:8} {order:?}: {t} tris, {idx} idx ({:.3}, bound {:.3}), {strips} strips ({singles} single), {degenerate} swaps",
+                "{name:8} {order:?}: {t} tris, {idx} idx ({:.3}, bound {:.3}), {strips} strips (min {}, {singles} single), {degenerate} swaps, {:.2} ms",
                 idx as f64 / t as f64,
-                bound(&m)
+                bound(&m), min_strips(&m), m.extract_ms
             );
         }
     }
+}
+
+/// Lower bound on strips: every triangle with one neighbour ends a strip and
+/// every triangle with none is a strip of its own.
+fn min_strips(m: &Mesh) -> usize {
+    let mut edges = std::collections::HashMap::new();
+    for t in &m.triangles {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            *edges.entry((a.min(b), a.max(b))).or_insert(0u32) += 1;
+        }
+    }
+    let (mut d0, mut d1) = (0usize, 0usize);
+    for t in &m.triangles {
+        let deg = (0..3)
+            .filter(|&k| {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                edges[&(a.min(b), a.max(b))] > 1
+            })
+            .count();
+        if deg == 0 {
+            d0 += 1;
+        }
+        if deg == 1 {
+            d1 += 1;
+        }
+    }
+    (d1 + 2 * d0).div_ceil(2)
 }

@@ -88,6 +88,7 @@ enum KindArg {
 enum StripsArg {
     Traversal,
     Greedy,
+    Tunnelled,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -156,7 +157,8 @@ struct MeshArgs {
     /// Depth-range gate dz / z (Eq. 11).
     #[arg(long, default_value_t = 0.02, allow_negative_numbers = true)]
     lambda: f64,
-    /// Strip order: the traversal's (fastest) or greedy (fewer indices).
+    /// Strip order: the traversal's (fastest), greedy (fewer indices) or
+    /// tunnelled (fewest indices, slowest).
     #[arg(long, value_enum, default_value = "traversal")]
     strips: StripsArg,
     /// Largest accepted image, in pixels.
@@ -273,6 +275,7 @@ fn run_mesh(a: &MeshArgs) -> Result<()> {
     let order = match a.strips {
         StripsArg::Traversal => StripOrder::Traversal,
         StripsArg::Greedy => StripOrder::Greedy,
+        StripsArg::Tunnelled => StripOrder::Tunnelled,
     };
     let mesh = hierarchy.extract_with(lod, order)?;
     if let Some(p) = &a.ply {
@@ -329,12 +332,20 @@ fn run_demo(size: u32, ply: Option<&Path>) -> Result<()> {
         stats.grid_vertices, stats.heap_bytes, stats.segmented_triangles, stats.build_ms
     );
     println!(
-        "{:<22} {:>10} {:>9} | {:^19} | {:^19}",
-        "", "", "", "traversal strips", "greedy strips"
+        "{:<22} {:>10} {:>9} | {:^19} | {:^19} | {:^19}",
+        "", "", "", "traversal strips", "greedy strips", "tunnelled strips"
     );
     println!(
-        "{:<22} {:>10} {:>9} | {:>8} {:>10} | {:>8} {:>10}",
-        "level of detail", "triangles", "vertices", "idx/tri", "extract ms", "idx/tri", "extract ms"
+        "{:<22} {:>10} {:>9} | {:>8} {:>10} | {:>8} {:>10} | {:>8} {:>10}",
+        "level of detail",
+        "triangles",
+        "vertices",
+        "idx/tri",
+        "extract ms",
+        "idx/tri",
+        "extract ms",
+        "idx/tri",
+        "extract ms"
     );
     let side = Camera::new(
         size,
@@ -361,15 +372,18 @@ fn run_demo(size: u32, ply: Option<&Path>) -> Result<()> {
     for (name, lod) in lods {
         let m = hierarchy.extract(lod)?;
         let g = hierarchy.extract_with(lod, StripOrder::Greedy)?;
+        let t = hierarchy.extract_with(lod, StripOrder::Tunnelled)?;
         let ipt = |m: &Mesh| m.strips.len() as f64 / m.triangles.len().max(1) as f64;
         println!(
-            "{name:<22} {:>10} {:>9} | {:>8.3} {:>10.3} | {:>8.3} {:>10.3}",
+            "{name:<22} {:>10} {:>9} | {:>8.3} {:>10.3} | {:>8.3} {:>10.3} | {:>8.3} {:>10.3}",
             m.triangles.len(),
             m.vertices.len(),
             ipt(&m),
             m.extract_ms,
             ipt(&g),
-            g.extract_ms
+            g.extract_ms,
+            ipt(&t),
+            t.extract_ms
         );
     }
     if let Some(p) = ply {

@@ -65,6 +65,49 @@ fn json_figures_describe_the_mesh() {
 }
 
 #[test]
+fn strip_orders_give_the_same_triangles_in_fewer_indices() {
+    let dir = tempfile::tempdir().unwrap();
+    let (depth, _, cam) = scene(dir.path());
+    let run = |order: &str| {
+        let (code, out, err) = dmesh(&[
+            "mesh",
+            "--depth",
+            &depth,
+            "--camera",
+            &cam,
+            "--epsilon",
+            "0",
+            "--strips",
+            order,
+            "--json",
+        ]);
+        assert_eq!(code, 0, "{order}: {err}");
+        let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
+        (v["triangles"].as_u64().unwrap(), v["indices"].as_u64().unwrap())
+    };
+    let (traversal, greedy, tunnelled) = (run("traversal"), run("greedy"), run("tunnelled"));
+    assert_eq!(traversal.0, greedy.0);
+    assert_eq!(traversal.0, tunnelled.0);
+    assert!(
+        tunnelled.1 < greedy.1 && greedy.1 < traversal.1,
+        "indices: traversal {traversal:?}, greedy {greedy:?}, tunnelled {tunnelled:?}"
+    );
+    let (code, _, err) = dmesh(&[
+        "mesh",
+        "--depth",
+        &depth,
+        "--camera",
+        &cam,
+        "--epsilon",
+        "0",
+        "--strips",
+        "best",
+    ]);
+    assert_ne!(code, 0);
+    assert!(err.contains("best"), "{err}");
+}
+
+#[test]
 fn a_triangle_budget_is_met_and_its_tolerance_printed() {
     let dir = tempfile::tempdir().unwrap();
     let (depth, _, cam) = scene(dir.path());

@@ -17,9 +17,11 @@ fn check_all(depth: &DepthImage, cam: &Camera, seg: &Segmentation, eps: f64) {
     assert_conforming(&mesh);
     assert_strips_match(&mesh);
     assert_epsilon_bound(&mesh, depth, eps);
-    let greedy = h.extract_with(Lod::Epsilon(eps), StripOrder::Greedy).unwrap();
-    assert_eq!(greedy.triangles, mesh.triangles);
-    assert_strips_match(&greedy);
+    for order in [StripOrder::Greedy, StripOrder::Tunnelled] {
+        let other = h.extract_with(Lod::Epsilon(eps), order).unwrap();
+        assert_eq!(other.triangles, mesh.triangles);
+        assert_strips_match(&other);
+    }
 }
 
 #[test]
@@ -35,10 +37,16 @@ fn smooth_surface_at_several_tolerances() {
         assert_strips_match(&mesh);
         let greedy = h.extract_with(Lod::Epsilon(eps), StripOrder::Greedy).unwrap();
         assert_strips_match(&greedy);
+        let tunnelled = h.extract_with(Lod::Epsilon(eps), StripOrder::Tunnelled).unwrap();
+        assert_strips_match(&tunnelled);
         if eps < 0.1 {
             assert!(
                 greedy.strips.len() < mesh.strips.len(),
                 "greedy strips should be shorter at {eps}"
+            );
+            assert!(
+                tunnelled.strips.len() < greedy.strips.len(),
+                "tunnelled strips should be shorter at {eps}"
             );
         }
         assert_epsilon_bound(&mesh, &depth, eps);
@@ -359,6 +367,8 @@ proptest! {
         assert_finite(&mesh, w, h);
         assert_conforming(&mesh);
         assert_strips_match(&mesh);
-        assert_strips_match(&hier.extract_with(Lod::Tau { tau, view: &view }, StripOrder::Greedy).unwrap());
+        for order in [StripOrder::Greedy, StripOrder::Tunnelled] {
+            assert_strips_match(&hier.extract_with(Lod::Tau { tau, view: &view }, order).unwrap());
+        }
     }
 }

@@ -27,7 +27,7 @@ use super::error_metric::norm_bound;
 use super::grid::{cell_half, half_of, Pt};
 use super::hierarchy::{and_bit, cell_bit, or_bit, DepthMesh};
 use super::select::{PlaneMask, Select, Static, ViewDependent, ALL_PLANES};
-use super::strips::{stripify, stripify_greedy, StripOrder, BREAK};
+use super::strips::{stripify, stripify_greedy, stripify_tunnelled, StripOrder, BREAK};
 use crate::camera::Camera;
 use crate::error::{Error, Result};
 
@@ -349,8 +349,10 @@ impl DepthMesh {
                 *i = slot[*i as usize];
             }
             s
-        } else {
+        } else if order_kind == StripOrder::Greedy {
             stripify_greedy(&triangles, order.len())
+        } else {
+            stripify_tunnelled(&triangles, order.len())
         };
 
         Mesh {

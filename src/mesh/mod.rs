@@ -11,7 +11,8 @@
 //!   propagated segmentation flags (Sec. 4.2, 5.3);
 //! - `select`: static (Eq. 3) and view-dependent (Eq. 4) selection;
 //! - [`extract`]: the top-down traversal emitting a conforming mesh (Sec. 4.3-4.4);
-//! - [`strips`]: generalised strips with primitive restart (Fig. 13).
+//! - [`strips`]: generalised strips with primitive restart (Fig. 13);
+//! - `tunnel`: joining greedy strips by tunnelling, weighed by their index count.
 
 mod backproject;
 pub mod budget;
@@ -25,6 +26,7 @@ pub mod normals;
 pub mod segmentation;
 mod select;
 pub mod strips;
+mod tunnel;
 
 pub use budget::Budgeted;
 pub use extract::{Lod, Mesh, MeshVertex};
