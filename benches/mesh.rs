@@ -6,10 +6,12 @@
 //!   `DepthMesh::build` does on a machine with two cores);
 //! - `static/<scene>`: extraction at a static epsilon (0.5 % of the median depth);
 //! - `tau1/<scene>`: view-dependent extraction at tau = 1 px from a camera
-//!   10 % of the depth to the side of the reference and turned towards it.
+//!   10 % of the depth to the side of the reference and turned towards it;
+//! - `tau1-tunnelled/synthetic-513x513`: the same with tunnelled strips.
 //!
-//! Before timing it prints, per scene, the triangles, indices per triangle
-//! and strips of each extraction.
+//! Before timing it prints, per scene, the triangles, vertices, indices per
+//! triangle of each strip order, the traversal's strips and the median
+//! extraction time with tunnelled strips over three runs.
 
 #![allow(missing_docs)] // criterion_group! generates undocumented items
 
@@ -59,22 +61,29 @@ fn side_view(c: &Camera, depth: f64) -> Camera {
 fn row(name: &str, what: &str, h: &DepthMesh, lod: Lod<'_>) {
     let m = h.extract(lod).unwrap();
     let g = h.extract_with(lod, StripOrder::Greedy).unwrap();
+    let mut runs: Vec<Mesh> = (0..3)
+        .map(|_| h.extract_with(lod, StripOrder::Tunnelled).unwrap())
+        .collect();
+    runs.sort_by(|a, b| a.extract_ms.total_cmp(&b.extract_ms));
+    let t = &runs[1];
     let tris = m.triangles.len();
     let ipt = |m: &Mesh| m.strips.len() as f64 / tris.max(1) as f64;
     println!(
-        "{name:<22} {what:<14} {tris:>10} {:>10} {:>9.3} {:>9.3} {:>8}",
+        "{name:<22} {what:<14} {tris:>10} {:>10} {:>9.3} {:>9.3} {:>9.3} {:>8} {:>9.1}",
         m.vertices.len(),
         ipt(&m),
         ipt(&g),
-        m.strip_count()
+        ipt(t),
+        m.strip_count(),
+        t.extract_ms
     );
 }
 
 fn bench(c: &mut Criterion) {
     let scenes = all_scenes();
     println!(
-        "{:<22} {:<14} {:>10} {:>10} {:>9} {:>9} {:>8}",
-        "scene", "extraction", "triangles", "vertices", "idx/tri", "greedy", "strips"
+        "{:<22} {:<14} {:>10} {:>10} {:>9} {:>9} {:>9} {:>8} {:>9}",
+        "scene", "extraction", "triangles", "vertices", "idx/tri", "greedy", "tunnelled", "strips", "tun. ms"
     );
     for (name, depth, cam) in &scenes {
         let h = DepthMesh::build(depth, cam, &Segmentation::default()).unwrap();
@@ -111,6 +120,20 @@ fn bench(c: &mut Criterion) {
                 .unwrap()
             })
         });
+        if name == "synthetic-513x513" {
+            g.bench_function(format!("tau1-tunnelled/{name}"), |b| {
+                b.iter(|| {
+                    h.extract_with(
+                        Lod::Tau {
+                            tau: black_box(1.0),
+                            view: &view,
+                        },
+                        StripOrder::Tunnelled,
+                    )
+                    .unwrap()
+                })
+            });
+        }
     }
     g.finish();
 }

@@ -1,9 +1,15 @@
 //! Extracts the synthetic scene at tau = 1 px repeatedly and prints the
-//! minimum and median time, for profiling. Usage: `profile_extract [SIZE] [ITERATIONS]`.
+//! minimum and median time, for profiling. Usage:
+//! `profile_extract [SIZE] [ITERATIONS] [traversal|greedy|tunnelled]`.
 fn main() {
     let mut args = std::env::args().skip(1);
     let size: u32 = args.next().and_then(|s| s.parse().ok()).unwrap_or(513);
     let iterations: usize = args.next().and_then(|s| s.parse().ok()).unwrap_or(100);
+    let order = match args.next().as_deref() {
+        Some("greedy") => dmesh::mesh::StripOrder::Greedy,
+        Some("tunnelled") => dmesh::mesh::StripOrder::Tunnelled,
+        _ => dmesh::mesh::StripOrder::Traversal,
+    };
     let (d, c) = dmesh::synthetic::terrain_with_boxes(size, size);
     let h = dmesh::mesh::DepthMesh::build(&d, &c, &Default::default()).unwrap();
     let view = dmesh::camera::Camera::new(
@@ -18,9 +24,12 @@ fn main() {
     let mut tris = 0;
     for _ in 0..iterations.max(1) {
         let t = std::time::Instant::now();
-        tris = std::hint::black_box(h.extract(dmesh::mesh::Lod::Tau { tau: 1.0, view: &view }).unwrap())
-            .triangles
-            .len();
+        tris = std::hint::black_box(
+            h.extract_with(dmesh::mesh::Lod::Tau { tau: 1.0, view: &view }, order)
+                .unwrap(),
+        )
+        .triangles
+        .len();
         times.push(t.elapsed());
     }
     times.sort();

@@ -18,9 +18,10 @@
 //! corner a triangle shares with both its strip neighbours; the older of
 //! two equal pivots must be written again). A link is worth 3 indices, or 2
 //! when it is a swap, and a pivot depends only on a triangle's own two
-//! links, so the change a tunnel makes is counted over the links at its
-//! triangles alone. A tunnel is kept when it saves indices and closes no
-//! cycle.
+//! links, so the change each step of a tunnel makes is counted over the
+//! links at the two or three triangles it touches. The search applies a
+//! tunnel step by step, depth first, adding up those changes, and keeps
+//! the first tunnel that saves indices and closes no cycle.
 
 use super::strips::NONE;
 
@@ -37,9 +38,11 @@ struct Strips<'a> {
     nb: &'a [[u32; 3]],
     /// The (unordered) strip neighbours of each triangle, `NONE` if fewer.
     links: &'a mut [[u32; 2]],
+    /// Each triangle's pivot, `NONE` unless it has two strip neighbours.
+    pivots: Vec<u32>,
 }
 
-impl Strips<'_> {
+impl<'a> Strips<'a> {
     fn degree(&self, t: u32) -> usize {
         self.links[t as usize].iter().filter(|&&l| l != NONE).count()
     }
@@ -48,12 +51,26 @@ impl Strips<'_> {
         self.links[t as usize].contains(&u)
     }
 
+    fn new(tris: &'a [[u32; 3]], nb: &'a [[u32; 3]], links: &'a mut [[u32; 2]]) -> Self {
+        let mut s = Self {
+            tris,
+            nb,
+            links,
+            pivots: vec![NONE; tris.len()],
+        };
+        for t in 0..tris.len() as u32 {
+            s.pivots[t as usize] = s.pivot(t);
+        }
+        s
+    }
+
     fn link(&mut self, t: u32, u: u32) {
         for (a, b) in [(t, u), (u, t)] {
             let l = &mut self.links[a as usize];
             debug_assert!(l.contains(&NONE), "a triangle has two strip neighbours at most");
             let slot = if l[0] == NONE { 0 } else { 1 };
             l[slot] = b;
+            self.pivots[a as usize] = self.pivot(a);
         }
     }
 
@@ -64,19 +81,21 @@ impl Strips<'_> {
                     *l = NONE;
                 }
             }
+            self.pivots[a as usize] = NONE;
         }
     }
 
-    /// The corner `t` shares with both its strip neighbours, if it has two:
-    /// the corner across neither link.
-    fn pivot(&self, t: u32) -> Option<u32> {
+    /// The corner `t` shares with both its strip neighbours, if it has two
+    /// (the corner across neither link), else `NONE`.
+    fn pivot(&self, t: u32) -> u32 {
         let [l0, l1] = self.links[t as usize];
         if l0 == NONE || l1 == NONE {
-            return None;
+            return NONE;
         }
         let n = &self.nb[t as usize];
-        let k = (0..3).find(|&k| n[k] != l0 && n[k] != l1)?;
-        Some(self.tris[t as usize][k])
+        (0..3)
+            .find(|&k| n[k] != l0 && n[k] != l1)
+            .map_or(NONE, |k| self.tris[t as usize][k])
     }
 
     /// What the links at the triangles `on` are worth: 3 indices each, 2
@@ -84,12 +103,16 @@ impl Strips<'_> {
     fn worth(&self, on: &[u32]) -> i64 {
         let mut sum = 0;
         for (i, &t) in on.iter().enumerate() {
-            let pt = self.pivot(t);
+            let pt = self.pivots[t as usize];
             for &u in &self.links[t as usize] {
                 if u == NONE || on[..i].contains(&u) {
                     continue;
                 }
-                sum += if pt.is_some() && pt == self.pivot(u) { 2 } else { 3 };
+                sum += if pt != NONE && pt == self.pivots[u as usize] {
+                    2
+                } else {
+                    3
+                };
             }
         }
         sum
@@ -114,61 +137,47 @@ impl Strips<'_> {
         }
     }
 
-    /// Looks for a tunnel from the strip end `x`, whose edges so far are
-    /// `tunnel` (pairs to link, then to unlink, alternately) through the
-    /// triangles `on`; applies and keeps the first that saves indices.
-    fn search(&mut self, x: u32, tunnel: &mut Vec<(u32, u32)>, on: &mut Vec<u32>) -> bool {
+    /// Looks for a tunnel on from the strip end `x`, with the tunnel so far
+    /// already applied: `on` are its triangles, `gain` the indices it has
+    /// saved so far. Keeps the first tunnel that saves indices and closes no
+    /// cycle (and returns true); undoes every other step.
+    fn search(&mut self, x: u32, on: &mut Vec<u32>, gain: i64) -> bool {
         for k in 0..3 {
             let u = self.nb[x as usize][k];
             if u == NONE || self.linked(x, u) || on.contains(&u) {
                 continue;
             }
-            tunnel.push((x, u));
             on.push(u);
             if self.degree(u) < 2 {
-                if self.try_flip(tunnel, on) {
+                // Join x to the strip end u.
+                let before = self.worth(&[x, u]);
+                self.link(x, u);
+                let g = gain + self.worth(&[x, u]) - before;
+                if g > 0 && !on.iter().any(|&t| self.cycles(t)) {
                     return true;
                 }
-            } else if tunnel.len() / 2 < DEPTH {
+                self.unlink(x, u);
+            } else if on.len() <= 2 * DEPTH {
                 for w in self.links[u as usize] {
                     if on.contains(&w) {
                         continue;
                     }
-                    tunnel.push((u, w));
+                    // Link x to u in place of w, which becomes a strip end:
+                    // keep that if it already saves indices, else go on from w.
                     on.push(w);
-                    if self.try_flip(tunnel, on) || self.search(w, tunnel, on) {
+                    let before = self.worth(&[x, u, w]);
+                    self.unlink(u, w);
+                    self.link(x, u);
+                    let g = gain + self.worth(&[x, u, w]) - before;
+                    if (g > 0 && !on.iter().any(|&t| self.cycles(t))) || self.search(w, on, g) {
                         return true;
                     }
-                    tunnel.pop();
+                    self.unlink(x, u);
+                    self.link(u, w);
                     on.pop();
                 }
             }
-            tunnel.pop();
             on.pop();
-        }
-        false
-    }
-
-    /// Swaps links and non-links along `tunnel`; keeps the result when it
-    /// saves indices and closes no cycle, else undoes it.
-    fn try_flip(&mut self, tunnel: &[(u32, u32)], on: &[u32]) -> bool {
-        let before = self.worth(on);
-        // Unlink first so no triangle holds three links in between.
-        for &(a, b) in tunnel.iter().skip(1).step_by(2) {
-            self.unlink(a, b);
-        }
-        for &(a, b) in tunnel.iter().step_by(2) {
-            self.link(a, b);
-        }
-        let after = self.worth(on);
-        if after > before && !on.iter().any(|&t| self.cycles(t)) {
-            return true;
-        }
-        for &(a, b) in tunnel.iter().step_by(2) {
-            self.unlink(a, b);
-        }
-        for &(a, b) in tunnel.iter().skip(1).step_by(2) {
-            self.link(a, b);
         }
         false
     }
@@ -177,16 +186,15 @@ impl Strips<'_> {
 /// Joins and re-routes the strips given as `links` (each triangle's strip
 /// neighbours, `NONE` at an end) by tunnels that save indices.
 pub(crate) fn join(tris: &[[u32; 3]], nb: &[[u32; 3]], links: &mut [[u32; 2]]) {
-    let mut s = Strips { tris, nb, links };
-    let (mut tunnel, mut on) = (Vec::new(), Vec::new());
+    let mut s = Strips::new(tris, nb, links);
+    let mut on = Vec::new();
     for _ in 0..PASSES {
         let mut joined = false;
         for t in 0..tris.len() as u32 {
             while s.degree(t) < 2 {
-                tunnel.clear();
                 on.clear();
                 on.push(t);
-                if !s.search(t, &mut tunnel, &mut on) {
+                if !s.search(t, &mut on, 0) {
                     break;
                 }
                 joined = true;
@@ -251,11 +259,7 @@ mod tests {
             // Links of a serpentine order through the triangle list, where
             // consecutive triangles are adjacent.
             let mut links = vec![[NONE; 2]; tris.len()];
-            let mut s = Strips {
-                tris: &tris,
-                nb: &nb,
-                links: &mut links,
-            };
+            let mut s = Strips::new(&tris, &nb, &mut links);
             for t in 1..tris.len() as u32 {
                 if nb[t as usize].contains(&(t - 1)) && s.degree(t - 1) < 2 {
                     s.link(t - 1, t);
@@ -287,11 +291,7 @@ mod tests {
             let (tris, nv) = mesh48(n, hole);
             let nb = adjacency(&tris, nv);
             let mut links = vec![[NONE; 2]; tris.len()];
-            let mut s = Strips {
-                tris: &tris,
-                nb: &nb,
-                links: &mut links,
-            };
+            let mut s = Strips::new(&tris, &nb, &mut links);
             for t in 1..tris.len() as u32 {
                 if nb[t as usize].contains(&(t - 1)) && s.degree(t - 1) < 2 {
                     s.link(t - 1, t);
@@ -299,11 +299,7 @@ mod tests {
             }
             let before = stripify(&in_order(&tris, &links)).len();
             join(&tris, &nb, &mut links);
-            let s = Strips {
-                tris: &tris,
-                nb: &nb,
-                links: &mut links,
-            };
+            let s = Strips::new(&tris, &nb, &mut links);
             assert!((0..tris.len() as u32).all(|t| !s.cycles(t)));
             let after = stripify(&in_order(&tris, &links));
             assert_exact(&tris, &after);
