@@ -7,7 +7,7 @@ mod common;
 use common::*;
 use dmesh::camera::{Camera, Projection};
 use dmesh::image::DepthImage;
-use dmesh::mesh::{DepthMesh, Lod, Method, Segmentation};
+use dmesh::mesh::{DepthMesh, Lod, Method, Segmentation, StripOrder};
 use glam::{DQuat, DVec3};
 
 const W: u32 = 33;
@@ -105,6 +105,11 @@ fn check(name: &str, depth: &DepthImage, cam: &Camera) {
             assert_conforming(&m);
             assert_strips_match(&m);
             assert_epsilon_bound(&m, depth, eps);
+            for order in [StripOrder::Greedy, StripOrder::Tunnelled] {
+                let o = h.extract_with(Lod::Epsilon(eps), order).unwrap();
+                assert_eq!(o.triangles, m.triangles, "{name}: {order:?}");
+                assert_strips_match(&o);
+            }
         }
         // A vertex that exists in every mesh: the first valid sample.
         let first = depth.z.iter().position(|&z| z > 0.0).map_or(DVec3::ZERO, |i| {
