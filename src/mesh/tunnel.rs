@@ -251,20 +251,26 @@ mod tests {
         assert_eq!(got, want);
     }
 
+    /// Links between consecutive triangles of the list where they are
+    /// adjacent: rows of the grid, in pieces where holes break them.
+    fn serpentine(tris: &[[u32; 3]], nb: &[[u32; 3]]) -> Vec<[u32; 2]> {
+        let mut links = vec![[NONE; 2]; tris.len()];
+        let mut s = Strips::new(tris, nb, &mut links);
+        for t in 1..tris.len() as u32 {
+            if nb[t as usize].contains(&(t - 1)) && s.degree(t - 1) < 2 {
+                s.link(t - 1, t);
+            }
+        }
+        links
+    }
+
     #[test]
     fn the_index_count_is_what_the_links_are_worth() {
         for (n, hole) in [(6, 0), (9, 7), (12, 5)] {
             let (tris, nv) = mesh48(n, hole);
             let nb = adjacency(&tris, nv);
-            // Links of a serpentine order through the triangle list, where
-            // consecutive triangles are adjacent.
-            let mut links = vec![[NONE; 2]; tris.len()];
-            let mut s = Strips::new(&tris, &nb, &mut links);
-            for t in 1..tris.len() as u32 {
-                if nb[t as usize].contains(&(t - 1)) && s.degree(t - 1) < 2 {
-                    s.link(t - 1, t);
-                }
-            }
+            let mut links = serpentine(&tris, &nb);
+            let s = Strips::new(&tris, &nb, &mut links);
             let all: Vec<u32> = (0..tris.len() as u32).collect();
             let predicted = 4 * tris.len() as i64 - 1 - s.worth(&all);
             let strips = stripify(&in_order(&tris, &links));
@@ -290,13 +296,7 @@ mod tests {
         for (n, hole) in [(8, 0), (11, 9), (16, 4)] {
             let (tris, nv) = mesh48(n, hole);
             let nb = adjacency(&tris, nv);
-            let mut links = vec![[NONE; 2]; tris.len()];
-            let mut s = Strips::new(&tris, &nb, &mut links);
-            for t in 1..tris.len() as u32 {
-                if nb[t as usize].contains(&(t - 1)) && s.degree(t - 1) < 2 {
-                    s.link(t - 1, t);
-                }
-            }
+            let mut links = serpentine(&tris, &nb);
             let before = stripify(&in_order(&tris, &links)).len();
             join(&tris, &nb, &mut links);
             let s = Strips::new(&tris, &nb, &mut links);
