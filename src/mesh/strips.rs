@@ -154,7 +154,7 @@ pub(crate) fn adjacency(tris: &[[u32; 3]], vertex_count: usize) -> Vec<[u32; 3]>
 /// around vertices in fans and so swaps at most steps.
 pub(crate) fn stripify_greedy(tris: &[[u32; 3]], vertex_count: usize) -> Vec<u32> {
     let nb = adjacency(tris, vertex_count);
-    let links = greedy_paths(tris, &nb, false);
+    let links = greedy_paths(tris, &nb, vertex_count, false);
     stripify(&in_order(tris, &links))
 }
 
@@ -172,7 +172,7 @@ pub(crate) fn stripify_greedy(tris: &[[u32; 3]], vertex_count: usize) -> Vec<u32
 /// The greedy's swap-avoiding steps instead strand triangles.
 pub(crate) fn stripify_tunnelled(tris: &[[u32; 3]], vertex_count: usize) -> Vec<u32> {
     let nb = adjacency(tris, vertex_count);
-    let mut links = greedy_paths(tris, &nb, true);
+    let mut links = greedy_paths(tris, &nb, vertex_count, true);
     super::tunnel::join(tris, &nb, &mut links);
     stripify(&in_order(tris, &links))
 }
@@ -205,7 +205,7 @@ pub(crate) fn in_order(tris: &[[u32; 3]], links: &[[u32; 2]]) -> Vec<[u32; 3]> {
 /// The greedy's strips as links: for each triangle, the triangles before
 /// and after it in its strip (`NONE` at an end). `fans`: see
 /// [`stripify_tunnelled`].
-fn greedy_paths(tris: &[[u32; 3]], nb: &[[u32; 3]], fans: bool) -> Vec<[u32; 2]> {
+fn greedy_paths(tris: &[[u32; 3]], nb: &[[u32; 3]], vertex_count: usize, fans: bool) -> Vec<[u32; 2]> {
     let across = |t: usize, a: u32, b: u32| -> u32 {
         let k = (0..3).find(|&k| tris[t][k] != a && tris[t][k] != b).unwrap_or(0);
         nb[t][k]
@@ -213,6 +213,11 @@ fn greedy_paths(tris: &[[u32; 3]], nb: &[[u32; 3]], fans: bool) -> Vec<[u32; 2]>
     let mut used = vec![false; tris.len()];
     let free = |used: &[bool], n: u32| n != NONE && !used[n as usize];
     let mut links = vec![[NONE; 2]; tris.len()];
+    // Triangles with their right angle at each vertex (fans of at most 4).
+    let mut fan_size = vec![0u8; if fans { vertex_count } else { 0 }];
+    for t in tris.iter().filter(|_| fans) {
+        fan_size[t[2] as usize] = fan_size[t[2] as usize].saturating_add(1);
+    }
     // Seeds: the unused triangle with the fewest unused neighbours first (so
     // strips do not strand single triangles), ties in traversal order. Lazy
     // buckets: an entry is skipped when its count went stale.
@@ -254,10 +259,13 @@ fn greedy_paths(tris: &[[u32; 3]], nb: &[[u32; 3]], fans: bool) -> Vec<[u32; 2]>
             // free neighbours (it would otherwise be stranded), a swap costing
             // one index more.
             let score = |m: u32| if free(used, m) { Some(degree[m as usize]) } else { None };
-            // With `fans`: around the right-angle corner `v` of `n`, walk on
-            // through the triangles with the same corner while there are any,
-            // then leave across the hypotenuse (the edge without `v`).
+            // With `fans`: around the right-angle corner `v` of `n`, if at
+            // least three triangles have it (a fan of two walked from
+            // hypotenuse to hypotenuse needs a swap), walk on through them
+            // while there are any, then leave across the hypotenuse (the
+            // edge without `v`).
             let v = tris[n][2];
+            let fans = fans && fan_size[v as usize] >= 3;
             let in_fan = |m: u32| free(used, m) && tris[m as usize][2] == v;
             let go_straight = if fans && (in_fan(straight) || in_fan(turn)) {
                 in_fan(straight)
