@@ -90,6 +90,72 @@ fn encode(n: DVec3, v: DVec3) -> ([u8; 2], u8) {
     }
 }
 
+/// An interior row and its neighbours: depths of the row, the row above and
+/// the row below, the column factors and the row factors of the three rows.
+struct Stencil<'a> {
+    zrow: &'a [f32],
+    zup: &'a [f32],
+    zdown: &'a [f32],
+    cols: &'a [(f64, f64)],
+    rows: [(f64, f64); 3],
+}
+
+impl Stencil<'_> {
+    /// Whether sample `x` and its four neighbours are valid.
+    #[inline(always)]
+    fn complete(&self, x: usize) -> bool {
+        let (zc, zl, zr, zu, zd) = (
+            self.zrow[x],
+            self.zrow[x - 1],
+            self.zrow[x + 1],
+            self.zup[x],
+            self.zdown[x],
+        );
+        (zc > 0.0) & (zl > 0.0) & (zr > 0.0) & (zu > 0.0) & (zd > 0.0)
+    }
+
+    /// The central-difference normal (any length) and the point of sample `x`.
+    #[inline(always)]
+    fn normal(&self, x: usize) -> (DVec3, DVec3) {
+        let [(ayu, byu), (ay, by), (ayd, byd)] = self.rows;
+        let (zc, zl, zr, zu, zd) = (
+            f64::from(self.zrow[x]),
+            f64::from(self.zrow[x - 1]),
+            f64::from(self.zrow[x + 1]),
+            f64::from(self.zup[x]),
+            f64::from(self.zdown[x]),
+        );
+        let ((axl, bxl), (ax, bx), (axr, bxr)) = (self.cols[x - 1], self.cols[x], self.cols[x + 1]);
+        let p = DVec3::new(ax + bx * zc, ay + by * zc, zc);
+        let dx = DVec3::new(axr + bxr * zr - axl - bxl * zl, by * (zr - zl), zr - zl);
+        let dy = DVec3::new(bx * (zd - zu), ayd + byd * zd - ayu - byu * zu, zd - zu);
+        (dy.cross(dx), p)
+    }
+}
+
+/// [`encode`] of the central-difference normal of every sample `1..w - 1` of
+/// an interior row, as if all its neighbours were valid, in straight-line
+/// arithmetic (the same operations in the same order, so the same bytes);
+/// `fast[x]` says where that holds: the five samples are valid and the
+/// normal and the view ray are neither zero nor overflowing.
+#[inline(never)]
+fn interior_row(s: &Stencil<'_>, ortho: bool, nrow: &mut [[u8; 2]], rrow: &mut [u8], fast: &mut [bool]) {
+    let w = s.zrow.len();
+    for x in 1..w - 1 {
+        let (n, p) = s.normal(x);
+        let v = if ortho { DVec3::Z } else { p };
+        let dot = n.dot(v);
+        let nn = n.length_squared() * v.length_squared();
+        let l1 = n.x.abs() + n.y.abs() + n.z.abs();
+        let norms = nn.sqrt();
+        let r = 1.0 / (l1 * norms);
+        let flip = if dot > 0.0 { -1.0 } else { 1.0 };
+        nrow[x] = oct_encode_scaled(n * flip, norms * r);
+        rrow[x] = rho_to_byte(dot.abs() * l1 * r);
+        fast[x] = s.complete(x) & (nn > 0.0) & (nn < f64::INFINITY) & (r > 0.0) & (r < f64::INFINITY);
+    }
+}
+
 /// Computes the encoded normal and quality byte of every grid vertex.
 #[inline(never)]
 pub fn normals_and_quality(grid: &Grid, camera: &Camera, bp: &BackProject, z: &[f32]) -> (Vec<[u8; 2]>, Vec<u8>) {
@@ -100,6 +166,7 @@ pub fn normals_and_quality(grid: &Grid, camera: &Camera, bp: &BackProject, z: &[
     let mut rho = vec![0u8; grid.len()];
     let ortho = camera.is_orthographic();
     let view = |p: DVec3| if ortho { DVec3::Z } else { p };
+    let mut fast = vec![false; w];
     // Any sample: differences across it along the row and the column,
     // one-sided where a neighbour is invalid (depth 0) or off the image.
     let general = |x: usize, y: usize| {
@@ -135,32 +202,29 @@ pub fn normals_and_quality(grid: &Grid, camera: &Camera, bp: &BackProject, z: &[
             continue;
         }
         // Interior rows: central differences where all four neighbours are
-        // valid, over row slices so the loop carries no bounds checks.
+        // valid, computed for the whole row without branches (so the loop
+        // vectorises); the samples where that does not apply are redone one
+        // by one.
         let (zup, zdown) = (&z[row - gw..row - gw + w], &z[row + gw..row + gw + w]);
         let cols = &bp.cols()[..w];
-        let ((ay, by), (ayu, byu), (ayd, byd)) = (bp.row(y), bp.row(y - 1), bp.row(y + 1));
-        for x in 1..w - 1 {
-            let zc = zrow[x];
-            if zc <= 0.0 {
-                continue;
-            }
-            let (zl, zr, zu, zd) = (zrow[x - 1], zrow[x + 1], zup[x], zdown[x]);
-            if !(zl > 0.0 && zr > 0.0 && zu > 0.0 && zd > 0.0) {
+        let rows = [bp.row(y - 1), bp.row(y), bp.row(y + 1)];
+        let stencil = Stencil {
+            zrow,
+            zup,
+            zdown,
+            cols,
+            rows,
+        };
+        interior_row(&stencil, ortho, nrow, rrow, &mut fast);
+        for x in (1..w - 1).filter(|&x| !fast[x]) {
+            if zrow[x] <= 0.0 {
+                (nrow[x], rrow[x]) = (facing, 0);
+            } else if stencil.complete(x) {
+                let (n, p) = stencil.normal(x);
+                (nrow[x], rrow[x]) = encode(n, view(p));
+            } else {
                 (nrow[x], rrow[x]) = general(x, y);
-                continue;
             }
-            let (zc, zl, zr, zu, zd) = (
-                f64::from(zc),
-                f64::from(zl),
-                f64::from(zr),
-                f64::from(zu),
-                f64::from(zd),
-            );
-            let ((axl, bxl), (ax, bx), (axr, bxr)) = (cols[x - 1], cols[x], cols[x + 1]);
-            let p = DVec3::new(ax + bx * zc, ay + by * zc, zc);
-            let dx = DVec3::new(axr + bxr * zr - axl - bxl * zl, by * (zr - zl), zr - zl);
-            let dy = DVec3::new(bx * (zd - zu), ayd + byd * zd - ayu - byu * zu, zd - zu);
-            (nrow[x], rrow[x]) = encode(dy.cross(dx), view(p));
         }
         for x in [0, w - 1] {
             if zrow[x] > 0.0 {
