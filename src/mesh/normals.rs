@@ -72,22 +72,36 @@ pub fn rho_to_byte(rho: f64) -> u8 {
 /// reciprocal serves both divisions.
 #[inline(always)]
 fn encode(n: DVec3, v: DVec3) -> ([u8; 2], u8) {
-    let dot = n.dot(v);
+    let (normal, rho, ok) = encode_straight(n, v);
+    if ok {
+        return (normal, rho);
+    }
     let nn = n.length_squared() * v.length_squared();
-    let l1 = n.x.abs() + n.y.abs() + n.z.abs();
     // Two comparisons (NaN fails both) instead of is_finite's bit tests.
     if !(nn > 0.0 && nn < f64::INFINITY) {
         return (oct_encode(-v), 0);
     }
+    let flip = if n.dot(v) > 0.0 { -1.0 } else { 1.0 };
+    (oct_encode(n * flip), rho_to_byte(n.dot(v).abs() / nn.sqrt()))
+}
+
+/// [`encode`] without branches, and whether its result holds: it does
+/// unless `n` or `v` is zero or so large that the arithmetic overflows.
+#[inline(always)]
+fn encode_straight(n: DVec3, v: DVec3) -> ([u8; 2], u8, bool) {
+    let dot = n.dot(v);
+    let nn = n.length_squared() * v.length_squared();
+    let l1 = n.x.abs() + n.y.abs() + n.z.abs();
     let norms = nn.sqrt();
     let r = 1.0 / (l1 * norms);
-    // Face the camera: flip n when it points away (no branch).
+    // Face the camera: flip n when it points away.
     let flip = if dot > 0.0 { -1.0 } else { 1.0 };
-    if r > 0.0 && r < f64::INFINITY {
-        (oct_encode_scaled(n * flip, norms * r), rho_to_byte(dot.abs() * l1 * r))
-    } else {
-        (oct_encode(n * flip), rho_to_byte(dot.abs() / norms))
-    }
+    let ok = (nn > 0.0) & (nn < f64::INFINITY) & (r > 0.0) & (r < f64::INFINITY);
+    (
+        oct_encode_scaled(n * flip, norms * r),
+        rho_to_byte(dot.abs() * l1 * r),
+        ok,
+    )
 }
 
 /// An interior row and its neighbours: depths of the row, the row above and
@@ -133,26 +147,18 @@ impl Stencil<'_> {
     }
 }
 
-/// [`encode`] of the central-difference normal of every sample `1..w - 1` of
-/// an interior row, as if all its neighbours were valid, in straight-line
-/// arithmetic (the same operations in the same order, so the same bytes);
-/// `fast[x]` says where that holds: the five samples are valid and the
-/// normal and the view ray are neither zero nor overflowing.
+/// [`encode_straight`] of the central-difference normal of every sample
+/// `1..w - 1` of an interior row, as if all its neighbours were valid, in a
+/// loop without branches (so it vectorises); `fast[x]` says where that
+/// holds: the five samples are valid and the result is [`encode`]'s.
 #[inline(never)]
 fn interior_row(s: &Stencil<'_>, ortho: bool, nrow: &mut [[u8; 2]], rrow: &mut [u8], fast: &mut [bool]) {
     let w = s.zrow.len();
     for x in 1..w - 1 {
         let (n, p) = s.normal(x);
-        let v = if ortho { DVec3::Z } else { p };
-        let dot = n.dot(v);
-        let nn = n.length_squared() * v.length_squared();
-        let l1 = n.x.abs() + n.y.abs() + n.z.abs();
-        let norms = nn.sqrt();
-        let r = 1.0 / (l1 * norms);
-        let flip = if dot > 0.0 { -1.0 } else { 1.0 };
-        nrow[x] = oct_encode_scaled(n * flip, norms * r);
-        rrow[x] = rho_to_byte(dot.abs() * l1 * r);
-        fast[x] = s.complete(x) & (nn > 0.0) & (nn < f64::INFINITY) & (r > 0.0) & (r < f64::INFINITY);
+        let (normal, rho, ok) = encode_straight(n, if ortho { DVec3::Z } else { p });
+        (nrow[x], rrow[x]) = (normal, rho);
+        fast[x] = s.complete(x) & ok;
     }
 }
 
