@@ -11,6 +11,11 @@
 //! consecutive triangles without a shared edge end the strip with
 //! [`RESTART`]. Strip winding is not consistent: draw without face culling,
 //! or use the indexed triangle list, whose winding is.
+//!
+//! The other two [`StripOrder`]s build strips over the triangle adjacency
+//! instead, as links between triangles that `in_order` turns back into a
+//! sequence for `stripify`: a greedy, and fan walks joined by tunnels
+//! (`tunnel.rs`).
 
 /// How triangles are ordered into strips.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -20,13 +25,13 @@ pub enum StripOrder {
     #[default]
     Traversal,
     /// Greedy strips over the triangle adjacency, seeded at the triangles with
-    /// the fewest free neighbours and grown both ways: about 1.45 indices per
+    /// the fewest free neighbours and grown both ways: about 1.43 indices per
     /// triangle, for roughly twice the extraction time.
     Greedy,
     /// Strips that walk whole fans around right-angle corners, then joined
     /// and improved by tunnels weighed by their exact index count: about 1.35
     /// indices per triangle on adaptive meshes and 1.27 at full resolution,
-    /// for 10 to 30 times the extraction time of [`StripOrder::Traversal`].
+    /// for 5 to 20 times the extraction time of [`StripOrder::Traversal`].
     Tunnelled,
 }
 
