@@ -339,7 +339,7 @@ pub fn decode_strips(indices: &[u32]) -> Vec<[u32; 3]> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     fn canon(mut t: [u32; 3]) -> [u32; 3] {
@@ -347,16 +347,21 @@ mod tests {
         t
     }
 
+    /// The strips decode to exactly the triangles `tris`, each once.
+    pub(crate) fn assert_exact(tris: &[[u32; 3]], strips: &[u32]) {
+        let mut got: Vec<_> = decode_strips(strips).into_iter().map(canon).collect();
+        let mut want: Vec<_> = tris.iter().copied().map(canon).collect();
+        got.sort_unstable();
+        want.sort_unstable();
+        assert_eq!(got, want, "strips {strips:?}");
+    }
+
     #[test]
     fn a_fan_needs_swaps_and_decodes_exactly() {
         // Fan around vertex 0: (0,1,2), (0,2,3), (0,3,4), (0,4,5).
         let tris = [[0, 1, 2], [0, 2, 3], [0, 3, 4], [0, 4, 5]];
         let strip = stripify(&tris);
-        let mut got: Vec<_> = decode_strips(&strip).into_iter().map(canon).collect();
-        got.sort_unstable();
-        let mut want: Vec<_> = tris.iter().copied().map(canon).collect();
-        want.sort_unstable();
-        assert_eq!(got, want, "strip {strip:?}");
+        assert_exact(&tris, &strip);
         assert!(!strip.contains(&RESTART));
     }
 
@@ -373,11 +378,7 @@ mod tests {
             }
         }
         let strip = stripify_greedy(&tris, ((n + 1) * (n + 1)) as usize);
-        let mut got: Vec<_> = decode_strips(&strip).into_iter().map(canon).collect();
-        got.sort_unstable();
-        let mut want: Vec<_> = tris.iter().copied().map(canon).collect();
-        want.sort_unstable();
-        assert_eq!(got, want);
+        assert_exact(&tris, &strip);
         assert!(
             strip.len() as f64 / (tris.len() as f64) < 1.2,
             "{} indices",

@@ -209,7 +209,8 @@ pub(crate) fn join(tris: &[[u32; 3]], nb: &[[u32; 3]], links: &mut [[u32; 2]]) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::strips::{adjacency, decode_strips, in_order, stripify, stripify_greedy, stripify_tunnelled};
+    use crate::mesh::strips::tests::assert_exact;
+    use crate::mesh::strips::{adjacency, in_order, stripify, stripify_greedy, stripify_tunnelled};
 
     /// An `n` x `n` 4-8 mesh of unit cells, diagonals alternating so that
     /// they meet at every other vertex, each triangle's right angle last;
@@ -236,19 +237,6 @@ mod tests {
                 .collect();
         }
         (tris, ((n + 1) * (n + 1)) as usize)
-    }
-
-    fn canon(mut t: [u32; 3]) -> [u32; 3] {
-        t.sort_unstable();
-        t
-    }
-
-    fn assert_exact(tris: &[[u32; 3]], strips: &[u32]) {
-        let mut got: Vec<_> = decode_strips(strips).into_iter().map(canon).collect();
-        let mut want: Vec<_> = tris.iter().copied().map(canon).collect();
-        got.sort_unstable();
-        want.sort_unstable();
-        assert_eq!(got, want);
     }
 
     /// Links between consecutive triangles of the list where they are
