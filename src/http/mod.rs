@@ -1,7 +1,8 @@
 //! The HTTP service: a thin axum layer over the engine and the store.
 //!
 //! `app(state)` builds the router (tests drive it without a socket);
-//! [`serve`] binds and runs it. The tower stack, outermost first:
+//! [`serve`] binds and runs it. The browser viewer is served at `/` from files embedded in the binary
+//! ([`web`]). The tower stack, outermost first:
 //! compression (gzip, zstd); load shedding over one concurrency limit for the
 //! whole router (excess requests get 503 + `Retry-After` at once instead of
 //! queueing without bound); per-route metrics; the request timeout (408);
@@ -15,6 +16,7 @@ pub mod negotiate;
 pub mod state;
 pub mod strips;
 pub mod views;
+pub mod web;
 
 use std::net::SocketAddr;
 use std::sync::Arc;
@@ -131,6 +133,7 @@ pub fn app(state: Arc<AppState>, pipeline: Pipeline) -> Router {
         .route("/v1/scenes/{scene}/render", post(strips::render))
         .route("/healthz", get(healthz))
         .route("/metrics", get(metrics_text))
+        .merge(web::routes())
         .fallback(|| async { AppError::NotFound("no such endpoint; see proto/openapi.yaml".into()) })
         .method_not_allowed_fallback(|| async { AppError::MethodNotAllowed })
         .layer(DefaultBodyLimit::max(state.settings.max_upload_bytes))

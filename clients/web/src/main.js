@@ -1,0 +1,671 @@
+// The dmesh viewer: picks a scene, moves a camera through it, asks the
+// server for the selected views' view-dependent strips (DMesh Sec. 6.2) and
+// blends them on the GPU (renderer.js). The page state lives in the URL:
+//   ?scene=ID&camera=<camera JSON>&tau=1 (or epsilon, max_triangles, budget_ms)
+//   &bits=B&cos_k=K&relight=1|x,y,z&mode=blend|coverage|wireframe&w=W&h=H
+// At most one render request is in flight: while it runs, camera moves only
+// mark the state stale, and the latest camera goes out when it returns.
+// Between answers every frame redraws the held meshes from the current
+// camera, so motion stays smooth however long the server takes.
+
+import { BINCODE } from './protocol.js';
+import { checkCamera, firstCamera, lookedAt, resized } from './camera.js';
+import { Navigator, distanceTo } from './controls.js';
+import { Renderer, RenderError } from './renderer.js';
+
+/** @typedef {import('./protocol.js').CameraJson} CameraJson */
+/** @typedef {import('./protocol.js').RenderResponse} RenderResponse */
+/** @typedef {'tau' | 'epsilon' | 'max_triangles' | 'budget_ms'} LodKind */
+
+const LOD = /** @type {Record<LodKind, {label: string, min: number, max: number, log: boolean, def: number, int?: boolean}>} */ ({
+  tau: { label: 'tau (px)', min: 0, max: 8, log: false, def: 1 },
+  epsilon: { label: 'epsilon (m)', min: 1e-4, max: 1, log: true, def: 0.01 },
+  max_triangles: { label: 'max triangles', min: 100, max: 2e6, log: true, def: 50000, int: true },
+  budget_ms: { label: 'budget (ms)', min: 0.05, max: 100, log: true, def: 2 },
+});
+const MODES = ['blend', 'coverage', 'wireframe'];
+const DEFAULT_LIGHT = /** @type {[number, number, number]} */ ([0.3, 1.0, 0.4]);
+
+const $ = (/** @type {string} */ id) => /** @type {HTMLElement} */ (document.getElementById(id));
+const message = $('message');
+const canvas = /** @type {HTMLCanvasElement} */ ($('view'));
+const stage = $('stage');
+
+/** Plain words on the page (and null clears them). @param {string | null} text @param {'error' | 'info'} [kind] */
+function say(text, kind = 'error') {
+  message.textContent = text || '';
+  message.className = text ? kind : '';
+  message.hidden = !text;
+}
+
+/** Reads and checks the URL's state; bad values are reported, not guessed. */
+function readUrl() {
+  const q = new URLSearchParams(location.search);
+  /** @type {string[]} */
+  const problems = [];
+  const num = (/** @type {string} */ name, /** @type {(v: number) => boolean} */ ok, /** @type {string} */ rule) => {
+    const t = q.get(name);
+    if (t === null || t === '') return null;
+    const v = Number(t);
+    if (!Number.isFinite(v) || !ok(v)) { problems.push(`${name}=${t}: ${rule}`); return null; }
+    return v;
+  };
+  /** @type {LodKind} */
+  let lodKind = 'tau';
+  let lodValue = 1;
+  const given = /** @type {LodKind[]} */ (['tau', 'epsilon', 'max_triangles', 'budget_ms']).filter((k) => q.has(k));
+  if (given.length > 1) problems.push(`give one of tau, epsilon, max_triangles, budget_ms (got ${given.join(', ')}); using ${given[0]}`);
+  if (given.length) {
+    lodKind = given[0];
+    const rules = {
+      tau: [(/** @type {number} */ v) => v >= 0, 'pixels, a number >= 0'],
+      epsilon: [(/** @type {number} */ v) => v >= 0, 'metres, a number >= 0'],
+      max_triangles: [(/** @type {number} */ v) => Number.isInteger(v) && v >= 0 && v < 2 ** 32, 'a whole number of triangles'],
+      budget_ms: [(/** @type {number} */ v) => v > 0, 'milliseconds, a number > 0'],
+    };
+    const [ok, rule] = rules[lodKind];
+    lodValue = num(lodKind, /** @type {(v: number) => boolean} */ (ok), /** @type {string} */ (rule)) ?? LOD[lodKind].def;
+  }
+  const bits = num('bits', (v) => Number.isInteger(v) && v >= 0 && v <= 16, 'a whole number 0..16');
+  const cosK = num('cos_k', (v) => v >= 0, 'an exponent >= 0');
+  const w = num('w', (v) => Number.isInteger(v) && v >= 1 && v <= 8192, 'canvas width in pixels, 1..8192');
+  const h = num('h', (v) => Number.isInteger(v) && v >= 1 && v <= 8192, 'canvas height in pixels, 1..8192');
+  let mode = q.get('mode') || 'blend';
+  if (!MODES.includes(mode)) { problems.push(`mode=${mode}: use blend, coverage or wireframe`); mode = 'blend'; }
+  /** @type {[number, number, number] | null} */
+  let light = null;
+  const relight = q.get('relight');
+  if (relight !== null && relight !== '' && relight !== '0' && relight !== 'false') {
+    const parts = relight.split(',').map(Number);
+    if (relight === '1' || relight === 'true') light = DEFAULT_LIGHT;
+    else if (parts.length === 3 && parts.every(Number.isFinite) && Math.hypot(...parts) > 0) light = /** @type {[number, number, number]} */ (parts);
+    else problems.push(`relight=${relight}: use 1 or a direction x,y,z`);
+  }
+  /** @type {CameraJson | null} */
+  let camera = null;
+  const cam = q.get('camera');
+  if (cam) {
+    try {
+      camera = checkCamera(JSON.parse(cam));
+    } catch (e) {
+      problems.push(`camera: ${e instanceof SyntaxError ? 'not JSON' : /** @type {Error} */ (e).message}`);
+    }
+  }
+  return { scene: q.get('scene'), camera, lodKind, lodValue, bits, cosK, light, mode, w, h, problems };
+}
+
+const url = readUrl();
+const state = {
+  scene: /** @type {string | null} */ (url.scene),
+  lodKind: url.lodKind,
+  lodValue: url.lodValue,
+  bits: url.bits,
+  cosK: url.cosK,
+  light: url.light,
+  mode: /** @type {'blend' | 'coverage' | 'wireframe'} */ (url.mode),
+  w: url.w,
+  h: url.h,
+  /** Intrinsics (width, height, projection) the camera is scaled from. */
+  intrinsics: /** @type {CameraJson | null} */ (url.camera),
+};
+
+/** The figures the overlay shows; also `window.dmeshStats`. */
+const stats = {
+  scene: '',
+  updates: 0,
+  /** @type {{view: string, weight: number, triangles: number, vertices: number, lod: object, max_depth_error: number}[]} */
+  views: [],
+  triangles: 0,
+  vertices: 0,
+  bytes: 0,
+  transfer_bytes: 0,
+  extract_ms: 0,
+  server_ms: 0,
+  decode_ms: 0,
+  draw_ms: 0,
+  frame_ms: 0,
+  retries: 0,
+  context_restores: 0,
+  accum_format: '',
+  width: 0,
+  height: 0,
+  dpr: 1,
+  /** @type {CameraJson | null} */
+  camera: null,
+  /** @type {string | null} */
+  error: null,
+};
+Object.assign(window, { dmeshStats: stats, dmeshReady: false });
+
+/** @type {Renderer | null} */
+let renderer = null;
+try {
+  renderer = new Renderer(canvas);
+  stats.accum_format = renderer.accumFormat;
+} catch (e) {
+  fail(e instanceof RenderError ? e.message : `The viewer cannot start WebGL2: ${e}`);
+}
+
+/** A failure the page cannot go past. @param {string} text */
+function fail(text) {
+  stats.error = text;
+  say(text);
+  Object.assign(window, { dmeshFailed: true });
+}
+
+const nav = new Navigator(canvas, () => changed(true));
+let target = /** @type {import('./camera.js').Vec3} */ ([0, 0, 1]);
+
+// ---- sizes -------------------------------------------------------------
+
+function size() {
+  const dpr = window.devicePixelRatio || 1;
+  const cssW = state.w ?? Math.max(1, stage.clientWidth);
+  const cssH = state.h ?? Math.max(1, stage.clientHeight);
+  canvas.style.width = `${cssW}px`;
+  canvas.style.height = `${cssH}px`;
+  const w = Math.max(1, Math.round(cssW * dpr));
+  const h = Math.max(1, Math.round(cssH * dpr));
+  if (canvas.width !== w) canvas.width = w;
+  if (canvas.height !== h) canvas.height = h;
+  stats.dpr = dpr;
+  return { w, h };
+}
+
+/** The novel camera now: the navigator's pose, the intrinsics scaled to the drawing buffer. */
+function camera() {
+  const { w, h } = size();
+  const base = /** @type {CameraJson} */ (state.intrinsics);
+  return resized({ ...base, pose: nav.pose() }, w, h);
+}
+
+// ---- the URL -----------------------------------------------------------
+
+let urlTimer = 0;
+function writeUrl() {
+  clearTimeout(urlTimer);
+  urlTimer = window.setTimeout(() => {
+    const q = new URLSearchParams();
+    if (state.scene) q.set('scene', state.scene);
+    if (state.intrinsics) q.set('camera', JSON.stringify(camera()));
+    q.set(state.lodKind, String(state.lodValue));
+    if (state.bits !== null) q.set('bits', String(state.bits));
+    if (state.cosK !== null) q.set('cos_k', String(state.cosK));
+    if (state.light) q.set('relight', state.light.map((v) => +v.toFixed(4)).join(','));
+    if (state.mode !== 'blend') q.set('mode', state.mode);
+    if (state.w !== null) q.set('w', String(state.w));
+    if (state.h !== null) q.set('h', String(state.h));
+    history.replaceState(null, '', `${location.pathname}?${q}`);
+  }, 150);
+}
+
+// ---- requests ----------------------------------------------------------
+
+const worker = new Worker(new URL('./worker.js', import.meta.url), { type: 'module' });
+let nextId = 0;
+/** @type {Map<number, {resolve: (v: any) => void, reject: (e: Error) => void}>} */
+const pending = new Map();
+worker.onmessage = (e) => {
+  const p = pending.get(e.data.id);
+  if (!p) return;
+  pending.delete(e.data.id);
+  if (e.data.error) p.reject(new Error(`the server's answer could not be decoded: ${e.data.error}`));
+  else p.resolve(e.data);
+};
+worker.onerror = (e) => fail(`The decoder could not start: ${e.message}`);
+
+/** @param {ArrayBuffer} body @param {boolean} json @param {boolean} lines
+ * @returns {Promise<{response: RenderResponse, lines: (Uint32Array | null)[], decodeMs: number}>} */
+function decode(body, json, lines) {
+  const id = nextId++;
+  return new Promise((resolve, reject) => {
+    pending.set(id, { resolve, reject });
+    worker.postMessage({ id, body, json, lines }, [body]);
+  });
+}
+
+/** An answer the viewer cannot use, in the server's words. */
+class HttpError extends Error {
+  /** @param {number} status @param {string} text */
+  constructor(status, text) { super(text); this.status = status; }
+}
+
+/** The server's JSON error message, or the status line. @param {Response} r */
+async function serverMessage(r) {
+  try {
+    const body = await r.json();
+    return body?.error?.message || `${r.status} ${r.statusText}`;
+  } catch {
+    return `${r.status} ${r.statusText}`;
+  }
+}
+
+/** A GET of JSON, with errors in words. @param {string} path */
+async function getJson(path) {
+  const r = await fetch(path, { headers: { accept: 'application/json' } });
+  if (!r.ok) throw new HttpError(r.status, await serverMessage(r));
+  return r.json();
+}
+
+const sleep = (/** @type {number} */ ms) => new Promise((r) => setTimeout(r, ms));
+
+/** Colour images: fetched once per URL, revalidated by ETag when a scene is (re)loaded. */
+const etags = /** @type {Map<string, string>} */ (new Map());
+const fresh = /** @type {Set<string>} */ (new Set());
+/** @param {string} colorUrl */
+async function texture(colorUrl) {
+  if (!renderer || fresh.has(colorUrl)) return;
+  /** @type {Record<string, string>} */
+  const headers = {};
+  const tag = etags.get(colorUrl);
+  if (tag && renderer.images.has(colorUrl)) headers['if-none-match'] = tag;
+  const r = await fetch(colorUrl, { headers, cache: 'no-cache' });
+  if (r.status === 304) { fresh.add(colorUrl); return; }
+  if (!r.ok) throw new HttpError(r.status, `colour image ${colorUrl}: ${await serverMessage(r)}`);
+  const image = await createImageBitmap(await r.blob(), { colorSpaceConversion: 'none', premultiplyAlpha: 'none' });
+  if (!renderer.lost) renderer.uploadTexture(colorUrl, image);
+  else renderer.images.set(colorUrl, image);
+  const etag = r.headers.get('etag');
+  if (etag) etags.set(colorUrl, etag);
+  fresh.add(colorUrl);
+}
+
+/** `Server-Timing: extract;dur=MS, total;dur=MS` @param {string | null} h */
+function serverTiming(h) {
+  /** @type {Record<string, number>} */
+  const out = {};
+  for (const part of (h || '').split(',')) {
+    const m = /^\s*([\w-]+)\s*;\s*dur=([\d.eE+-]+)/.exec(part);
+    if (m) out[m[1]] = Number(m[2]);
+  }
+  return out;
+}
+
+let wanted = 0; // generation of the state the page shows
+let sent = 0;   // generation of the last request sent
+let inFlight = false;
+let firstDrawn = false;
+let sceneLoaded = false; // no request before the scene's cameras have placed the navigator
+
+function requestBody(cam) {
+  /** @type {Record<string, unknown>} */
+  const body = { camera: cam };
+  body[state.lodKind] = state.lodValue;
+  if (state.bits !== null) body.bits = state.bits;
+  return body;
+}
+
+/** Sends the latest state when nothing is in flight and it is stale. */
+async function pump() {
+  if (inFlight || sent === wanted || !sceneLoaded || !state.scene || !state.intrinsics || !renderer) return;
+  inFlight = true;
+  try {
+    await update();
+  } catch (e) {
+    if (e instanceof HttpError && e.status === 404) {
+      say(`Scene "${state.scene}" is not on this server: ${e.message}. Pick one of the scenes above.`);
+    } else if (e instanceof HttpError) {
+      say(`The server refused the request (${e.status}): ${e.message}`);
+    } else if (e instanceof TypeError) {
+      say(`Cannot reach the dmesh server at ${location.origin} (${e.message}). Is \`dmesh serve\` still running? Retrying…`);
+      await sleep(2000);
+      sent = -1; // try again with the latest state
+    } else {
+      say(/** @type {Error} */ (e).message || String(e));
+    }
+    stats.error = message.textContent;
+  } finally {
+    inFlight = false;
+    if (sent !== wanted) pump();
+  }
+}
+
+async function update() {
+  for (;;) {
+    const generation = wanted;
+    sent = generation;
+    const cam = camera();
+    const t0 = performance.now();
+    const path = `/v1/scenes/${encodeURIComponent(/** @type {string} */ (state.scene))}/render`;
+    const r = await fetch(path, {
+      method: 'POST',
+      headers: { 'content-type': 'application/json', accept: `${BINCODE}, application/json;q=0.5` },
+      body: JSON.stringify(requestBody(cam)),
+    });
+    if (r.status === 503) {
+      const after = Number(r.headers.get('retry-after'));
+      const wait = Number.isFinite(after) && after >= 0 ? after : 1;
+      stats.retries++;
+      say(`The server is busy (503); trying again in ${wait} s.`, 'info');
+      await sleep(wait * 1000);
+      continue; // with the latest camera
+    }
+    if (!r.ok) throw new HttpError(r.status, await serverMessage(r));
+    const timing = serverTiming(r.headers.get('server-timing'));
+    const json = !(r.headers.get('content-type') || '').startsWith(BINCODE);
+    const body = await r.arrayBuffer();
+    const bytes = body.byteLength;
+    const entries = performance.getEntriesByName(new URL(path, location.href).href);
+    const last = /** @type {PerformanceResourceTiming | undefined} */ (entries[entries.length - 1]);
+    const { response, lines, decodeMs } = await decode(body, json, state.mode === 'wireframe');
+    if (response.views.length === 0) throw new Error('The server selected no reference view for this camera: turn towards the scene.');
+    await Promise.all(response.views.map((v) => texture(v.color_url)));
+    if (!renderer || renderer.lost) return;
+    renderer.setViews(response.views.map((v, k) => ({ ...v, lines: lines[k] })));
+    const t1 = performance.now();
+    const drawn = draw(true);
+    const t2 = performance.now();
+    say(null);
+    stats.error = null;
+    Object.assign(stats, {
+      scene: state.scene,
+      updates: stats.updates + 1,
+      views: response.views.map((v) => ({
+        view: v.strips.view,
+        weight: v.weight,
+        triangles: v.strips.triangles,
+        vertices: v.strips.vertexCount,
+        lod: v.strips.lod,
+        max_depth_error: v.strips.maxDepthError,
+      })),
+      triangles: response.views.reduce((s, v) => s + v.strips.triangles, 0),
+      vertices: response.views.reduce((s, v) => s + v.strips.vertexCount, 0),
+      bytes,
+      transfer_bytes: last && last.encodedBodySize ? last.encodedBodySize : bytes,
+      extract_ms: timing.extract ?? response.timings.extract_ms,
+      server_ms: timing.total ?? response.timings.total_ms,
+      decode_ms: decodeMs,
+      draw_ms: drawn ? t2 - t1 : 0,
+      frame_ms: t2 - t0,
+      width: cam.width,
+      height: cam.height,
+      camera: cam,
+    });
+    overlay();
+    if (wanted === generation) {
+      // The frame for the state asked for is on screen.
+      if (!firstDrawn && drawn) {
+        firstDrawn = true;
+        Object.assign(window, { dmeshReady: true });
+      }
+      return;
+    }
+  }
+}
+
+// ---- drawing -----------------------------------------------------------
+
+/** @type {CameraJson | null} */
+let lastDrawn = null;
+/** Draws the held meshes from the current camera; `sync` waits for the GPU. */
+function draw(sync = false) {
+  if (!renderer || renderer.lost || renderer.views.length === 0) return false;
+  const cam = camera();
+  renderer.draw({
+    camera: cam,
+    mode: state.mode,
+    epsZ: 0.01,
+    cosK: state.cosK,
+    light: state.light,
+    shininess: 32,
+  });
+  if (sync) renderer.finish();
+  lastDrawn = cam;
+  return true;
+}
+
+let drawQueued = false;
+function scheduleDraw() {
+  if (drawQueued) return;
+  drawQueued = true;
+  requestAnimationFrame(() => {
+    drawQueued = false;
+    draw();
+  });
+}
+
+/** The state moved: redraw what is held, and fetch for it. @param {boolean} [moved] */
+function changed(moved = false) {
+  wanted++;
+  scheduleDraw();
+  writeUrl();
+  if (moved) stats.camera = camera();
+  pump();
+}
+
+canvas.addEventListener('webglcontextlost', (e) => {
+  e.preventDefault();
+  renderer?.contextLost();
+  say('The GPU context was lost; restoring it…', 'info');
+});
+canvas.addEventListener('webglcontextrestored', () => {
+  if (!renderer) return;
+  try {
+    renderer.init();
+    stats.context_restores++;
+    say(null);
+    draw(true);
+    Object.assign(window, { dmeshRestored: stats.context_restores });
+  } catch (e) {
+    fail(`The GPU context could not be restored: ${/** @type {Error} */ (e).message}`);
+  }
+});
+
+new ResizeObserver(() => {
+  if (!state.intrinsics) return;
+  changed();
+}).observe(stage);
+
+// ---- the panel ---------------------------------------------------------
+
+const sceneSelect = /** @type {HTMLSelectElement} */ ($('scene'));
+const lodSelect = /** @type {HTMLSelectElement} */ ($('lod-kind'));
+const lodRange = /** @type {HTMLInputElement} */ ($('lod-range'));
+const lodNumber = /** @type {HTMLInputElement} */ ($('lod-value'));
+const bitsSelect = /** @type {HTMLSelectElement} */ ($('bits'));
+const modeSelect = /** @type {HTMLSelectElement} */ ($('mode'));
+const navSelect = /** @type {HTMLSelectElement} */ ($('nav'));
+const cosInput = /** @type {HTMLInputElement} */ ($('cos-k'));
+const relightBox = /** @type {HTMLInputElement} */ ($('relight'));
+const lightAz = /** @type {HTMLInputElement} */ ($('light-az'));
+const lightEl = /** @type {HTMLInputElement} */ ($('light-el'));
+
+/** Slider position 0..1000 of a value, and back. */
+function toRange(/** @type {LodKind} */ k, /** @type {number} */ v) {
+  const d = LOD[k];
+  const t = d.log ? Math.log(Math.max(v, d.min) / d.min) / Math.log(d.max / d.min) : (v - d.min) / (d.max - d.min);
+  return Math.round(Math.max(0, Math.min(1, t)) * 1000);
+}
+function fromRange(/** @type {LodKind} */ k, /** @type {number} */ p) {
+  const d = LOD[k];
+  const t = p / 1000;
+  const v = d.log ? d.min * (d.max / d.min) ** t : d.min + t * (d.max - d.min);
+  return d.int ? Math.round(v) : +v.toPrecision(3);
+}
+
+function syncPanel() {
+  lodSelect.value = state.lodKind;
+  lodRange.value = String(toRange(state.lodKind, state.lodValue));
+  lodNumber.value = String(state.lodValue);
+  bitsSelect.value = state.bits === null ? 'exact' : String(state.bits);
+  modeSelect.value = state.mode;
+  cosInput.value = state.cosK === null ? '' : String(state.cosK);
+  relightBox.checked = !!state.light;
+  const l = state.light || DEFAULT_LIGHT;
+  const n = Math.hypot(...l);
+  lightAz.value = String(Math.round((Math.atan2(l[0], l[2]) * 180) / Math.PI));
+  lightEl.value = String(Math.round((Math.asin(l[1] / n) * 180) / Math.PI));
+  lightAz.disabled = lightEl.disabled = !state.light;
+}
+
+for (let b = 0; b <= 16; b++) bitsSelect.add(new Option(`${b} bits`, String(b)));
+lodSelect.addEventListener('change', () => {
+  state.lodKind = /** @type {LodKind} */ (lodSelect.value);
+  state.lodValue = LOD[state.lodKind].def;
+  syncPanel();
+  changed();
+});
+lodRange.addEventListener('input', () => {
+  state.lodValue = fromRange(state.lodKind, Number(lodRange.value));
+  lodNumber.value = String(state.lodValue);
+  changed();
+});
+lodNumber.addEventListener('change', () => {
+  const v = Number(lodNumber.value);
+  if (!Number.isFinite(v) || v < 0 || (state.lodKind === 'budget_ms' && v <= 0)) {
+    say(`${LOD[state.lodKind].label} must be a number${state.lodKind === 'budget_ms' ? ' > 0' : ' >= 0'}`);
+    return;
+  }
+  state.lodValue = LOD[state.lodKind].int ? Math.round(v) : v;
+  syncPanel();
+  changed();
+});
+bitsSelect.addEventListener('change', () => {
+  state.bits = bitsSelect.value === 'exact' ? null : Number(bitsSelect.value);
+  changed();
+});
+modeSelect.addEventListener('change', () => {
+  state.mode = /** @type {'blend' | 'coverage' | 'wireframe'} */ (modeSelect.value);
+  changed();
+});
+navSelect.addEventListener('change', () => { nav.mode = /** @type {'orbit' | 'fly'} */ (navSelect.value); });
+cosInput.addEventListener('change', () => {
+  const v = cosInput.value.trim() === '' ? null : Number(cosInput.value);
+  if (v !== null && !(Number.isFinite(v) && v >= 0)) { say('cos^k needs an exponent >= 0, or nothing'); return; }
+  state.cosK = v;
+  changed();
+});
+const lightChanged = () => {
+  if (relightBox.checked) {
+    const az = (Number(lightAz.value) * Math.PI) / 180;
+    const el = (Number(lightEl.value) * Math.PI) / 180;
+    state.light = [Math.cos(el) * Math.sin(az), Math.sin(el), Math.cos(el) * Math.cos(az)];
+  } else {
+    state.light = null;
+  }
+  lightAz.disabled = lightEl.disabled = !state.light;
+  changed();
+};
+relightBox.addEventListener('change', lightChanged);
+lightAz.addEventListener('input', lightChanged);
+lightEl.addEventListener('input', lightChanged);
+sceneSelect.addEventListener('change', () => {
+  state.scene = sceneSelect.value;
+  state.intrinsics = null;
+  loadScene().catch(sceneFailed);
+});
+$('reset').addEventListener('click', () => {
+  state.intrinsics = null;
+  loadScene().catch(sceneFailed);
+});
+
+const fmt = (/** @type {number} */ v, d = 1) => (Number.isFinite(v) ? v.toFixed(d) : '–');
+const kb = (/** @type {number} */ b) => `${(b / 1024).toFixed(1)} kB`;
+function overlay() {
+  const lod = (/** @type {any} */ l) => (l.tau !== undefined ? `tau ${fmt(l.tau, 2)} px` : `eps ${fmt(l.epsilon * 1000, 2)} mm`);
+  const rows = stats.views.map((v) => `<tr><td>${escape(v.view)}</td><td>${fmt(v.weight, 3)}</td><td>${v.triangles.toLocaleString()}</td><td>${lod(v.lod)}</td></tr>`);
+  $('stats').innerHTML = `
+    <table class="views"><tr><th>view</th><th>weight</th><th>triangles</th><th>tolerance</th></tr>${rows.join('')}</table>
+    <table class="figures">
+      <tr><td>triangles</td><td>${stats.triangles.toLocaleString()}</td></tr>
+      <tr><td>bytes</td><td>${kb(stats.bytes)} (${kb(stats.transfer_bytes)} sent)</td></tr>
+      <tr><td>server extract</td><td>${fmt(stats.extract_ms, 2)} ms</td></tr>
+      <tr><td>decode</td><td>${fmt(stats.decode_ms, 2)} ms</td></tr>
+      <tr><td>draw</td><td>${fmt(stats.draw_ms, 2)} ms</td></tr>
+      <tr><td>frame</td><td>${fmt(stats.frame_ms, 1)} ms</td></tr>
+      <tr><td>canvas</td><td>${stats.width} × ${stats.height} (dpr ${stats.dpr}, ${stats.accum_format})</td></tr>
+    </table>`;
+}
+/** @param {string} s */
+function escape(s) {
+  return s.replace(/[&<>"]/g, (c) => ({ '&': '&amp;', '<': '&lt;', '>': '&gt;', '"': '&quot;' })[c] || c);
+}
+
+// ---- scenes ------------------------------------------------------------
+
+/** @param {unknown} e */
+function sceneFailed(e) {
+  if (e instanceof HttpError && e.status === 404) {
+    const known = [...sceneSelect.options].map((o) => o.value).filter(Boolean);
+    say(`Scene "${state.scene}" is not on this server (${e.message}). ${known.length ? `Scenes here: ${known.join(', ')}.` : 'The server has no scene yet: upload views first.'}`);
+  } else if (e instanceof TypeError) {
+    say(`Cannot reach the dmesh server at ${location.origin} (${e.message}). Is \`dmesh serve\` running?`);
+  } else {
+    say(e instanceof Error ? e.message : String(e));
+  }
+  stats.error = message.textContent;
+}
+
+async function loadScene() {
+  const scene = /** @type {string} */ (state.scene);
+  sceneLoaded = false;
+  sceneSelect.value = scene;
+  const list = await getJson(`/v1/scenes/${encodeURIComponent(scene)}/views`);
+  if (!list.views.length) throw new Error(`Scene "${scene}" has no views yet: upload some first.`);
+  const summaries = await Promise.all(list.views.map((/** @type {string} */ v) =>
+    getJson(`/v1/scenes/${encodeURIComponent(scene)}/views/${encodeURIComponent(v)}`)));
+  const refs = summaries.map((s) => /** @type {CameraJson} */ (s.camera));
+  target = lookedAt(refs);
+  fresh.clear();
+  if (!state.intrinsics) {
+    const { w, h } = size();
+    const first = firstCamera(refs, w, h);
+    state.intrinsics = first.camera;
+    nav.set(first.camera, distanceTo(first.camera, first.target));
+  } else {
+    nav.set(state.intrinsics, distanceTo(state.intrinsics, target));
+  }
+  stats.camera = camera();
+  sceneLoaded = true;
+  changed();
+}
+
+async function start() {
+  syncPanel();
+  if (url.problems.length) say(`Ignored in the address: ${url.problems.join('; ')}.`);
+  if (!renderer) return;
+  let scenes;
+  try {
+    scenes = (await getJson('/v1/scenes')).scenes;
+  } catch (e) {
+    sceneFailed(e);
+    return;
+  }
+  sceneSelect.replaceChildren(...scenes.map((/** @type {string} */ s) => new Option(s, s)));
+  if (!state.scene) state.scene = scenes.includes('demo') ? 'demo' : scenes[0] || null;
+  if (!state.scene) {
+    say('The server has no scene yet: upload views (see the README), or start it with `dmesh serve --demo`.');
+    return;
+  }
+  if (!scenes.includes(state.scene)) sceneSelect.add(new Option(`${state.scene} (missing)`, state.scene));
+  try {
+    await loadScene();
+  } catch (e) {
+    sceneFailed(e);
+  }
+}
+
+/** The picture and its coverage, for tests: `{width, height, rgb, covered}` base64. */
+function capture() {
+  if (!renderer || !draw(true)) return null;
+  const c = renderer.capture();
+  const b64 = (/** @type {Uint8Array} */ a) => {
+    let s = '';
+    for (let k = 0; k < a.length; k += 0x8000) s += String.fromCharCode(...a.subarray(k, k + 0x8000));
+    return btoa(s);
+  };
+  return { width: c.width, height: c.height, rgb: b64(c.rgb), covered: b64(c.covered), camera: lastDrawn };
+}
+/** Draw times of `n` redraws of the held meshes, GPU finished each time (figures). @param {number} n */
+function drawTimes(n) {
+  const out = [];
+  for (let k = 0; k < n; k++) {
+    const t = performance.now();
+    if (!draw(true)) break;
+    out.push(performance.now() - t);
+  }
+  return out;
+}
+Object.assign(window, { dmeshCapture: capture, dmeshDrawTimes: drawTimes, dmeshRenderer: renderer });
+
+start();
