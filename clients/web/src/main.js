@@ -622,7 +622,11 @@ async function loadScene() {
 
 async function start() {
   syncPanel();
-  if (url.problems.length) say(`Ignored in the address: ${url.problems.join('; ')}.`);
+  if (url.problems.length) {
+    const notice = $('notice');
+    notice.textContent = `Ignored in the address: ${url.problems.join('; ')}.`;
+    notice.hidden = false;
+  }
   if (!renderer) return;
   let scenes;
   try {
@@ -666,6 +670,8 @@ function drawTimes(n) {
   }
   return out;
 }
-Object.assign(window, { dmeshCapture: capture, dmeshDrawTimes: drawTimes, dmeshRenderer: renderer });
+/** True when the picture is the answer for the current state and nothing is in flight. */
+const idle = () => !inFlight && sent === wanted && firstDrawn;
+Object.assign(window, { dmeshCapture: capture, dmeshDrawTimes: drawTimes, dmeshIdle: idle });
 
 start();

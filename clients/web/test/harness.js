@@ -27,10 +27,14 @@ function binary(name) {
   return p;
 }
 
+/** @type {(() => void)[]} what to undo when the test process exits */
+const cleanups = [];
+process.on('exit', () => cleanups.forEach((f) => f()));
+
 /** A fresh temporary directory, removed at exit. */
 export function tempDir(prefix = 'dmesh-web-') {
   const d = fs.mkdtempSync(path.join(os.tmpdir(), prefix));
-  process.on('exit', () => fs.rmSync(d, { recursive: true, force: true }));
+  cleanups.push(() => fs.rmSync(d, { recursive: true, force: true }));
   return d;
 }
 
@@ -61,7 +65,7 @@ export async function startServer(args = []) {
     child.kill('SIGINT');
     setTimeout(() => child.kill('SIGKILL'), 5000).unref();
   });
-  process.on('exit', () => child.kill('SIGKILL'));
+  cleanups.push(() => child.kill('SIGKILL'));
   return { url: /** @type {string} */ (url), stop, data };
 }
 
@@ -187,3 +191,43 @@ export function viewerUrl(server, q) {
 }
 
 export const demoNovel = () => JSON.parse(fs.readFileSync(path.join(ROOT, 'examples/cameras/demo-novel.json'), 'utf8'));
+
+/**
+ * Uploads a view made in the test: depth `z(i, j)` (0 for invalid) as PFM,
+ * colour `rgb(i, j)` as PNG, through `PUT /v1/scenes/{scene}/views/{view}`.
+ * @param {string} server @param {string} scene @param {string} view @param {object} camera
+ * @param {(i: number, j: number) => number} z @param {(i: number, j: number) => [number, number, number]} rgb
+ */
+export async function uploadView(server, scene, view, camera, z, rgb) {
+  const { width: w, height: h } = /** @type {{width: number, height: number}} */ (camera);
+  const header = Buffer.from(`Pf\n${w} ${h}\n-1.0\n`);
+  const values = Buffer.alloc(4 * w * h);
+  // PFM rows run bottom to top.
+  for (let j = 0; j < h; j++) for (let i = 0; i < w; i++) values.writeFloatLE(z(i, j), 4 * ((h - 1 - j) * w + i));
+  const png = new PNG({ width: w, height: h });
+  for (let j = 0; j < h; j++) {
+    for (let i = 0; i < w; i++) {
+      const [r, g, b] = rgb(i, j);
+      png.data.set([r, g, b, 255], 4 * (j * w + i));
+    }
+  }
+  const form = new FormData();
+  form.set('camera', JSON.stringify(camera));
+  form.set('depth', new Blob([Buffer.concat([header, values])]), 'depth.pfm');
+  form.set('color', new Blob([PNG.sync.write(png)], { type: 'image/png' }), 'color.png');
+  const r = await fetch(`${server}/v1/scenes/${scene}/views/${view}`, { method: 'PUT', body: form });
+  if (r.status !== 201) throw new Error(`upload answered ${r.status}: ${await r.text()}`);
+  return r.json();
+}
+
+/** POSTs a render request; `accept` picks the encoding. @param {string} server @param {string} scene
+ * @param {object} body @param {string} [accept] */
+export async function render(server, scene, body, accept = 'application/x-bincode') {
+  const r = await fetch(`${server}/v1/scenes/${scene}/render`, {
+    method: 'POST',
+    headers: { 'content-type': 'application/json', accept },
+    body: JSON.stringify(body),
+  });
+  if (!r.ok) throw new Error(`render answered ${r.status}: ${await r.text()}`);
+  return accept === 'application/json' ? r.json() : r.arrayBuffer();
+}

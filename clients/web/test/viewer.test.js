@@ -1,0 +1,274 @@
+// The viewer in a real headless Chromium (WebGL2 on SwiftShader) against a
+// real `dmesh serve`, checked against the CPU client `dmesh-client render`.
+// What a test saw is written to clients/web/test-output/ to be looked at.
+
+import assert from 'node:assert/strict';
+import fs from 'node:fs';
+import http from 'node:http';
+import path from 'node:path';
+import { after, before, test } from 'node:test';
+import { PALETTE } from '../src/renderer.js';
+import {
+  capture, count, cpuRender, demoNovel, launch, openViewer, psnr, ROOT, startServer, uploadView, viewerUrl, waitReady,
+  writePng,
+} from './harness.js';
+
+const OUT = path.join(ROOT, 'clients/web/test-output');
+fs.mkdirSync(OUT, { recursive: true });
+
+/** @type {Awaited<ReturnType<typeof startServer>>} */
+let server;
+/** @type {import('playwright-core').Browser} */
+let browser;
+before(async () => {
+  [server, browser] = await Promise.all([startServer(['--demo']), launch()]);
+});
+after(async () => {
+  await browser?.close();
+  await server?.stop();
+});
+
+/** A small view with a depth step, a hole of invalid samples and a colour ramp. */
+const GRID_CAMERA = {
+  width: 64,
+  height: 48,
+  projection: { perspective: { fx: 60, fy: 60, cx: 31.5, cy: 23.5 } },
+  pose: { rotation: [0, 0, 0, 1], translation: [0, 0, 0] },
+};
+/** @param {string} url @param {string} scene */
+async function uploadGrid(url, scene) {
+  return uploadView(url, scene, 'front', GRID_CAMERA,
+    (i, j) => (i >= 40 && i < 48 && j >= 10 && j < 18 ? 0 : i < 30 ? 2 + 0.01 * j : 2.6),
+    (i, j) => [i * 4, j * 5, 128]);
+}
+
+/** @param {{rgb: Uint8Array, covered: Uint8Array}} a @param {{rgb: Uint8Array, covered: Uint8Array}} b */
+function coverageAgreement(a, b) {
+  const ca = count(a.covered);
+  const cb = count(b.covered);
+  return { ca, cb, relative: Math.abs(ca - cb) / Math.max(cb, 1) };
+}
+
+/** The pixels a coverage picture colours. @param {{rgb: Uint8Array}} img @param {number} n */
+function colouredMask(img, n) {
+  const m = new Uint8Array(n);
+  for (let k = 0; k < n; k++) m[k] = img.rgb[3 * k] || img.rgb[3 * k + 1] || img.rgb[3 * k + 2] ? 1 : 0;
+  return m;
+}
+
+test('the demo novel view at tau = 1 matches dmesh-client render', async () => {
+  const camera = demoNovel();
+  const { page, errors } = await openViewer(browser, viewerUrl(server.url, { scene: 'demo', camera, tau: 1, w: 256, h: 192 }));
+  await waitReady(page);
+  const gpu = await capture(page);
+  const cpu = await cpuRender(server.url, 'demo', camera, ['--tau', '1']);
+  writePng(path.join(OUT, 'demo-novel-webgl.png'), gpu);
+  writePng(path.join(OUT, 'demo-novel-cpu.png'), cpu);
+  assert.equal(gpu.width, 256);
+  assert.equal(gpu.height, 192);
+  const { psnr: db, both } = psnr(gpu, cpu);
+  const c = coverageAgreement(gpu, cpu);
+  console.log(`demo-novel: PSNR ${db.toFixed(2)} dB over ${both} pixels; covered ${c.ca} (WebGL) vs ${c.cb} (CPU)`);
+  assert.ok(db >= 30, `PSNR ${db} dB < 30`);
+  assert.ok(c.cb > 0.3 * 256 * 192, 'the CPU render covers most of the picture');
+  assert.ok(c.relative <= 0.02, `covered pixels differ by ${(100 * c.relative).toFixed(2)} %`);
+  const stats = await page.evaluate(() => /** @type {any} */ (window).dmeshStats);
+  assert.ok(stats.views.length >= 2 && stats.triangles > 0 && stats.bytes > 0);
+  assert.equal(stats.views[0].lod.tau, 1);
+  assert.deepEqual(errors, []);
+  await page.close();
+});
+
+test('strips with restarts draw exactly the triangles decode_strips yields', async () => {
+  const summary = await uploadGrid(server.url, 'grid');
+  assert.ok(summary.segmented_triangles > 0, 'the step and the hole are segmented');
+  // The reference camera moved by a quarter and a half pixel, so no pixel
+  // centre lies on an edge and both rasterisers must agree on every pixel.
+  const camera = structuredClone(GRID_CAMERA);
+  camera.projection.perspective.cx += 0.25;
+  camera.projection.perspective.cy += 0.5;
+  for (const tau of [0, 2]) {
+    const { page } = await openViewer(browser, viewerUrl(server.url, { scene: 'grid', camera, tau, mode: 'coverage', w: 64, h: 48 }));
+    await waitReady(page);
+    const stats = await page.evaluate(() => /** @type {any} */ (window).dmeshStats);
+    const gpu = await capture(page);
+    const cpu = await cpuRender(server.url, 'grid', camera, ['--tau', String(tau)]);
+    writePng(path.join(OUT, `grid-tau${tau}-webgl.png`), gpu);
+    writePng(path.join(OUT, `grid-tau${tau}-cpu.png`), cpu.coverage);
+    const mask = colouredMask(gpu, 64 * 48);
+    let differ = 0;
+    for (let k = 0; k < mask.length; k++) if (mask[k] !== cpu.covered[k]) differ++;
+    const covered = count(cpu.covered);
+    console.log(`grid tau=${tau}: ${stats.triangles} triangles, ${covered} pixels covered, ${differ} differ`);
+    assert.ok(covered > 0.5 * 64 * 48 && covered < 0.99 * 64 * 48, 'the hole and the step leave pixels uncovered');
+    assert.equal(differ, 0, `${differ} pixels differ between the WebGL strips and the CPU's decoded triangles`);
+    await page.close();
+  }
+});
+
+test('coverage mode colours each view as dmesh-client does', async () => {
+  const camera = demoNovel();
+  const { page } = await openViewer(browser, viewerUrl(server.url, { scene: 'demo', camera, tau: 1, w: 256, h: 192, mode: 'coverage' }));
+  await waitReady(page);
+  const gpu = await capture(page);
+  const cpu = await cpuRender(server.url, 'demo', camera, ['--tau', '1']);
+  writePng(path.join(OUT, 'demo-coverage-webgl.png'), gpu);
+  writePng(path.join(OUT, 'demo-coverage-cpu.png'), cpu.coverage);
+  const n = 256 * 192;
+  const pure = new Set(PALETTE.map((c) => c.join(',')));
+  /** @type {Map<string, number>} */
+  const colours = new Map();
+  let agree = 0;
+  let both = 0;
+  for (let k = 0; k < n; k++) {
+    const g = [gpu.rgb[3 * k], gpu.rgb[3 * k + 1], gpu.rgb[3 * k + 2]];
+    const c = [cpu.coverage.rgb[3 * k], cpu.coverage.rgb[3 * k + 1], cpu.coverage.rgb[3 * k + 2]];
+    if (g.some((v) => v) && c.some((v) => v)) {
+      both++;
+      if (g.every((v, i) => v === c[i])) agree++;
+    }
+    if (g.some((v) => v)) colours.set(g.join(','), (colours.get(g.join(',')) || 0) + 1);
+  }
+  const single = [...colours.keys()].filter((c) => pure.has(c));
+  const mixed = [...colours.entries()].filter(([c, m]) => !pure.has(c) && m > 50);
+  console.log(`coverage: ${(100 * agree / both).toFixed(2)} % of ${both} pixels the same colour; ${single.length} single-view colours, ${mixed.length} blends`);
+  assert.ok(agree / both >= 0.97, `only ${agree} of ${both} pixels agree`);
+  assert.ok(single.length >= 2, 'several views own pixels alone');
+  assert.ok(mixed.length >= 1, 'some pixels blend two or more views, in their mean colour');
+  await page.close();
+});
+
+test('a resize keeps the picture right', async () => {
+  const { page } = await openViewer(browser, viewerUrl(server.url, { scene: 'demo', camera: demoNovel(), tau: 1 }), { width: 320, height: 240 });
+  await waitReady(page);
+  for (const [w, h] of [[320, 240], [480, 300]]) {
+    if (w !== 320) {
+      const before = await page.evaluate(() => /** @type {any} */ (window).dmeshStats.updates);
+      await page.setViewportSize({ width: w, height: h });
+      await page.waitForFunction(([n, ww]) => {
+        const s = /** @type {any} */ (window).dmeshStats;
+        return s.updates > n && s.width === ww;
+      }, [before, w], { timeout: 60_000 });
+      // Let any request the resize queued land.
+      await page.waitForTimeout(300);
+      await page.waitForFunction(() => /** @type {any} */ (window).dmeshIdle?.(), null, { timeout: 60_000 });
+    }
+    const gpu = await capture(page);
+    assert.equal(gpu.width, w);
+    assert.equal(gpu.height, h);
+    assert.equal(gpu.camera.width, w);
+    // The vertical field of view is kept: fy scales with the height.
+    assert.ok(Math.abs(gpu.camera.projection.perspective.fy - 221.7025033688163 * (h / 192)) < 1e-6);
+    const cpu = await cpuRender(server.url, 'demo', gpu.camera, ['--tau', '1']);
+    writePng(path.join(OUT, `resize-${w}x${h}-webgl.png`), gpu);
+    const { psnr: db } = psnr(gpu, cpu);
+    const c = coverageAgreement(gpu, cpu);
+    console.log(`resize ${w}x${h}: PSNR ${db.toFixed(2)} dB, covered ${c.ca} vs ${c.cb}`);
+    assert.ok(db >= 30, `PSNR ${db} dB at ${w}x${h}`);
+    assert.ok(c.relative <= 0.02, `covered pixels differ by ${(100 * c.relative).toFixed(2)} % at ${w}x${h}`);
+  }
+  await page.close();
+});
+
+test('a lost WebGL context comes back with the same picture', async () => {
+  const { page } = await openViewer(browser, viewerUrl(server.url, { scene: 'demo', camera: demoNovel(), tau: 1, w: 256, h: 192 }));
+  await waitReady(page);
+  const before = await capture(page);
+  await page.evaluate(() => {
+    const gl = /** @type {HTMLCanvasElement} */ (document.getElementById('view')).getContext('webgl2');
+    const ext = /** @type {WebGL2RenderingContext} */ (gl).getExtension('WEBGL_lose_context');
+    if (!ext) throw new Error('no WEBGL_lose_context');
+    ext.loseContext();
+    setTimeout(() => ext.restoreContext(), 200);
+  });
+  await page.waitForFunction(() => /** @type {any} */ (window).dmeshRestored >= 1, null, { timeout: 60_000 });
+  const restored = await capture(page);
+  const { psnr: db } = psnr(before, restored);
+  assert.ok(db >= 60, `the restored picture differs: ${db} dB`);
+  assert.equal(count(restored.covered), count(before.covered));
+  await page.close();
+});
+
+test('an unknown scene is named in plain words', async () => {
+  const { page } = await openViewer(browser, viewerUrl(server.url, { scene: 'no-such-scene', tau: 1 }));
+  await page.waitForFunction(() => /** @type {any} */ (window).dmeshStats.error, null, { timeout: 30_000 });
+  const text = await page.locator('#message').innerText();
+  assert.match(text, /Scene "no-such-scene" is not on this server/);
+  assert.match(text, /demo/, 'the message lists the scenes there are');
+  assert.ok(await page.locator('#message').isVisible());
+  assert.equal(await page.evaluate(() => /** @type {any} */ (window).dmeshReady), false);
+  await page.close();
+});
+
+test('a bad address is reported, not guessed', async () => {
+  const { page } = await openViewer(browser, `${server.url}/?scene=demo&tau=-1&mode=sideways&camera=%7Bnot-json`);
+  await waitReady(page);
+  const text = await page.locator('#notice').innerText();
+  assert.match(text, /tau=-1/);
+  assert.match(text, /mode=sideways/);
+  assert.match(text, /camera: not JSON/);
+  await page.close();
+});
+
+test('a 503 is retried after its Retry-After', async () => {
+  const busy = await startServer(['--max-concurrency', '1', '--queue-wait-ms', '1']);
+  try {
+    await uploadGrid(busy.url, 'grid');
+    const { page } = await openViewer(browser, viewerUrl(busy.url, { scene: 'grid', tau: 1, w: 64, h: 48 }));
+    await waitReady(page);
+    const updates = await page.evaluate(() => /** @type {any} */ (window).dmeshStats.updates);
+    // Hold the server's one slot with an upload whose body never comes.
+    const hold = http.request(`${busy.url}/v1/scenes/hold/views/v`, {
+      method: 'PUT',
+      headers: { 'content-type': 'multipart/form-data; boundary=b', 'content-length': '1000000' },
+    });
+    hold.on('error', () => {});
+    hold.write('--b\r\n');
+    await new Promise((r) => setTimeout(r, 300));
+    const shed = await fetch(`${busy.url}/v1/scenes`);
+    assert.equal(shed.status, 503, 'the slot is held');
+    assert.ok(shed.headers.get('retry-after'));
+    await page.focus('#view');
+    await page.keyboard.down('d');
+    await page.waitForTimeout(100);
+    await page.keyboard.up('d');
+    await page.waitForFunction(() => /** @type {any} */ (window).dmeshStats.retries >= 1, null, { timeout: 30_000 });
+    assert.match(await page.locator('#message').innerText(), /busy \(503\)/);
+    hold.destroy();
+    await page.waitForFunction((n) => /** @type {any} */ (window).dmeshStats.updates > n, updates, { timeout: 30_000 });
+    assert.equal(await page.locator('#message').isVisible(), false, 'the busy message is gone');
+    await page.close();
+  } finally {
+    await busy.stop();
+  }
+});
+
+test('a server that went away is said in plain words', async () => {
+  const gone = await startServer();
+  await uploadGrid(gone.url, 'grid');
+  const { page } = await openViewer(browser, viewerUrl(gone.url, { scene: 'grid', tau: 1, w: 64, h: 48 }));
+  await waitReady(page);
+  await gone.stop();
+  await page.focus('#view');
+  await page.keyboard.down('a');
+  await page.waitForTimeout(100);
+  await page.keyboard.up('a');
+  await page.waitForFunction(() => /Cannot reach the dmesh server/.test(document.getElementById('message')?.textContent || ''), null, { timeout: 30_000 });
+  await page.close();
+});
+
+test('the page is served from the binary with ETag and Cache-Control', async () => {
+  for (const file of ['/', '/main.js', '/protocol.js', '/worker.js', '/renderer.js']) {
+    const r = await fetch(`${server.url}${file}`);
+    assert.equal(r.status, 200, file);
+    const etag = r.headers.get('etag');
+    assert.match(etag || '', /^"[0-9a-f]{16}"$/);
+    assert.equal(r.headers.get('cache-control'), 'no-cache');
+    assert.match(r.headers.get('content-type') || '', file === '/' ? /text\/html/ : /text\/javascript/);
+    const again = await fetch(`${server.url}${file}`, { headers: { 'if-none-match': /** @type {string} */ (etag) } });
+    assert.equal(again.status, 304, file);
+  }
+  const missing = await fetch(`${server.url}/nope.js`);
+  assert.equal(missing.status, 404);
+  assert.equal((await missing.json()).error.code.length > 0, true);
+});
