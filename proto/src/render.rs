@@ -119,6 +119,50 @@ mod tests {
         });
     }
 
+    /// The layout `PROTOCOL.md` gives under "Render response", which the
+    /// browser viewer's decoder is written from.
+    #[test]
+    fn bincode_layout_matches_protocol_md() {
+        let strips = crate::strips::StripResponse {
+            version: crate::PROTOCOL_VERSION,
+            scene: "s".into(),
+            view: "v".into(),
+            lod: crate::strips::Lod::Tau(1.0),
+            camera: camera(),
+            vertices: vec![],
+            depths: crate::strips::Depths::Exact(vec![]),
+            indices: crate::strips::Indices::U16(vec![]),
+            triangles: 0,
+            extract_ms: 0.5,
+        };
+        let strip_bytes = crate::to_bincode(&strips).unwrap();
+        let response = RenderResponse {
+            version: crate::PROTOCOL_VERSION,
+            views: vec![RenderedView {
+                weight: 0.25,
+                strips,
+                color_url: "/c".into(),
+            }],
+            timings: Timings {
+                select_ms: 1.0,
+                extract_ms: 2.0,
+                total_ms: 3.0,
+            },
+        };
+        let b = crate::to_bincode(&response).unwrap();
+        assert_eq!(&b[0..2], &2u16.to_le_bytes());
+        assert_eq!(&b[2..10], &1u64.to_le_bytes());
+        assert_eq!(&b[10..18], &0.25f64.to_le_bytes());
+        let at = 18 + strip_bytes.len();
+        assert_eq!(&b[18..at], &strip_bytes[..]);
+        assert_eq!(&b[at..at + 8], &2u64.to_le_bytes());
+        assert_eq!(&b[at + 8..at + 10], b"/c");
+        let t = at + 10;
+        assert_eq!(&b[t..t + 8], &1.0f64.to_le_bytes());
+        assert_eq!(&b[t + 8..t + 16], &2.0f64.to_le_bytes());
+        assert_eq!(&b[t + 16..], &3.0f64.to_le_bytes());
+    }
+
     #[test]
     fn response_round_trips() {
         let strips = crate::strips::StripResponse {

@@ -3,8 +3,8 @@
 //! `app(state)` builds the router (tests drive it without a socket);
 //! [`serve`] binds and runs it. The browser viewer is served at `/` from files embedded in the binary
 //! ([`web`]). The tower stack, outermost first:
-//! compression (gzip, zstd); load shedding over one concurrency limit for the
-//! whole router (excess requests get 503 + `Retry-After` at once instead of
+//! compression (gzip, zstd); load shedding over one concurrency limit for
+//! every route but the viewer's in-memory files (excess requests get 503 + `Retry-After` at once instead of
 //! queueing without bound); per-route metrics; the request timeout (408);
 //! the body-size limit. CPU-bound work
 //! (decoding, building, extracting) runs on the blocking pool, never on the
@@ -133,7 +133,6 @@ pub fn app(state: Arc<AppState>, pipeline: Pipeline) -> Router {
         .route("/v1/scenes/{scene}/render", post(strips::render))
         .route("/healthz", get(healthz))
         .route("/metrics", get(metrics_text))
-        .merge(web::routes())
         .fallback(|| async { AppError::NotFound("no such endpoint; see proto/openapi.yaml".into()) })
         .method_not_allowed_fallback(|| async { AppError::MethodNotAllowed })
         .layer(DefaultBodyLimit::max(state.settings.max_upload_bytes))
@@ -143,8 +142,11 @@ pub fn app(state: Arc<AppState>, pipeline: Pipeline) -> Router {
                 .timeout(pipeline.timeout),
         );
     let slots = Arc::new(tokio::sync::Semaphore::new(pipeline.max_concurrency.max(1)));
+    // The viewer's files are served from memory outside the limit: shedding
+    // them would only break a page load without sparing any CPU-bound work.
     api.route_layer(middleware::from_fn_with_state(state.clone(), record))
         .layer(middleware::from_fn_with_state((slots, pipeline.queue_wait), shed))
+        .merge(web::routes())
         .layer(CompressionLayer::new())
         .with_state(state)
 }

@@ -205,14 +205,14 @@ const worker = new Worker(new URL('./worker.js', import.meta.url), { type: 'modu
 let nextId = 0;
 /** @type {Map<number, {resolve: (v: any) => void, reject: (e: Error) => void}>} */
 const pending = new Map();
-worker.onmessage = (e) => {
+worker.onmessage = (/** @type {MessageEvent} */ e) => {
   const p = pending.get(e.data.id);
   if (!p) return;
   pending.delete(e.data.id);
   if (e.data.error) p.reject(new Error(`the server's answer could not be decoded: ${e.data.error}`));
   else p.resolve(e.data);
 };
-worker.onerror = (e) => fail(`The decoder could not start: ${e.message}`);
+worker.onerror = (/** @type {ErrorEvent} */ e) => fail(`The decoder could not start: ${e.message}`);
 
 /** @param {ArrayBuffer} body @param {boolean} json @param {boolean} lines
  * @returns {Promise<{response: RenderResponse, lines: (Uint32Array | null)[], decodeMs: number}>} */
@@ -240,14 +240,31 @@ async function serverMessage(r) {
   }
 }
 
+const sleep = (/** @type {number} */ ms) => new Promise((r) => setTimeout(r, ms));
+
+/** Seconds a 503 asks to wait (`Retry-After`), 1 when it does not say. @param {Response} r */
+function retryAfter(r) {
+  const after = Number(r.headers.get('retry-after'));
+  return Number.isFinite(after) && after >= 0 ? after : 1;
+}
+
+/** A fetch that waits out 503s (at most `tries` times), as the server asks.
+ * @param {string} path @param {RequestInit} [init] @param {number} [tries] */
+async function fetchPatiently(path, init, tries = 10) {
+  for (let k = 0; ; k++) {
+    const r = await fetch(path, init);
+    if (r.status !== 503 || k + 1 >= tries) return r;
+    stats.retries++;
+    await sleep(retryAfter(r) * 1000);
+  }
+}
+
 /** A GET of JSON, with errors in words. @param {string} path */
 async function getJson(path) {
-  const r = await fetch(path, { headers: { accept: 'application/json' } });
+  const r = await fetchPatiently(path, { headers: { accept: 'application/json' } });
   if (!r.ok) throw new HttpError(r.status, await serverMessage(r));
   return r.json();
 }
-
-const sleep = (/** @type {number} */ ms) => new Promise((r) => setTimeout(r, ms));
 
 /** Colour images: fetched once per URL, revalidated by ETag when a scene is (re)loaded. */
 const etags = /** @type {Map<string, string>} */ (new Map());
@@ -259,7 +276,7 @@ async function texture(colorUrl) {
   const headers = {};
   const tag = etags.get(colorUrl);
   if (tag && renderer.images.has(colorUrl)) headers['if-none-match'] = tag;
-  const r = await fetch(colorUrl, { headers, cache: 'no-cache' });
+  const r = await fetchPatiently(colorUrl, { headers, cache: 'no-cache' });
   if (r.status === 304) { fresh.add(colorUrl); return; }
   if (!r.ok) throw new HttpError(r.status, `colour image ${colorUrl}: ${await serverMessage(r)}`);
   const image = await createImageBitmap(await r.blob(), { colorSpaceConversion: 'none', premultiplyAlpha: 'none' });
@@ -287,6 +304,7 @@ let inFlight = false;
 let firstDrawn = false;
 let sceneLoaded = false; // no request before the scene's cameras have placed the navigator
 
+/** @param {CameraJson} cam */
 function requestBody(cam) {
   /** @type {Record<string, unknown>} */
   const body = { camera: cam };
@@ -333,8 +351,7 @@ async function update() {
       body: JSON.stringify(requestBody(cam)),
     });
     if (r.status === 503) {
-      const after = Number(r.headers.get('retry-after'));
-      const wait = Number.isFinite(after) && after >= 0 ? after : 1;
+      const wait = retryAfter(r);
       stats.retries++;
       say(`The server is busy (503); trying again in ${wait} s.`, 'info');
       await sleep(wait * 1000);
@@ -433,7 +450,7 @@ function changed(moved = false) {
   pump();
 }
 
-canvas.addEventListener('webglcontextlost', (e) => {
+canvas.addEventListener('webglcontextlost', (/** @type {Event} */ e) => {
   e.preventDefault();
   renderer?.contextLost();
   say('The GPU context was lost; restoring it…', 'info');
@@ -672,6 +689,6 @@ function drawTimes(n) {
 }
 /** True when the picture is the answer for the current state and nothing is in flight. */
 const idle = () => !inFlight && sent === wanted && firstDrawn;
-Object.assign(window, { dmeshCapture: capture, dmeshDrawTimes: drawTimes, dmeshIdle: idle });
+Object.assign(window, { dmeshCapture: capture, dmeshDrawTimes: drawTimes, dmeshIdle: idle, dmeshRefresh: () => changed() });
 
 start();

@@ -196,10 +196,46 @@ export class RenderError extends Error {}
  * @property {number} shininess
  */
 
+/** @typedef {{p: WebGLProgram, u: Record<string, WebGLUniformLocation | null>}} Program */
+/**
+ * @typedef {object} Targets
+ * @property {number} w
+ * @property {number} h
+ * @property {WebGLTexture} z
+ * @property {WebGLTexture} accum
+ * @property {WebGLTexture} cover
+ * @property {WebGLRenderbuffer} depth
+ * @property {WebGLFramebuffer} fbDepth
+ * @property {WebGLFramebuffer} fbAccum
+ */
+
+/** Set by `init` (again after a lost context). */
+const UNSET = /** @type {any} */ (null);
+
 export class Renderer {
   /** @param {HTMLCanvasElement} canvas */
   constructor(canvas) {
     this.canvas = canvas;
+    /** @type {WebGL2RenderingContext} */
+    this.gl = UNSET;
+    /** @type {Program} */
+    this.depthProgram = UNSET;
+    /** @type {Program} */
+    this.accumProgram = UNSET;
+    /** @type {Program} */
+    this.normaliseProgram = UNSET;
+    /** @type {Program} */
+    this.coverageProgram = UNSET;
+    /** @type {Program} */
+    this.lineProgram = UNSET;
+    /** @type {Targets | null} */
+    this.targets = null;
+    /** @type {Map<string, WebGLTexture>} */
+    this.textures = new Map();
+    /** @type {GpuView[]} */
+    this.gpu = [];
+    this.floatBlend = false;
+    this.accumFormat = '';
     /** @type {Map<string, ImageBitmap>} colour images by URL, kept across a lost context */
     this.images = new Map();
     /** @type {DrawView[]} */
@@ -246,10 +282,8 @@ export class Renderer {
     this.normaliseProgram = program(QUAD, NORMALISE);
     this.coverageProgram = program(QUAD, COVERAGE);
     this.lineProgram = program(VERTEX, LINE);
-    /** @type {Map<string, WebGLTexture>} */
     this.textures = new Map();
     for (const [url, image] of this.images) this.uploadTexture(url, image);
-    /** @type {GpuView[]} */
     this.gpu = this.views.map((v) => this.uploadView(v));
     this.targets = null;
     this.lost = false;
@@ -390,10 +424,7 @@ export class Renderer {
     return this.targets;
   }
 
-  /**
-   * @param {{p: WebGLProgram, u: Record<string, WebGLUniformLocation | null>}} prog
-   * @param {CameraJson} novel @param {Strips} s
-   */
+  /** @param {Program} prog @param {CameraJson} novel @param {Strips} s */
   setCameraUniforms(prog, novel, s) {
     const gl = /** @type {WebGL2RenderingContext} */ (this.gl);
     const u = prog.u;

@@ -213,8 +213,8 @@ export async function uploadView(server, scene, view, camera, z, rgb) {
   }
   const form = new FormData();
   form.set('camera', JSON.stringify(camera));
-  form.set('depth', new Blob([Buffer.concat([header, values])]), 'depth.pfm');
-  form.set('color', new Blob([PNG.sync.write(png)], { type: 'image/png' }), 'color.png');
+  form.set('depth', new Blob([new Uint8Array(Buffer.concat([header, values]))]), 'depth.pfm');
+  form.set('color', new Blob([new Uint8Array(PNG.sync.write(png))], { type: 'image/png' }), 'color.png');
   const r = await fetch(`${server}/v1/scenes/${scene}/views/${view}`, { method: 'PUT', body: form });
   if (r.status !== 201) throw new Error(`upload answered ${r.status}: ${await r.text()}`);
   return r.json();

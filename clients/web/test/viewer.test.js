@@ -216,7 +216,7 @@ test('a 503 is retried after its Retry-After', async () => {
     await uploadGrid(busy.url, 'grid');
     const { page } = await openViewer(browser, viewerUrl(busy.url, { scene: 'grid', tau: 1, w: 64, h: 48 }));
     await waitReady(page);
-    const updates = await page.evaluate(() => /** @type {any} */ (window).dmeshStats.updates);
+    const { updates, retries } = await page.evaluate(() => /** @type {any} */ (window).dmeshStats);
     // Hold the server's one slot with an upload whose body never comes.
     const hold = http.request(`${busy.url}/v1/scenes/hold/views/v`, {
       method: 'PUT',
@@ -232,7 +232,7 @@ test('a 503 is retried after its Retry-After', async () => {
     await page.keyboard.down('d');
     await page.waitForTimeout(100);
     await page.keyboard.up('d');
-    await page.waitForFunction(() => /** @type {any} */ (window).dmeshStats.retries >= 1, null, { timeout: 30_000 });
+    await page.waitForFunction((n) => /** @type {any} */ (window).dmeshStats.retries > n, retries, { timeout: 30_000 });
     assert.match(await page.locator('#message').innerText(), /busy \(503\)/);
     hold.destroy();
     await page.waitForFunction((n) => /** @type {any} */ (window).dmeshStats.updates > n, updates, { timeout: 30_000 });

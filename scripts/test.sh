@@ -1,0 +1,52 @@
+#!/usr/bin/env bash
+# Every test of the project, on a fresh machine: the Rust workspace
+# (`cargo test --workspace`), then the browser viewer's checks: its type
+# check (tsc --checkJs) and its tests in Debian's Chromium against a real
+# `dmesh serve`. Installs Chromium (apt) and the npm packages (package-lock)
+# when they are missing. Ends with one line: `tests: N passed, M failed`.
+set -uo pipefail
+cd "$(dirname "$0")/.."
+
+die() { echo "scripts/test.sh: $*" >&2; exit 1; }
+command -v cargo >/dev/null 2>&1 || die "cargo is not installed: this project needs the Rust toolchain (rustup)"
+
+as_root() { if [ "$(id -u)" = 0 ]; then "$@"; elif command -v sudo >/dev/null 2>&1; then sudo "$@"; else die "need root to run: $*"; fi; }
+if ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; then
+  echo "installing Node.js and npm (apt)"
+  as_root apt-get update -qq && as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq nodejs npm >/dev/null \
+    || die "could not install Node.js and npm"
+fi
+CHROMIUM=${CHROMIUM:-/usr/bin/chromium}
+if [ ! -x "$CHROMIUM" ]; then
+  echo "installing Chromium (apt)"
+  as_root apt-get update -qq && as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null \
+    || die "could not install Chromium: the browser tests need it"
+  [ -x "$CHROMIUM" ] || die "$CHROMIUM is still missing after apt-get install chromium"
+fi
+export CHROMIUM
+web=clients/web
+if [ ! -d "$web/node_modules" ] || ! cmp -s "$web/package-lock.json" "$web/node_modules/.package-lock.json"; then
+  echo "installing the viewer's npm packages (npm ci)"
+  (cd "$web" && npm ci --no-audit --no-fund --loglevel=error) || die "npm ci failed in $web"
+fi
+
+log=$(mktemp)
+trap 'rm -f "$log"' EXIT
+status=0
+cargo --version
+cargo test --workspace 2>&1 | tee "$log" || status=1
+# The browser tests run the binaries the tests above built (debug profile).
+cargo build --workspace --bins 2>&1 | tail -1 || status=1
+echo "type check: tsc --checkJs ($web)"
+if (cd "$web" && npx --no-install tsc -p jsconfig.json); then
+  echo "test result: ok. 1 passed; 0 failed (tsc)" >>"$log"
+else
+  echo "test result: FAILED. 0 passed; 1 failed (tsc)" >>"$log"
+  status=1
+fi
+(cd "$web" && DMESH_BIN="$PWD/../../target/debug" node --test --test-concurrency=1 test/) 2>&1 | tee -a "$log" || status=1
+# cargo prints a "test result" line per binary, node "# pass N" and "# fail N".
+awk '/^test result:/ { for (i = 1; i <= NF; i++) { if ($(i+1) ~ /^passed/) p += $i; if ($(i+1) ~ /^failed/) f += $i } }
+     /^# pass / { p += $3 } /^# fail / { f += $3 }
+     END { printf "tests: %d passed, %d failed\n", p, f; if (p == 0) exit 1 }' "$log" || status=1
+exit $status
