@@ -55,3 +55,26 @@ fn openapi_documents_every_route() {
         assert!(spec.contains(&format!("  {r}:")), "openapi.yaml lacks {r}");
     }
 }
+
+/// `dmesh` embeds the viewer's files at compile time, so the image's build
+/// context must keep them: nothing in `.dockerignore` may hide them.
+#[test]
+fn the_image_build_keeps_the_embedded_viewer() {
+    let ignore = read(".dockerignore");
+    let viewer = "clients/web/src/index.html";
+    for pattern in ignore
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty() && !l.starts_with('#'))
+    {
+        let p = pattern.trim_end_matches('/');
+        assert!(
+            !(viewer == p || viewer.starts_with(&format!("{p}/")) || p == "*"),
+            ".dockerignore line {pattern:?} hides {viewer}"
+        );
+    }
+    assert!(
+        ignore.lines().any(|l| l.trim() == "target/"),
+        "the build context should skip target/"
+    );
+}

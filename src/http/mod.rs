@@ -1,12 +1,12 @@
 //! The HTTP service: a thin axum layer over the engine and the store.
 //!
 //! `app(state)` builds the router (tests drive it without a socket);
-//! [`serve`] binds and runs it. The browser viewer is served at `/` from files embedded in the binary
-//! ([`web`]). The tower stack, outermost first:
+//! [`serve`] binds and runs it. The browser viewer is served at `/` from
+//! files embedded in the binary ([`web`]). The tower stack, outermost first:
 //! compression (gzip, zstd); load shedding over one concurrency limit for
-//! every route but the viewer's in-memory files (excess requests get 503 + `Retry-After` at once instead of
-//! queueing without bound); per-route metrics; the request timeout (408);
-//! the body-size limit. CPU-bound work
+//! every route but the viewer's in-memory files (excess requests get 503 +
+//! `Retry-After` at once instead of queueing without bound); per-route
+//! metrics; the request timeout (408); the body-size limit. CPU-bound work
 //! (decoding, building, extracting) runs on the blocking pool, never on the
 //! async workers.
 
@@ -154,7 +154,9 @@ pub fn app(state: Arc<AppState>, pipeline: Pipeline) -> Router {
 /// Binds `addr` and serves until Ctrl-C.
 pub async fn serve(addr: SocketAddr, state: Arc<AppState>, pipeline: Pipeline) -> std::io::Result<()> {
     let listener = tokio::net::TcpListener::bind(addr).await?;
-    eprintln!("dmesh listening on http://{}", listener.local_addr()?);
+    let local = listener.local_addr()?;
+    eprintln!("dmesh listening on http://{local}");
+    eprintln!("viewer: open http://{local}/ in a browser");
     serve_on(listener, state, pipeline).await
 }
 
