@@ -479,7 +479,8 @@ const sceneSelect = /** @type {HTMLSelectElement} */ ($('scene'));
 const lodSelect = /** @type {HTMLSelectElement} */ ($('lod-kind'));
 const lodRange = /** @type {HTMLInputElement} */ ($('lod-range'));
 const lodNumber = /** @type {HTMLInputElement} */ ($('lod-value'));
-const bitsSelect = /** @type {HTMLSelectElement} */ ($('bits'));
+const bitsRange = /** @type {HTMLInputElement} */ ($('bits'));
+const bitsLabel = $('bits-label');
 const modeSelect = /** @type {HTMLSelectElement} */ ($('mode'));
 const navSelect = /** @type {HTMLSelectElement} */ ($('nav'));
 const cosInput = /** @type {HTMLInputElement} */ ($('cos-k'));
@@ -504,7 +505,8 @@ function syncPanel() {
   lodSelect.value = state.lodKind;
   lodRange.value = String(toRange(state.lodKind, state.lodValue));
   lodNumber.value = String(state.lodValue);
-  bitsSelect.value = state.bits === null ? 'exact' : String(state.bits);
+  bitsRange.value = String(state.bits ?? -1);
+  bitsLabel.textContent = state.bits === null ? 'exact' : `${state.bits} bits`;
   modeSelect.value = state.mode;
   cosInput.value = state.cosK === null ? '' : String(state.cosK);
   relightBox.checked = !!state.light;
@@ -515,7 +517,6 @@ function syncPanel() {
   lightAz.disabled = lightEl.disabled = !state.light;
 }
 
-for (let b = 0; b <= 16; b++) bitsSelect.add(new Option(`${b} bits`, String(b)));
 lodSelect.addEventListener('change', () => {
   state.lodKind = /** @type {LodKind} */ (lodSelect.value);
   state.lodValue = LOD[state.lodKind].def;
@@ -537,8 +538,10 @@ lodNumber.addEventListener('change', () => {
   syncPanel();
   changed();
 });
-bitsSelect.addEventListener('change', () => {
-  state.bits = bitsSelect.value === 'exact' ? null : Number(bitsSelect.value);
+bitsRange.addEventListener('input', () => {
+  const b = Number(bitsRange.value);
+  state.bits = b < 0 ? null : b;
+  bitsLabel.textContent = state.bits === null ? 'exact' : `${state.bits} bits`;
   changed();
 });
 modeSelect.addEventListener('change', () => {

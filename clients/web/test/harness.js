@@ -54,7 +54,7 @@ export async function startServer(args = []) {
     const timer = setTimeout(() => reject(new Error(`dmesh serve printed no address in 120 s:\n${log}`)), 120_000);
     child.stderr.on('data', (chunk) => {
       log += chunk;
-      const m = /listening on (http:\/\/[\d.:]+)/.exec(log);
+      const m = /listening on (http:\/\/[\d.:]+)\r?\n/.exec(log);
       if (m) { clearTimeout(timer); resolve(m[1]); }
     });
     child.on('exit', (code) => { clearTimeout(timer); reject(new Error(`dmesh serve exited (${code}):\n${log}`)); });

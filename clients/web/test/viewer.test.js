@@ -106,6 +106,28 @@ test('strips with restarts draw exactly the triangles decode_strips yields', asy
   }
 });
 
+test('a triangle budget with residual bits: the server picks tau, the page shows it and draws as the CPU does', async () => {
+  const camera = demoNovel();
+  const { page } = await openViewer(browser, viewerUrl(server.url, { scene: 'demo', camera, max_triangles: 6000, bits: 8, w: 256, h: 192 }));
+  await waitReady(page);
+  const stats = await page.evaluate(() => /** @type {any} */ (window).dmeshStats);
+  assert.ok(stats.triangles <= 6000, `${stats.triangles} triangles over a budget of 6000`);
+  assert.ok(stats.triangles > 500);
+  for (const v of stats.views) {
+    assert.ok(v.lod.tau > 0 || v.lod.epsilon > 0, `the tolerance the server chose is shown: ${JSON.stringify(v.lod)}`);
+    assert.ok(v.max_depth_error > 0, 'residual depths state their error');
+  }
+  assert.match(await page.locator('#stats').innerText(), /(tau \d+\.\d\d px|eps \d+\.\d\d mm)/);
+  const gpu = await capture(page);
+  const cpu = await cpuRender(server.url, 'demo', camera, ['--max-triangles', '6000', '--bits', '8']);
+  const { psnr: db } = psnr(gpu, cpu);
+  const c = coverageAgreement(gpu, cpu);
+  console.log(`budget 6000, 8 bits: ${stats.triangles} triangles, PSNR ${db.toFixed(2)} dB, covered ${c.ca} vs ${c.cb}`);
+  assert.ok(db >= 30, `PSNR ${db}`);
+  assert.ok(c.relative <= 0.02);
+  await page.close();
+});
+
 test('coverage mode colours each view as dmesh-client does', async () => {
   const camera = demoNovel();
   const { page } = await openViewer(browser, viewerUrl(server.url, { scene: 'demo', camera, tau: 1, w: 256, h: 192, mode: 'coverage' }));
