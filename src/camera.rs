@@ -56,23 +56,32 @@ pub struct Camera {
     pub translation: DVec3,
 }
 
+/// Largest magnitude of a camera number (pixels, metres): far past any real
+/// camera, and small enough that products of a few of them stay finite.
+pub const MAX_MAGNITUDE: f64 = 1e15;
+
+/// Smallest focal length or pixel size: its inverse stays far from overflow.
+pub const MIN_POSITIVE: f64 = 1e-12;
+
+/// Largest image side (the wire's vertex coordinates are 16-bit).
+pub const MAX_SIDE: u32 = 65_535;
+
 fn finite(name: &str, value: f64) -> Result<f64> {
-    if value.is_finite() {
+    if value.is_finite() && value.abs() <= MAX_MAGNITUDE {
         Ok(value)
     } else {
         Err(Error::invalid(format!(
-            "camera {name} is {value:?}; it must be a finite number"
+            "camera {name} is {value:?}; it must be a finite number of magnitude at most 1e15"
         )))
     }
 }
 
 fn positive(name: &str, value: f64) -> Result<f64> {
-    // Positive and not so small that 1 / value overflows.
-    if value.is_finite() && value > 1e-300 {
+    if (MIN_POSITIVE..=MAX_MAGNITUDE).contains(&value) {
         Ok(value)
     } else {
         Err(Error::invalid(format!(
-            "camera {name} is {value:?}; it must be a finite number greater than 0"
+            "camera {name} is {value:?}; it must be a number from 1e-12 to 1e15"
         )))
     }
 }
@@ -100,12 +109,13 @@ impl Camera {
         )
     }
 
-    /// Validates every field; the quaternion must be within 1e-3 of unit
-    /// length and is renormalised.
+    /// Validates every field. The rotation's components must lie in
+    /// `[-1, 1]`, not all zero; it is normalised (so a unit quaternion
+    /// rounded in transit, or any scaled one, is accepted).
     pub fn new(width: u32, height: u32, projection: Projection, rotation: DQuat, translation: DVec3) -> Result<Self> {
-        if width == 0 || height == 0 {
+        if width == 0 || height == 0 || width > MAX_SIDE || height > MAX_SIDE {
             return Err(Error::invalid(format!(
-                "camera is {width}x{height}; width and height must be at least 1"
+                "camera is {width}x{height}; width and height must be 1 to 65535"
             )));
         }
         let projection = match projection {
@@ -122,20 +132,21 @@ impl Camera {
                 cy: finite("cy", cy)?,
             },
         };
-        for (name, v) in [
-            ("rotation x", rotation.x),
-            ("rotation y", rotation.y),
-            ("rotation z", rotation.z),
-            ("rotation w", rotation.w),
-        ] {
-            finite(name, v)?;
-        }
-        let norm = rotation.length();
-        if (norm - 1.0).abs() > 1e-3 {
+        let components = [rotation.x, rotation.y, rotation.z, rotation.w];
+        if !components.iter().all(|c| (-1.0..=1.0).contains(c)) {
             return Err(Error::invalid(format!(
-                "camera rotation has length {norm}; it must be a unit quaternion [x, y, z, w]"
+                "camera rotation is {components:?}; a quaternion [x, y, z, w] has components from -1 to 1"
             )));
         }
+        // Scaled by the largest component first, so tiny quaternions normalise too.
+        let largest = components.iter().fold(0f64, |m, c| m.max(c.abs()));
+        if largest == 0.0 {
+            return Err(Error::invalid(
+                "camera rotation is [0, 0, 0, 0]; it must be a quaternion [x, y, z, w] of non-zero length",
+            ));
+        }
+        let scaled = rotation / largest;
+        let norm = scaled.length();
         for (name, v) in [
             ("translation x", translation.x),
             ("translation y", translation.y),
@@ -147,7 +158,7 @@ impl Camera {
             width,
             height,
             projection,
-            rotation: rotation / norm,
+            rotation: scaled / norm,
             translation,
         })
     }
@@ -321,7 +332,22 @@ mod tests {
         let e = camera_from_json(r#"{"width":4,"height":4,"projection":{"perspective":{"fx":1,"fy":1,"cx":0,"cy":0}},"pose":{"rotation":[0,0,0,2],"translation":[0,0,0]}}"#)
             .unwrap_err()
             .to_string();
-        assert!(e.contains("unit quaternion"), "{e}");
+        assert!(e.contains("components from -1 to 1"), "{e}");
+        let json = |rotation: &str| {
+            camera_from_json(&format!(
+                r#"{{"width":4,"height":4,"projection":{{"perspective":{{"fx":1,"fy":1,"cx":0,"cy":0}}}},"pose":{{"rotation":{rotation},"translation":[0,0,0]}}}}"#
+            ))
+        };
+        assert!(json("[0,0,0,0]").unwrap_err().to_string().contains("non-zero length"));
+        // Any non-zero quaternion in range is normalised, however small.
+        for r in ["[0,0,0,0.5]", "[0,0,0,1e-320]", "[0.5,0.5,0.5,0.5]"] {
+            let c = json(r).unwrap();
+            assert!((c.rotation.length() - 1.0).abs() < 1e-12, "{r}");
+        }
+        assert!(Camera::perspective(70_000, 4, 1.0, 1.0, 0.0, 0.0).is_err());
+        assert!(Camera::perspective(4, 4, 1e16, 1.0, 0.0, 0.0).is_err());
+        assert!(Camera::perspective(4, 4, 1.0, 1.0, -2e15, 0.0).is_err());
+        assert!(Camera::perspective(4, 4, 1e-13, 1.0, 0.0, 0.0).is_err());
     }
 
     #[test]

@@ -18,6 +18,10 @@ pub enum Error {
     /// unsupported kind.
     #[error("{0}")]
     Decode(String),
+    /// A well-formed request that the stored data cannot satisfy (a
+    /// triangle budget below the view's coarsest mesh).
+    #[error("{0}")]
+    Unattainable(String),
     /// An internal invariant does not hold. This is a bug in dmesh: please report it.
     #[error("internal error: {0} (this is a bug in dmesh, please report it)")]
     Internal(String),
@@ -30,6 +34,11 @@ impl Error {
     /// Bad input, with a message that names the field and what is accepted.
     pub fn invalid(message: impl Into<String>) -> Self {
         Self::InvalidInput(message.into())
+    }
+
+    /// A valid request this data cannot satisfy.
+    pub fn unattainable(message: impl Into<String>) -> Self {
+        Self::Unattainable(message.into())
     }
 
     /// Undecodable image bytes.

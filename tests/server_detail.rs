@@ -90,14 +90,31 @@ async fn residual_bits_and_triangle_budgets() {
     }
     let (_, r, _) = fetch("/v1/scenes/r/views/v/strips?budget_ms=0.5&bits=8".into()).await;
     assert!(r.triangles > 0);
-    for (uri, why) in [
-        ("/v1/scenes/r/views/v/strips?epsilon=0&bits=17", "bits is 17"),
-        ("/v1/scenes/r/views/v/strips?epsilon=0&max_triangles=9", "exactly one"),
-        ("/v1/scenes/r/views/v/strips?max_triangles=1", "coarsest"),
-        ("/v1/scenes/r/views/v/strips?budget_ms=-1", "budget_ms"),
+    for (uri, expected, why) in [
+        (
+            "/v1/scenes/r/views/v/strips?epsilon=0&bits=17",
+            StatusCode::BAD_REQUEST,
+            "bits is 17",
+        ),
+        (
+            "/v1/scenes/r/views/v/strips?epsilon=0&max_triangles=9",
+            StatusCode::BAD_REQUEST,
+            "exactly one",
+        ),
+        // Well-formed, but this view cannot meet it.
+        (
+            "/v1/scenes/r/views/v/strips?max_triangles=1",
+            StatusCode::CONFLICT,
+            "coarsest",
+        ),
+        (
+            "/v1/scenes/r/views/v/strips?budget_ms=-1",
+            StatusCode::BAD_REQUEST,
+            "budget_ms",
+        ),
     ] {
         let (status, _, body) = send(&router, get_strips(uri)).await;
-        assert_eq!(status, StatusCode::BAD_REQUEST, "{uri}");
+        assert_eq!(status, expected, "{uri}");
         assert!(
             String::from_utf8_lossy(&body).contains(why),
             "{uri}: {}",

@@ -20,6 +20,8 @@ pub enum AppError {
     UnsupportedMedia(String),
     /// 422: image bytes that do not decode.
     Undecodable(String),
+    /// 409: a valid request the stored data cannot satisfy.
+    Conflict(String),
     /// 405: the endpoint exists but not with this method.
     MethodNotAllowed,
     /// 408: the request took longer than the configured timeout.
@@ -38,6 +40,7 @@ impl AppError {
             Self::TooLarge(m) => (StatusCode::PAYLOAD_TOO_LARGE, "too_large", m.clone()),
             Self::UnsupportedMedia(m) => (StatusCode::UNSUPPORTED_MEDIA_TYPE, "unsupported_media_type", m.clone()),
             Self::Undecodable(m) => (StatusCode::UNPROCESSABLE_ENTITY, "undecodable_image", m.clone()),
+            Self::Conflict(m) => (StatusCode::CONFLICT, "unattainable", m.clone()),
             Self::MethodNotAllowed => (
                 StatusCode::METHOD_NOT_ALLOWED,
                 "method_not_allowed",
@@ -81,6 +84,7 @@ impl From<crate::Error> for AppError {
             crate::Error::InvalidInput(m) => Self::BadRequest(m),
             crate::Error::TooLarge(m) => Self::TooLarge(m),
             crate::Error::Decode(m) => Self::Undecodable(m),
+            crate::Error::Unattainable(m) => Self::Conflict(m),
             crate::Error::Internal(m) => Self::Internal(m),
         }
     }

@@ -113,6 +113,7 @@ pub async fn put_view(
     let multipart =
         multipart.map_err(|e| AppError::UnsupportedMedia(format!("upload must be multipart/form-data: {e}")))?;
     let u = read_upload(multipart).await?;
+    u.segmentation.validate()?;
     let camera_text = u
         .camera
         .ok_or_else(|| AppError::BadRequest("field camera (JSON) is missing".into()))?;

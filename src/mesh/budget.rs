@@ -208,7 +208,7 @@ impl DepthMesh {
     pub fn lod_for_triangles(&self, max_triangles: u64, view: Option<&Camera>) -> Result<Budgeted> {
         let st = &self.stats;
         let coarsest = || {
-            Error::invalid(format!(
+            Error::unattainable(format!(
                 "max_triangles is {max_triangles}; the coarsest mesh of this view may have up to {} triangles",
                 st.base
             ))

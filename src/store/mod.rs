@@ -57,6 +57,25 @@ impl Default for SegmentationSpec {
 }
 
 impl SegmentationSpec {
+    /// Checks every threshold, the unused ones too (an upload that sends
+    /// `omega=200` with `segment=none` is as wrong as one that uses it).
+    pub fn validate(&self) -> crate::Result<()> {
+        use crate::mesh::Method;
+        let all = [
+            Method::Orthogonality { omega_deg: self.omega },
+            Method::Disparity { sigma: self.sigma },
+            Method::Connectedness { kappa: self.kappa },
+        ];
+        for method in all {
+            crate::mesh::Segmentation {
+                method,
+                lambda: self.lambda,
+            }
+            .validate()?;
+        }
+        Ok(())
+    }
+
     /// The engine's form.
     pub fn to_engine(&self) -> crate::mesh::Segmentation {
         use crate::mesh::Method;
@@ -124,4 +143,37 @@ pub trait ViewStore: Send + Sync {
     fn delete_scene(&self, scene: &str) -> Result<bool, StoreError>;
     /// Bytes held.
     fn bytes_stored(&self) -> Result<u64, StoreError>;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_threshold_is_checked_whatever_the_method() {
+        assert!(SegmentationSpec::default().validate().is_ok());
+        for bad in [
+            SegmentationSpec {
+                method: SegmentMethod::None,
+                omega: 200.0,
+                ..Default::default()
+            },
+            SegmentationSpec {
+                method: SegmentMethod::Orthogonality,
+                sigma: -1.0,
+                ..Default::default()
+            },
+            SegmentationSpec {
+                method: SegmentMethod::Disparity,
+                kappa: f64::NAN,
+                ..Default::default()
+            },
+            SegmentationSpec {
+                lambda: -0.5,
+                ..Default::default()
+            },
+        ] {
+            assert!(bad.validate().is_err(), "{bad:?}");
+        }
+    }
 }
