@@ -60,10 +60,14 @@ struct ServeArgs {
     /// Largest decoded image, pixels.
     #[arg(long, default_value_t = 64 << 20)]
     max_pixels: u64,
-    /// Requests served at once; more wait up to --queue-wait-ms for a slot,
-    /// then are answered 503 with Retry-After.
-    #[arg(long, default_value_t = 64)]
-    max_concurrency: usize,
+    /// Reads (renders, strips, summaries) served at once; more wait up to
+    /// --queue-wait-ms for a slot, then are answered 503 with Retry-After
+    /// [default: the number of cores].
+    #[arg(long)]
+    max_concurrency: Option<usize>,
+    /// Uploads served at once, apart from reads [default: half the cores, at least 1].
+    #[arg(long)]
+    max_uploads: Option<usize>,
     /// Milliseconds a request may wait for a free slot before it is shed.
     #[arg(long, default_value_t = 5)]
     queue_wait_ms: u64,
@@ -439,8 +443,10 @@ fn run_serve(a: &ServeArgs) -> Result<()> {
         ingest_demo(&store)?;
     }
     let state = std::sync::Arc::new(AppState::new(std::sync::Arc::new(store), settings));
+    let defaults = Pipeline::default();
     let pipeline = Pipeline {
-        max_concurrency: a.max_concurrency,
+        max_concurrency: a.max_concurrency.unwrap_or(defaults.max_concurrency),
+        max_uploads: a.max_uploads.unwrap_or(defaults.max_uploads),
         queue_wait: std::time::Duration::from_millis(a.queue_wait_ms),
         timeout: std::time::Duration::from_secs(a.timeout_secs),
     };

@@ -342,10 +342,11 @@ fn stalled_upload() -> Request<Body> {
 }
 
 #[tokio::test]
-async fn overload_is_shed_with_503_and_retry_after() {
+async fn overload_is_shed_with_503_and_retry_after_and_uploads_never_take_read_slots() {
     let dir = tempfile::tempdir().unwrap();
     let pipeline = Pipeline {
         max_concurrency: 1,
+        max_uploads: 1,
         queue_wait: std::time::Duration::from_millis(20),
         timeout: std::time::Duration::from_secs(30),
     };
@@ -359,22 +360,32 @@ async fn overload_is_shed_with_503_and_retry_after() {
             .request(req)
             .await
     });
-    // Once the stalled upload holds the only slot, every other request is
-    // shed after its 20 ms queue wait (poll until it has reached the server, however slow the machine).
+    // Once the stalled upload holds the only upload slot, another upload is
+    // shed after its 20 ms queue wait (poll until the first has reached the
+    // server, however slow the machine).
     let mut shed = None;
     for _ in 0..100 {
-        let reply = send(&router, Request::get("/healthz").body(Body::empty()).unwrap()).await;
-        if reply.0 == StatusCode::SERVICE_UNAVAILABLE {
-            shed = Some(reply);
-            break;
+        let mut second = stalled_upload();
+        *second.uri_mut() = "/v1/scenes/s/views/other".parse().unwrap();
+        let reply = tokio::time::timeout(std::time::Duration::from_millis(500), send(&router, second)).await;
+        if let Ok(reply) = reply {
+            if reply.0 == StatusCode::SERVICE_UNAVAILABLE {
+                shed = Some(reply);
+                break;
+            }
         }
         tokio::time::sleep(std::time::Duration::from_millis(20)).await;
     }
-    let (status, headers, body) = shed.expect("no request was shed while the only slot was taken");
+    let (status, headers, body) = shed.expect("no upload was shed while the only upload slot was taken");
     assert_eq!(status, StatusCode::SERVICE_UNAVAILABLE);
     assert_eq!(headers[header::RETRY_AFTER], "1");
     let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
     assert_eq!(v["error"]["code"], "overloaded");
+    // Reads have slots of their own: the stalled upload takes none of them.
+    for uri in ["/v1/scenes", "/v1/scenes/s/views", "/healthz"] {
+        let (status, _, _) = send(&router, Request::get(uri).body(Body::empty()).unwrap()).await;
+        assert_ne!(status, StatusCode::SERVICE_UNAVAILABLE, "{uri} was shed by an upload");
+    }
     busy.abort();
 }
 

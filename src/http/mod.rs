@@ -3,9 +3,10 @@
 //! `app(state)` builds the router (tests drive it without a socket);
 //! [`serve`] binds and runs it. The browser viewer is served at `/` from
 //! files embedded in the binary ([`web`]). The tower stack, outermost first:
-//! compression (gzip, zstd); load shedding over one concurrency limit for
-//! every route but the viewer's in-memory files (excess requests get 503 +
-//! `Retry-After` at once instead of queueing without bound); per-route
+//! compression (gzip, zstd); load shedding over two concurrency limits,
+//! reads by the number of cores and uploads apart from them (excess
+//! requests get 503 + `Retry-After` after a short wait instead of queueing
+//! without bound; the viewer's files, health and metrics are never shed); per-route
 //! metrics; the request timeout (408); the body-size limit. CPU-bound work
 //! (decoding, building, extracting) runs on the blocking pool, never on the
 //! async workers.
@@ -43,19 +44,32 @@ pub const DEFAULT_DATA_DIR: &str = "./dmesh-data";
 /// Concurrency and timeout of the request pipeline.
 #[derive(Clone, Copy, Debug)]
 pub struct Pipeline {
-    /// Requests served at once; more wait up to `queue_wait` for a slot,
-    /// then are shed with 503.
+    /// Reads served at once (renders, strips, summaries, colours, lists:
+    /// CPU-bound when they extract or rebuild a hierarchy); more wait up to
+    /// `queue_wait` for a slot, then are shed with 503.
     pub max_concurrency: usize,
+    /// Uploads served at once, limited apart from reads so that slow
+    /// uploads never hold a render's slot.
+    pub max_uploads: usize,
     /// Longest a request waits for a free slot before it is shed.
     pub queue_wait: Duration,
     /// Longest a request may take.
     pub timeout: Duration,
 }
 
+/// The machine's cores, as the process may use them (at least 1).
+pub fn cores() -> usize {
+    std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
+}
+
 impl Default for Pipeline {
+    /// Reads admitted by the number of cores and uploads by half of them,
+    /// each after a wait of at most 5 ms: latency stays flat and the excess
+    /// is shed, on any machine.
     fn default() -> Self {
         Self {
-            max_concurrency: 64,
+            max_concurrency: cores(),
+            max_uploads: (cores() / 2).max(1),
             queue_wait: Duration::from_millis(5),
             timeout: Duration::from_secs(30),
         }
@@ -70,19 +84,32 @@ async fn timed_out(error: BoxError) -> AppError {
     }
 }
 
-/// Load shedding with a concurrency limit shared by every route: a request
-/// that finds no free slot waits for one at most `queue_wait` (a short queue
-/// absorbs bursts without letting latency grow), then is answered 503.
-/// (A tower layer on the router would be instantiated per route.)
-async fn shed(
-    State((slots, wait)): State<(Arc<tokio::sync::Semaphore>, Duration)>,
-    request: Request,
-    next: Next,
-) -> Response {
-    if let Ok(_permit) = slots.try_acquire() {
+/// The admission limits: one for reads, one for uploads.
+struct Slots {
+    reads: tokio::sync::Semaphore,
+    uploads: tokio::sync::Semaphore,
+    wait: Duration,
+}
+
+/// Load shedding: a request that finds no free slot of its class (uploads
+/// are `PUT`s, everything else under `/v1` is a read) waits for one at most
+/// `queue_wait` (a short queue absorbs bursts without letting latency
+/// grow), then is answered 503. Health and metrics are never shed. (A tower
+/// layer on the router would be instantiated per route.)
+async fn shed(State(slots): State<Arc<Slots>>, request: Request, next: Next) -> Response {
+    let path = request.uri().path();
+    if !path.starts_with("/v1/") {
         return next.run(request).await;
     }
-    match tokio::time::timeout(wait, slots.acquire()).await {
+    let class = if request.method() == axum::http::Method::PUT {
+        &slots.uploads
+    } else {
+        &slots.reads
+    };
+    if let Ok(_permit) = class.try_acquire() {
+        return next.run(request).await;
+    }
+    match tokio::time::timeout(slots.wait, class.acquire()).await {
         Ok(Ok(_permit)) => next.run(request).await,
         _ => AppError::Overloaded(1).into_response(),
     }
@@ -141,11 +168,15 @@ pub fn app(state: Arc<AppState>, pipeline: Pipeline) -> Router {
                 .layer(HandleErrorLayer::new(timed_out))
                 .timeout(pipeline.timeout),
         );
-    let slots = Arc::new(tokio::sync::Semaphore::new(pipeline.max_concurrency.max(1)));
+    let slots = Arc::new(Slots {
+        reads: tokio::sync::Semaphore::new(pipeline.max_concurrency.max(1)),
+        uploads: tokio::sync::Semaphore::new(pipeline.max_uploads.max(1)),
+        wait: pipeline.queue_wait,
+    });
     // The viewer's files are served from memory outside the limit: shedding
     // them would only break a page load without sparing any CPU-bound work.
     api.route_layer(middleware::from_fn_with_state(state.clone(), record))
-        .layer(middleware::from_fn_with_state((slots, pipeline.queue_wait), shed))
+        .layer(middleware::from_fn_with_state(slots, shed))
         .merge(web::routes())
         .layer(CompressionLayer::new())
         .with_state(state)

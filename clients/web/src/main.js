@@ -366,7 +366,7 @@ async function update() {
     const last = /** @type {PerformanceResourceTiming | undefined} */ (entries[entries.length - 1]);
     const { response, lines, decodeMs } = await decode(body, json, state.mode === 'wireframe');
     if (response.views.length === 0) throw new Error('The server selected no reference view for this camera: turn towards the scene.');
-    await Promise.all(response.views.map((v) => texture(v.color_url)));
+    for (const v of response.views) await texture(v.color_url);
     if (!renderer || renderer.lost) return;
     renderer.setViews(response.views.map((v, k) => ({ ...v, lines: lines[k] })));
     const t1 = performance.now();
@@ -622,8 +622,12 @@ async function loadScene() {
   sceneSelect.value = scene;
   const list = await getJson(`/v1/scenes/${encodeURIComponent(scene)}/views`);
   if (!list.views.length) throw new Error(`Scene "${scene}" has no views yet: upload some first.`);
-  const summaries = await Promise.all(list.views.map((/** @type {string} */ v) =>
-    getJson(`/v1/scenes/${encodeURIComponent(scene)}/views/${encodeURIComponent(v)}`)));
+  // One request at a time: the page never competes with itself for the
+  // server's few read slots (which are as many as its cores).
+  const summaries = [];
+  for (const v of list.views) {
+    summaries.push(await getJson(`/v1/scenes/${encodeURIComponent(scene)}/views/${encodeURIComponent(v)}`));
+  }
   const refs = summaries.map((s) => /** @type {CameraJson} */ (s.camera));
   target = lookedAt(refs);
   fresh.clear();
