@@ -60,8 +60,8 @@ pub struct Camera {
 /// camera, and small enough that products of a few of them stay finite.
 pub const MAX_MAGNITUDE: f64 = 1e15;
 
-/// Smallest focal length or pixel size: its inverse stays far from overflow.
-pub const MIN_POSITIVE: f64 = 1e-12;
+/// Smallest focal length or pixel size: its inverse stays finite.
+pub const MIN_POSITIVE: f64 = 1e-300;
 
 /// Largest image side (the wire's vertex coordinates are 16-bit).
 pub const MAX_SIDE: u32 = 65_535;
@@ -81,7 +81,7 @@ fn positive(name: &str, value: f64) -> Result<f64> {
         Ok(value)
     } else {
         Err(Error::invalid(format!(
-            "camera {name} is {value:?}; it must be a number from 1e-12 to 1e15"
+            "camera {name} is {value:?}; it must be a number from 1e-300 to 1e15"
         )))
     }
 }
@@ -347,7 +347,7 @@ mod tests {
         assert!(Camera::perspective(70_000, 4, 1.0, 1.0, 0.0, 0.0).is_err());
         assert!(Camera::perspective(4, 4, 1e16, 1.0, 0.0, 0.0).is_err());
         assert!(Camera::perspective(4, 4, 1.0, 1.0, -2e15, 0.0).is_err());
-        assert!(Camera::perspective(4, 4, 1e-13, 1.0, 0.0, 0.0).is_err());
+        assert!(Camera::perspective(4, 4, 1e-301, 1.0, 0.0, 0.0).is_err());
     }
 
     #[test]

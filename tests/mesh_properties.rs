@@ -372,3 +372,68 @@ proptest! {
         }
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+
+    /// Padding is outside the image, not invalid data in it: with
+    /// segmentation off on fully valid depth, at every tolerance, static or
+    /// view-dependent, perspective or orthographic, the mesh tiles the image
+    /// rectangle whatever its size.
+    #[test]
+    fn padded_sizes_tile_the_image_at_every_tolerance(
+        w in 2u32..72,
+        h in 2u32..72,
+        relief in 0.0f32..0.5,
+        ortho in any::<bool>(),
+        eps in prop_oneof![Just(0.0), 1e-4f64..0.05, 1.0f64..10.0, Just(1e9)],
+        tau in prop_oneof![Just(0.0), 0.1f64..4.0, 8.0f64..1e6],
+    ) {
+        let depth = depth_from(w, h, |x, y| 2.0 + relief * ((x as f32 * 0.37).sin() + (y as f32 * 0.23).cos()));
+        let cam = if ortho { Camera::orthographic(w, h, 0.01, 0.01, 0.0, 0.0).unwrap() } else { camera(w, h) };
+        let seg = Segmentation { method: Method::None, lambda: 0.01 };
+        let hier = DepthMesh::build(&depth, &cam, &seg).unwrap();
+        assert_monotone(&hier);
+        for lod in [Lod::Epsilon(eps), Lod::Tau { tau, view: &cam }] {
+            let mesh = hier.extract(lod).unwrap();
+            assert_conforming(&mesh);
+            assert_covers_image(&mesh, w, h);
+            assert_strips_match(&mesh);
+        }
+        // A budget that the coarsest mesh meets is met.
+        let coarsest = hier.coarsest_triangles();
+        let budgeted = hier.lod_for_triangles(coarsest, None).unwrap();
+        let mesh = hier.extract(budgeted.lod(&cam)).unwrap();
+        prop_assert!(mesh.triangles.len() as u64 <= coarsest);
+        assert_covers_image(&mesh, w, h);
+    }
+}
+
+/// The case the defect was seen on: an orthographic height field whose size
+/// is not `m * 2^k + 1`, at epsilon = 8 with segmentation off.
+#[test]
+fn an_orthographic_height_field_keeps_its_border_at_coarse_tolerances() {
+    let (w, h) = (300, 201);
+    let depth = depth_from(w, h, |x, y| {
+        10.0 + ((x as f32 / 17.0).sin() * (y as f32 / 13.0).cos()) * 3.0
+    });
+    let cam = Camera::orthographic(w, h, 1.0, 1.0, 0.0, 0.0).unwrap();
+    let hier = DepthMesh::build(
+        &depth,
+        &cam,
+        &Segmentation {
+            method: Method::None,
+            lambda: 0.02,
+        },
+    )
+    .unwrap();
+    assert!(
+        hier.grid().gw() > w || hier.grid().gh() > h,
+        "the size must need padding"
+    );
+    for eps in [0.0, 0.5, 8.0, 1e6] {
+        let mesh = hier.extract(Lod::Epsilon(eps)).unwrap();
+        assert_conforming(&mesh);
+        assert_covers_image(&mesh, w, h);
+    }
+}

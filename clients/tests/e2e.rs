@@ -35,7 +35,13 @@ async fn start() -> Running {
     ));
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
     let base = format!("http://{}", listener.local_addr().unwrap());
-    let task = tokio::spawn(dmesh::http::serve_on(listener, state, dmesh::http::Pipeline::default()));
+    // Slots for every client these tests run at once: they check what is
+    // served, not shedding (tests/server.rs and the browser tests do).
+    let pipeline = dmesh::http::Pipeline {
+        max_concurrency: 16,
+        ..dmesh::http::Pipeline::default()
+    };
+    let task = tokio::spawn(dmesh::http::serve_on(listener, state, pipeline));
     Running { base, task, _dir: dir }
 }
 

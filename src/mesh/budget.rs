@@ -32,6 +32,7 @@
 //! mesh usually has fewer triangles than allowed. The cost per request is one
 //! pass over the frontier and two over 4,096 buckets.
 
+use super::border::FORCED;
 use super::extract::Lod;
 use super::grid::Pt;
 use super::hierarchy::DepthMesh;
@@ -53,7 +54,8 @@ pub(crate) struct ErrorStats {
     all: Vec<u32>,
     /// Frontiers, coarsest first.
     frontiers: Vec<Frontier>,
-    /// Triangles of the coarsest mesh: two per root quad.
+    /// Triangles of the coarsest mesh: two per root quad, and two per
+    /// vertex every mesh selects (along a padded border).
     base: u64,
 }
 
@@ -112,8 +114,15 @@ impl ErrorStats {
         let grid = mesh.grid;
         let s = grid.side();
         let mut all = vec![0u32; BUCKETS];
+        // Vertices along a padded border are always selected (`border.rs`):
+        // they belong to the base, not to any threshold's count.
+        let mut forced = 0u64;
         for &e in &mesh.err2 {
-            all[bucket(e)] += 1;
+            if e == FORCED {
+                forced += 1;
+            } else {
+                all[bucket(e)] += 1;
+            }
         }
         // Root corners are no split vertices.
         for y in (0..grid.gh()).step_by(s as usize) {
@@ -138,8 +147,13 @@ impl ErrorStats {
                     if is_root || odd_x != odd_y {
                         continue;
                     }
-                    coarse += 1;
-                    fine[bucket(mesh.err2[grid.index((x, y))])] -= 1;
+                    let e = mesh.err2[grid.index((x, y))];
+                    // A forced vertex is counted in the base already (but
+                    // stays a frontier centre: the spheres below nest in it).
+                    if e != FORCED {
+                        coarse += 1;
+                        fine[bucket(e)] -= 1;
+                    }
                     if odd_x {
                         centres.push((x, y));
                     }
@@ -158,7 +172,7 @@ impl ErrorStats {
         Self {
             all: suffix(all),
             frontiers,
-            base: 2 * u64::from(grid.m) * u64::from(grid.n),
+            base: 2 * u64::from(grid.m) * u64::from(grid.n) + 2 * forced,
         }
     }
 

@@ -303,6 +303,7 @@ impl DepthMesh {
         // plus the deviations of the coarse levels (the statistics come
         // after).
         mesh.build_peak_bytes = mesh.heap_bytes() + p.scratch_bytes;
+        super::border::force_border(&mesh.grid, &mut mesh.err2);
         mesh.stats = ErrorStats::gather(&mesh);
         mesh.build_ms = start.elapsed().as_secs_f64() * 1e3;
         Ok(mesh)

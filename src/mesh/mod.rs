@@ -2,6 +2,8 @@
 //! depth image (DMesh Sec. 3-5).
 //!
 //! - [`grid`]: the forest grid and the 4-8 hierarchy's geometry (Sec. 3, Fig. 1-3);
+//! - [`border`]: a padded grid's image border, always refined so that the
+//!   padding never eats into the image;
 //! - [`error_metric`]: Eq. 1 and Eq. 2, squared and division-safe;
 //! - `deviation`: the exact depth deviation of a hierarchy triangle;
 //! - [`normals`]: per-vertex normals and quality rho (Sec. 4.2);
@@ -15,6 +17,7 @@
 //! - `tunnel`: joining greedy strips by tunnelling, weighed by their index count.
 
 mod backproject;
+pub mod border;
 pub mod budget;
 mod deviation;
 pub mod error_metric;

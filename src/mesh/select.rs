@@ -21,6 +21,7 @@
 
 use glam::{DMat3, DVec3};
 
+use super::border::FORCED;
 use crate::camera::{Camera, Projection};
 
 /// Frustum planes still to test, one bit each: a triangle entirely inside a
@@ -52,7 +53,7 @@ pub(crate) struct Static {
 impl Select for Static {
     #[inline]
     fn active(&self, err2: f32, _: DVec3, _: f32) -> bool {
-        self.all || err2 > self.eps2
+        self.all || err2 > self.eps2 || err2 == FORCED
     }
 
     #[inline]
@@ -128,7 +129,7 @@ impl ViewDependent {
 impl Select for ViewDependent {
     #[inline]
     fn active(&self, err2: f32, p: DVec3, r: f32) -> bool {
-        if self.all {
+        if self.all || err2 == FORCED {
             return true;
         }
         let e2 = f64::from(err2);

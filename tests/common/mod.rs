@@ -243,3 +243,36 @@ pub fn arb_depth(max_side: u32) -> impl Strategy<Value = (u32, u32, Vec<f32>)> {
         (Just(w), Just(h), proptest::collection::vec(sample, n))
     })
 }
+
+/// The triangles tile the image rectangle `[0, w-1] x [0, h-1]` exactly:
+/// every vertex in it, their areas adding up to its area, every edge used
+/// twice except those on its boundary, used once (with `assert_conforming`,
+/// no overlap and no T-junction: the union is the rectangle).
+pub fn assert_covers_image(mesh: &Mesh, w: u32, h: u32) {
+    let (lx, ly) = (i64::from(w) - 1, i64::from(h) - 1);
+    let tris: Vec<[(i64, i64); 3]> = mesh.triangles.iter().map(|t| t.map(|v| ij(mesh, v))).collect();
+    let mut area2 = 0;
+    let mut edges: HashMap<(P, P), u32> = HashMap::new();
+    for t in &tris {
+        for p in t {
+            assert!(
+                p.0 >= 0 && p.1 >= 0 && p.0 <= lx && p.1 <= ly,
+                "vertex {p:?} outside the {w}x{h} image"
+            );
+        }
+        area2 += twice_area(t[0], t[1], t[2]).abs();
+        for k in 0..3 {
+            let (p, q) = (t[k], t[(k + 1) % 3]);
+            *edges.entry(if p < q { (p, q) } else { (q, p) }).or_default() += 1;
+        }
+    }
+    assert_eq!(area2, 2 * lx * ly, "the triangles do not cover the {w}x{h} image");
+    for (&(p, q), &n) in &edges {
+        let on_boundary = (p.0 == q.0 && (p.0 == 0 || p.0 == lx)) || (p.1 == q.1 && (p.1 == 0 || p.1 == ly));
+        assert_eq!(
+            n,
+            if on_boundary { 1 } else { 2 },
+            "edge {p:?}-{q:?} of the {w}x{h} image"
+        );
+    }
+}

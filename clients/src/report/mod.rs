@@ -58,7 +58,7 @@ impl Sweep {
             (Self::Bits, false) => vec![0.0, 2.0, 4.0, 6.0, 8.0, 10.0, 12.0, 16.0],
             (Self::Bits, true) => vec![0.0, 8.0, 16.0],
             (Self::Budget, false) => vec![1e3, 3e3, 1e4, 3e4, 1e5],
-            (Self::Budget, true) => vec![3e3],
+            (Self::Budget, true) => vec![1e4],
         }
     }
 
