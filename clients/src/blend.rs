@@ -10,7 +10,8 @@
 //! are interpolated perspective-correctly (linear in `1/z` over the screen);
 //! texture coordinates projectively, through the reference camera, so a
 //! large triangle seen obliquely by its reference view still samples the
-//! right texel. Pixel `(x, y)` is the sample at integer
+//! right texel. Seams of at most `fill_gaps` pixels are then filled from
+//! their neighbours (`holes.rs`). Pixel `(x, y)` is the sample at integer
 //! coordinates, as everywhere in dmesh; coverage follows the top-left rule so
 //! a pixel on a shared edge is drawn once.
 
@@ -72,7 +73,16 @@ pub struct BlendOptions {
     /// Relighting with the vertex normals: a directional light (world) and
     /// its specular exponent; `None` keeps the textures' own shading.
     pub relight: Option<(DVec3, f64)>,
+    /// Seams of at most this many pixels between covered pixels of one
+    /// surface are filled from their neighbours ([`crate::holes`]); 0 leaves
+    /// every hole.
+    pub fill_gaps: u32,
 }
+
+/// Relative depth difference per pixel below which the two sides of a seam
+/// are one surface (a floor seen at a grazing angle changes by a few per
+/// cent per pixel; a pole before a wall by tens).
+pub const FILL_DEPTH_TOLERANCE: f64 = 0.05;
 
 impl Default for BlendOptions {
     fn default() -> Self {
@@ -80,6 +90,7 @@ impl Default for BlendOptions {
             eps_z: 0.01,
             cos_k: None,
             relight: None,
+            fill_gaps: 2,
         }
     }
 }
@@ -270,6 +281,7 @@ pub fn blend(novel: &Camera, views: &[ViewInput<'_>], options: &BlendOptions) ->
             depth[i] = zbuf[i] as f32;
         }
     }
+    crate::holes::fill_small_holes(w, h, &mut rgb, &mut depth, options.fill_gaps, FILL_DEPTH_TOLERANCE);
     Ok(Blended {
         width: w,
         height: h,

@@ -3,6 +3,8 @@
 //!
 //! - [`blend`]: the two-pass epsilon-z-buffer blend of DMesh Sec. 6.3-6.4 and
 //!   Verlani Sec. 3, with perspective-correct interpolation;
+//! - [`holes`]: filling the seams of at most a few pixels a blend leaves,
+//!   depth-aware;
 //! - [`compare`]: PSNR on the valid mask and inverse-depth RMSE;
 //! - [`http`]: the server calls (upload, render, colour with an ETag cache);
 //! - [`novel`]: a novel view end to end (render request, textures, blend);
@@ -10,6 +12,7 @@
 
 pub mod blend;
 pub mod compare;
+pub mod holes;
 pub mod http;
 pub mod loadtest;
 pub mod novel;

@@ -71,6 +71,9 @@ enum Command {
         /// Relight with the vertex normals (diffuse + specular from a light above and behind the camera).
         #[arg(long)]
         relight: bool,
+        /// Fill seams of at most this many pixels between covered pixels of one surface (0: leave every hole).
+        #[arg(long, default_value_t = 2)]
+        fill_gaps: u32,
         /// Colour texture cache directory.
         #[arg(long, default_value = "./dmesh-cache")]
         cache: PathBuf,
@@ -317,12 +320,14 @@ fn run(cli: Cli) -> Result<()> {
             coverage_out,
             cos_k,
             relight,
+            fill_gaps,
             cache,
         } => {
             let relight = relight.then(|| (glam::DVec3::new(0.3, 1.0, 0.4).normalize(), 32.0));
             let options = BlendOptions {
                 cos_k,
                 relight,
+                fill_gaps,
                 ..Default::default()
             };
             let b = rt.block_on(render(&server, &scene, &camera, detail.detail(), &options, &cache))?;

@@ -229,3 +229,105 @@ async fn the_load_test_stops_by_itself_and_counts_everything() {
         (4, Some(4))
     );
 }
+
+fn seam_pixels(b: &Blended, truth: &[f32]) -> usize {
+    seams(b, truth).len()
+}
+
+/// Uncovered pixels of `b` on a surface the truth shows, with covered pixels
+/// of that surface on both sides at most two pixels apart along a row, a
+/// column or a diagonal: the seams the blend must not leave.
+fn seams(b: &Blended, truth: &[f32]) -> Vec<usize> {
+    let (w, h) = (i64::from(b.width), i64::from(b.height));
+    // On the truth's surface: within 5 % per pixel away (oblique surfaces).
+    let near = |j: usize, z: f32, t: i64| b.depth[j] > 0.0 && (b.depth[j] - z).abs() <= 0.05 * t as f32 * z;
+    (0..h)
+        .flat_map(|y| (0..w).map(move |x| (x, y)))
+        .filter(|&(x, y)| {
+            let i = (y * w + x) as usize;
+            let z = truth[i];
+            b.depth[i] == 0.0
+                && z > 0.0
+                && [(1, 0), (0, 1), (1, 1), (1, -1)].iter().any(|&(dx, dy)| {
+                    let side = |s: i64| {
+                        (1..=2).find(|&t| {
+                            let (px, py) = (x + s * t * dx, y + s * t * dy);
+                            px >= 0 && py >= 0 && px < w && py < h && near((py * w + px) as usize, z, t)
+                        })
+                    };
+                    matches!((side(1), side(-1)), (Some(a), Some(b)) if a + b - 1 <= 2)
+                })
+        })
+        .map(|(x, y)| (y * w + x) as usize)
+        .collect()
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn seams_between_references_are_filled_and_disocclusions_kept() {
+    let running = start().await;
+    let server = Server::new(&running.base, None);
+    let scene = SceneSpec::demo();
+    ingest(&server, &scene).await;
+    let step = std::f64::consts::TAU / 8.0;
+    let (mut before, mut filled_total, mut holes_kept, mut wrong) = (0, 0, 0, 0);
+    // Halfway between neighbouring references, at 320 x 240.
+    for k in 0..8 {
+        let angle = (k as f64 + 0.5) * step;
+        let eye = DVec3::new(4.0 * angle.sin(), 1.2, 4.0 * angle.cos());
+        let cam = camera(320, 240, scene.fov_deg, eye, DVec3::new(0.0, 0.4, 0.0)).unwrap();
+        let truth = scene.ground_truth(&cam).unwrap();
+        let request = Detail {
+            tau: Some(1.0),
+            ..Default::default()
+        }
+        .request((&cam).into());
+        let raw = render_novel(
+            &server,
+            "box",
+            &request,
+            &BlendOptions {
+                fill_gaps: 0,
+                ..Default::default()
+            },
+        )
+        .await
+        .unwrap();
+        let filled = render_novel(&server, "box", &request, &BlendOptions::default())
+            .await
+            .unwrap();
+        let raw_seams = seam_pixels(&raw, &truth.depth.z);
+        before += raw_seams;
+        // Every seam of the blend is filled.
+        let left: Vec<usize> = seams(&raw, &truth.depth.z)
+            .into_iter()
+            .filter(|&i| filled.depth[i] == 0.0)
+            .collect();
+        assert!(
+            left.is_empty(),
+            "angle {angle:.2}: {} of {raw_seams} seam pixels left, e.g. {:?}",
+            left.len(),
+            &left[..left.len().min(5)]
+        );
+        for i in 0..raw.depth.len() {
+            if raw.depth[i] == 0.0 && filled.depth[i] > 0.0 {
+                filled_total += 1;
+                // Filled from the surface that is really there, unless a
+                // disocclusion as thin as a seam hides behind it.
+                let z = truth.depth.z[i];
+                if !(z > 0.0 && (filled.depth[i] - z).abs() <= 0.1 * z) {
+                    wrong += 1;
+                }
+            }
+            if raw.depth[i] == 0.0 && filled.depth[i] == 0.0 {
+                holes_kept += 1;
+            }
+        }
+    }
+    println!("{before} seam pixels without filling, {filled_total} filled ({wrong} off the true surface), {holes_kept} uncovered kept");
+    assert!(
+        wrong * 20 <= filled_total,
+        "{wrong} of {filled_total} filled pixels are off the true surface"
+    );
+    assert!(before > 0, "the views between references show seams to fill");
+    assert!(holes_kept > 0, "disocclusions and the background stay uncovered");
+}

@@ -2,7 +2,7 @@
 // server for the selected views' view-dependent strips (DMesh Sec. 6.2) and
 // blends them on the GPU (renderer.js). The page state lives in the URL:
 //   ?scene=ID&camera=<camera JSON>&tau=1 (or epsilon, max_triangles, budget_ms)
-//   &bits=B&cos_k=K&relight=1|x,y,z&mode=blend|coverage|wireframe&w=W&h=H
+//   &bits=B&cos_k=K&relight=1|x,y,z&mode=blend|coverage|wireframe&fill=0..2&w=W&h=H
 // At most one render request is in flight: while it runs, camera moves only
 // mark the state stale, and the latest camera goes out when it returns.
 // Between answers every frame redraws the held meshes from the current
@@ -68,6 +68,7 @@ function readUrl() {
   }
   const bits = num('bits', (v) => Number.isInteger(v) && v >= 0 && v <= 16, 'a whole number 0..16');
   const cosK = num('cos_k', (v) => v >= 0, 'an exponent >= 0');
+  const fill = num('fill', (v) => Number.isInteger(v) && v >= 0 && v <= 2, 'seam width to fill, 0..2 pixels');
   const w = num('w', (v) => Number.isInteger(v) && v >= 1 && v <= 8192, 'canvas width in pixels, 1..8192');
   const h = num('h', (v) => Number.isInteger(v) && v >= 1 && v <= 8192, 'canvas height in pixels, 1..8192');
   let mode = q.get('mode') || 'blend';
@@ -91,7 +92,7 @@ function readUrl() {
       problems.push(`camera: ${e instanceof SyntaxError ? 'not JSON' : /** @type {Error} */ (e).message}`);
     }
   }
-  return { scene: q.get('scene'), camera, lodKind, lodValue, bits, cosK, light, mode, w, h, problems };
+  return { scene: q.get('scene'), camera, lodKind, lodValue, bits, cosK, light, mode, w, h, fill: fill ?? 2, problems };
 }
 
 const url = readUrl();
@@ -105,6 +106,8 @@ const state = {
   mode: /** @type {'blend' | 'coverage' | 'wireframe'} */ (url.mode),
   w: url.w,
   h: url.h,
+  /** Seams of at most this many pixels filled (the CPU client's `--fill-gaps`). */
+  fill: url.fill,
   /** Intrinsics (width, height, projection) the camera is scaled from. */
   intrinsics: /** @type {CameraJson | null} */ (url.camera),
 };
@@ -193,6 +196,7 @@ function writeUrl() {
     if (state.cosK !== null) q.set('cos_k', String(state.cosK));
     if (state.light) q.set('relight', state.light.map((v) => +v.toFixed(4)).join(','));
     if (state.mode !== 'blend') q.set('mode', state.mode);
+    if (state.fill !== 2) q.set('fill', String(state.fill));
     if (state.w !== null) q.set('w', String(state.w));
     if (state.h !== null) q.set('h', String(state.h));
     history.replaceState(null, '', `${location.pathname}?${q}`);
@@ -425,6 +429,7 @@ function draw(sync = false) {
     cosK: state.cosK,
     light: state.light,
     shininess: 32,
+    fillGaps: state.fill,
   });
   if (sync) renderer.finish();
   lastDrawn = cam;

@@ -13,7 +13,8 @@
 // R32F target (nearest surface). Pass 2: each view again, fragments farther
 // than (1 + eps_z) times that depth discarded, additive blending of
 // (w_i rho rgb, w_i rho) into a float target (RGBA32F where float blending
-// is there, else RGBA16F). Pass 3: normalise onto the canvas. The coverage
+// is there, else RGBA16F). Pass 3: normalise onto the canvas, filling
+// seams of at most two pixels between covered pixels of one surface. The coverage
 // view replaces pass 2 by a MAX blend of one channel per view and pass 3 by
 // the palette of `dmesh-client render --coverage-out` (DMesh Fig. 19).
 
@@ -26,6 +27,9 @@ export const PALETTE = [
   [230, 25, 75], [60, 180, 75], [255, 225, 25], [0, 130, 200],
   [245, 130, 48], [145, 30, 180], [70, 240, 240], [240, 50, 230],
 ];
+
+/** Relative depth difference per pixel below which a seam's two sides are one surface (`BlendOptions`). */
+export const FILL_DEPTH_TOLERANCE = 0.05;
 
 const NEAR = 1e-3;
 const FAR = 1e4;
@@ -131,13 +135,57 @@ void main() {
   gl_Position = vec4(p, 0.0, 1.0);
 }`;
 
+// Pass 3, with the seam fill of `clients/src/holes.rs`: an uncovered pixel
+// between covered pixels of one surface, at most u_fill pixels of gap along
+// a row, a column or a diagonal (depths within u_fillTol per pixel between
+// them), takes their colour interpolated; the narrowest gap wins, in the
+// CPU client's order (GL rows run bottom up, so its diagonals swap).
 const NORMALISE = `#version 300 es
 precision highp float;
 uniform highp sampler2D u_accum;
+uniform highp sampler2D u_z;
+uniform int u_fill;
+uniform float u_fillTol;
 out vec4 o_color;
+bool covered(ivec2 p, ivec2 size, out vec3 c, out float z) {
+  if (p.x < 0 || p.y < 0 || p.x >= size.x || p.y >= size.y) return false;
+  vec4 a = texelFetch(u_accum, p, 0);
+  if (a.a <= 0.0) return false;
+  c = a.rgb / a.a;
+  z = texelFetch(u_z, p, 0).r;
+  return true;
+}
 void main() {
-  vec4 a = texelFetch(u_accum, ivec2(gl_FragCoord.xy), 0);
-  o_color = vec4(a.a > 0.0 ? a.rgb / a.a : vec3(0.0), 1.0);
+  ivec2 p = ivec2(gl_FragCoord.xy);
+  vec4 a = texelFetch(u_accum, p, 0);
+  if (a.a > 0.0 || u_fill <= 0) {
+    o_color = vec4(a.a > 0.0 ? a.rgb / a.a : vec3(0.0), 1.0);
+    return;
+  }
+  ivec2 size = textureSize(u_accum, 0);
+  ivec2 dirs[4] = ivec2[4](ivec2(1, 0), ivec2(0, 1), ivec2(1, -1), ivec2(1, 1));
+  int best = 1000;
+  vec3 fill = vec3(0.0);
+  for (int k = 0; k < 4; k++) {
+    ivec2 d = dirs[k];
+    int ta = 0, tb = 0;
+    vec3 ca = vec3(0.0), cb = vec3(0.0);
+    float za = 0.0, zb = 0.0;
+    for (int t = 1; t <= 2; t++) {
+      if (t > u_fill) break;
+      vec3 c; float z;
+      if (ta == 0 && covered(p + t * d, size, c, z)) { ta = t; ca = c; za = z; }
+      if (tb == 0 && covered(p - t * d, size, c, z)) { tb = t; cb = c; zb = z; }
+    }
+    if (ta == 0 || tb == 0) continue;
+    int gap = ta + tb - 1;
+    if (gap > u_fill || abs(za - zb) > u_fillTol * float(ta + tb) * min(za, zb)) continue;
+    if (gap < best) {
+      best = gap;
+      fill = (ca * float(tb) + cb * float(ta)) / float(ta + tb);
+    }
+  }
+  o_color = vec4(fill, 1.0);
 }`;
 
 // Written out per channel: SwiftShader runs a loop with dynamic vector
@@ -194,6 +242,7 @@ export class RenderError extends Error {}
  * @property {number | null} cosK
  * @property {[number, number, number] | null} light   world direction towards the light
  * @property {number} shininess
+ * @property {number} fillGaps    seams of at most this many pixels are filled (0: none)
  */
 
 /** @typedef {{p: WebGLProgram, u: Record<string, WebGLUniformLocation | null>}} Program */
@@ -510,11 +559,15 @@ export class Renderer {
     gl.activeTexture(gl.TEXTURE0);
     gl.bindTexture(gl.TEXTURE_2D, t.accum);
     gl.activeTexture(gl.TEXTURE1);
-    gl.bindTexture(gl.TEXTURE_2D, t.cover);
+    gl.bindTexture(gl.TEXTURE_2D, coverage ? t.cover : t.z);
     gl.uniform1i(np.u.u_accum, 0);
     if (coverage) {
       gl.uniform1i(np.u.u_cover, 1);
       gl.uniform3fv(np.u.u_palette, PALETTE.flat());
+    } else {
+      gl.uniform1i(np.u.u_z, 1);
+      gl.uniform1i(np.u.u_fill, o.fillGaps);
+      gl.uniform1f(np.u.u_fillTol, FILL_DEPTH_TOLERANCE);
     }
     gl.bindVertexArray(null);
     gl.drawArrays(gl.TRIANGLES, 0, 3);
