@@ -2,49 +2,16 @@
 //! is killed at random moments; after each restart every acknowledged view is
 //! there and readable, and every listed view is whole.
 
-use std::io::{Read, Write};
-use std::net::{SocketAddr, TcpStream};
-use std::process::{Child, Command, Stdio};
+#[path = "support/raw_http.rs"]
+mod raw_http;
+
 use std::time::{Duration, Instant};
 
 use dmesh::image::encode_pfm;
+use raw_http::{http, start_with};
 
 const W: u32 = 24;
 const H: u32 = 16;
-
-fn http(
-    addr: SocketAddr,
-    method: &str,
-    path: &str,
-    content_type: Option<&str>,
-    body: &[u8],
-) -> std::io::Result<(u16, Vec<u8>)> {
-    let mut s = TcpStream::connect_timeout(&addr, Duration::from_secs(2))?;
-    s.set_read_timeout(Some(Duration::from_secs(10)))?;
-    let mut head = format!(
-        "{method} {path} HTTP/1.1\r\nHost: localhost\r\nConnection: close\r\nContent-Length: {}\r\n",
-        body.len()
-    );
-    if let Some(ct) = content_type {
-        head.push_str(&format!("Content-Type: {ct}\r\n"));
-    }
-    head.push_str("\r\n");
-    s.write_all(head.as_bytes())?;
-    s.write_all(body)?;
-    let mut reply = Vec::new();
-    s.read_to_end(&mut reply)?;
-    let text = String::from_utf8_lossy(&reply);
-    let status = text
-        .split(' ')
-        .nth(1)
-        .and_then(|c| c.parse().ok())
-        .ok_or_else(|| std::io::Error::other("no status line"))?;
-    let body_at = reply
-        .windows(4)
-        .position(|w| w == b"\r\n\r\n")
-        .map_or(reply.len(), |p| p + 4);
-    Ok((status, reply[body_at..].to_vec()))
-}
 
 fn upload_body(seed: u32) -> Vec<u8> {
     let z: Vec<f32> = (0..W * H).map(|i| 1.0 + ((i + seed) % 7) as f32 * 0.01).collect();
@@ -73,29 +40,8 @@ fn upload_body(seed: u32) -> Vec<u8> {
     out
 }
 
-fn start(data: &std::path::Path) -> (Child, SocketAddr) {
-    let port = std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port();
-    let addr: SocketAddr = format!("127.0.0.1:{port}").parse().unwrap();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_dmesh"))
-        .args(["serve", "--listen", &addr.to_string(), "--data", data.to_str().unwrap()])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    let deadline = Instant::now() + Duration::from_secs(20);
-    while Instant::now() < deadline {
-        if matches!(http(addr, "GET", "/healthz", None, b""), Ok((200, _))) {
-            return (child, addr);
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    let _ = child.kill();
-    let _ = child.wait();
-    panic!("server did not come up on {addr}");
+fn start(data: &std::path::Path) -> (std::process::Child, std::net::SocketAddr) {
+    start_with(data, &[])
 }
 
 #[test]

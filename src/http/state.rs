@@ -107,9 +107,12 @@ pub struct AppState {
     /// Per scene, its views' names and cameras, read from the store's
     /// metadata alone (view selection needs no hierarchy).
     cameras: Mutex<HashMap<String, SceneCameras>>,
-    /// Bumped by every store change, so a listing read before a change is
-    /// not cached after it.
+    /// Bumped by every store change, so a listing or a view read before a
+    /// change is not cached after it.
     changes: std::sync::atomic::AtomicU64,
+    /// Held while a change reaches the store and the cache, so two uploads
+    /// of one view leave the cache holding what the store holds.
+    commit: Mutex<()>,
 }
 
 /// The views of a scene and their cameras, in view-id order.
@@ -125,6 +128,7 @@ impl AppState {
             cache: Mutex::new(Cache::default()),
             cameras: Mutex::new(HashMap::new()),
             changes: std::sync::atomic::AtomicU64::new(0),
+            commit: Mutex::new(()),
         }
     }
 
@@ -170,6 +174,10 @@ impl AppState {
     /// Puts a view in the cache, evicting the least recently used over the budget.
     pub fn remember(&self, scene: &str, view: &str, loaded: Arc<Loaded>) {
         let mut c = self.cache();
+        self.insert(&mut c, scene, view, loaded);
+    }
+
+    fn insert(&self, c: &mut Cache, scene: &str, view: &str, loaded: Arc<Loaded>) {
         c.clock += 1;
         let clock = c.clock;
         if let Some((old, _)) = c.entries.insert((scene.into(), view.into()), (loaded.clone(), clock)) {
@@ -187,7 +195,40 @@ impl AppState {
         self.metrics.set_views_loaded(c.entries.len());
     }
 
-    /// Drops a view (or, with `view = None`, a whole scene) from the caches.
+    /// Stores an uploaded view and caches it, as one step against other
+    /// changes (blocking: call off the async workers). A reader that loaded
+    /// the old version from the store meanwhile does not cache it after this.
+    pub fn store_view(
+        &self,
+        scene: &str,
+        view: &str,
+        stored: &StoredView,
+        loaded: Arc<Loaded>,
+    ) -> Result<(), AppError> {
+        let _commit = self.commit.lock().unwrap_or_else(|p| p.into_inner());
+        self.store.put(scene, view, stored)?;
+        {
+            let mut c = self.cache();
+            self.changes.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+            self.insert(&mut c, scene, view, loaded);
+        }
+        self.scene_changed(scene);
+        Ok(())
+    }
+
+    /// Deletes a view (or, with `view` `None`, a scene) from the store and
+    /// the cache as one step (blocking). True when it existed.
+    pub fn delete(&self, scene: &str, view: Option<&str>) -> Result<bool, AppError> {
+        let _commit = self.commit.lock().unwrap_or_else(|p| p.into_inner());
+        let existed = match view {
+            Some(v) => self.store.delete_view(scene, v)?,
+            None => self.store.delete_scene(scene)?,
+        };
+        self.forget(scene, view);
+        Ok(existed)
+    }
+
+    /// Drops a view (or, with `view` `None`, every view of the scene) from the cache.
     pub fn forget(&self, scene: &str, view: Option<&str>) {
         self.scene_changed(scene);
         let mut c = self.cache();
@@ -216,12 +257,18 @@ impl AppState {
                 return Ok(hit.clone());
             }
         }
+        let before = self.changes.load(std::sync::atomic::Ordering::SeqCst);
         let stored = self
             .store
             .get(scene, view)?
             .ok_or_else(|| AppError::NotFound(format!("scene {scene:?} has no view {view:?}")))?;
         let loaded = Arc::new(Loaded::from_stored(&stored)?);
-        self.remember(scene, view, loaded.clone());
+        // Cached only when nothing changed since the store was read: a
+        // replace meanwhile may already have cached the newer view.
+        let mut c = self.cache();
+        if self.changes.load(std::sync::atomic::Ordering::SeqCst) == before {
+            self.insert(&mut c, scene, view, loaded.clone());
+        }
         Ok(loaded)
     }
 }

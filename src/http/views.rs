@@ -157,12 +157,10 @@ pub async fn put_view(
         };
         // Build before storing: a view that cannot be meshed is not kept.
         let loaded = Arc::new(Loaded::from_stored(&stored)?);
-        st.store.put(&sc, &vw, &stored)?;
+        st.store_view(&sc, &vw, &stored, loaded.clone())?;
         Ok(loaded)
     })
     .await??;
-    state.remember(&scene, &view, loaded.clone());
-    state.scene_changed(&scene);
     let mut response = encode(&headers, &summary(&scene, &view, &loaded))?;
     *response.status_mut() = StatusCode::CREATED;
     Ok(response)
@@ -254,8 +252,7 @@ pub async fn delete_view(
     validate_id("scene", &scene)?;
     validate_id("view", &view)?;
     let (st, sc, vw) = (state.clone(), scene.clone(), view.clone());
-    let existed = tokio::task::spawn_blocking(move || st.store.delete_view(&sc, &vw)).await??;
-    state.forget(&scene, Some(&view));
+    let existed = tokio::task::spawn_blocking(move || st.delete(&sc, Some(&vw))).await??;
     if existed {
         Ok(StatusCode::NO_CONTENT)
     } else {
@@ -270,8 +267,7 @@ pub async fn delete_scene(
 ) -> Result<StatusCode, AppError> {
     validate_id("scene", &scene)?;
     let (st, sc) = (state.clone(), scene.clone());
-    let existed = tokio::task::spawn_blocking(move || st.store.delete_scene(&sc)).await??;
-    state.forget(&scene, None);
+    let existed = tokio::task::spawn_blocking(move || st.delete(&sc, None)).await??;
     if existed {
         Ok(StatusCode::NO_CONTENT)
     } else {
