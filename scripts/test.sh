@@ -2,10 +2,11 @@
 # Every test of the project, on a fresh machine: the Rust workspace
 # (`cargo test --workspace`), then the browser viewer's checks: its type
 # check (tsc --checkJs) and its tests in Debian's Chromium against a real
-# `dmesh serve`, and the API contract (schemathesis over proto/openapi.yaml
-# against the real server). Installs Chromium (apt), the npm packages
-# (package-lock) and schemathesis (pip) when they are missing. Ends with
-# one line: `tests: N passed, M failed`.
+# `dmesh serve`, the API contract (schemathesis over proto/openapi.yaml
+# against the real server) and the fuzz targets for a few seconds each.
+# Installs Chromium (apt), the npm packages (package-lock), schemathesis
+# (pip) and cargo-fuzz (cargo) when they are missing. Ends with one line:
+# `tests: N passed, M failed`.
 set -uo pipefail
 cd "$(dirname "$0")/.."
 
@@ -49,6 +50,8 @@ fi
 (cd "$web" && DMESH_BIN="$PWD/../../target/debug" node --test --test-concurrency=1 test/) 2>&1 | tee -a "$log" || status=1
 # The API contract: schemathesis against the real server.
 bash scripts/schemathesis.sh 2>&1 | tee -a "$log" || status=1
+# Every decoder of outside bytes, fuzzed for a short bounded time each.
+bash scripts/fuzz.sh "${FUZZ_SECONDS:-10}" 2>&1 | tee -a "$log" || status=1
 # cargo prints a "test result" line per binary, node "# pass N" and "# fail N".
 awk '/^test result:/ { for (i = 1; i <= NF; i++) { if ($(i+1) ~ /^passed/) p += $i; if ($(i+1) ~ /^failed/) f += $i } }
      /^# pass / { p += $3 } /^# fail / { f += $3 }
