@@ -51,8 +51,25 @@ pub fn to_bincode<T: serde::Serialize>(value: &T) -> Result<Vec<u8>, bincode::er
 }
 
 /// Decodes a wire value from bincode; trailing bytes are an error.
+///
+/// A length field may claim more than the body holds; bincode allocates
+/// what it claims, so the decoder runs with a byte limit just above the
+/// body's size (the smallest of a few powers of two): such a claim is an
+/// error before anything that large is allocated, never a panic or an
+/// out-of-memory abort.
 pub fn from_bincode<T: serde::de::DeserializeOwned>(bytes: &[u8]) -> Result<T, bincode::error::DecodeError> {
-    let (value, read) = bincode::serde::decode_from_slice(bytes, wire_config())?;
+    fn limited<T: serde::de::DeserializeOwned, const N: usize>(
+        bytes: &[u8],
+    ) -> Result<(T, usize), bincode::error::DecodeError> {
+        bincode::serde::decode_from_slice(bytes, wire_config().with_limit::<N>())
+    }
+    let (value, read) = match bytes.len() {
+        n if n <= 1 << 16 => limited::<T, { 1 << 16 }>(bytes),
+        n if n <= 1 << 20 => limited::<T, { 1 << 20 }>(bytes),
+        n if n <= 1 << 24 => limited::<T, { 1 << 24 }>(bytes),
+        n if n <= 1 << 28 => limited::<T, { 1 << 28 }>(bytes),
+        _ => limited::<T, { 1 << 32 }>(bytes),
+    }?;
     if read != bytes.len() {
         return Err(bincode::error::DecodeError::OtherString(format!(
             "{} trailing bytes after the value",
@@ -64,6 +81,35 @@ pub fn from_bincode<T: serde::de::DeserializeOwned>(bytes: &[u8]) -> Result<T, b
 
 #[cfg(test)]
 pub(crate) mod round_trip {
+
+    /// Fuzz regression (wire_bincode, crash-aee8424f): a strip response
+    /// whose string length claims more than usize can hold made bincode
+    /// panic with "capacity overflow"; now it is an error.
+    #[test]
+    fn a_length_claiming_more_than_the_body_is_an_error_not_a_panic() {
+        let mut body = 2u16.to_le_bytes().to_vec();
+        body.extend_from_slice(&u64::MAX.to_le_bytes());
+        body.extend_from_slice(b"s0");
+        assert!(crate::from_bincode::<crate::StripResponse>(&body).is_err());
+        let mut body = 2u16.to_le_bytes().to_vec();
+        body.extend_from_slice(&(1u64 << 40).to_le_bytes());
+        assert!(crate::from_bincode::<crate::StripResponse>(&body).is_err());
+        let crash = include_bytes!("../../fuzz/regressions/wire_bincode-capacity-overflow");
+        // Fuzz regression (wire_bincode): exact depths of NaN were handed on.
+        let nan = include_bytes!("../../fuzz/regressions/wire_bincode-nan-depth");
+        let strips: Vec<crate::StripResponse> = match crate::from_bincode::<crate::StripResponse>(nan) {
+            Ok(s) => vec![s],
+            Err(_) => crate::from_bincode::<crate::RenderResponse>(nan)
+                .unwrap()
+                .views
+                .into_iter()
+                .map(|v| v.strips)
+                .collect(),
+        };
+        assert!(strips.iter().any(|s| s.decode_depths().is_err()));
+        assert!(crate::from_bincode::<crate::RenderResponse>(crash).is_err());
+    }
+
     use serde::{de::DeserializeOwned, Serialize};
     use std::fmt::Debug;
 

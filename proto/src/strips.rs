@@ -99,10 +99,18 @@ impl Indices {
 }
 
 impl StripResponse {
-    /// The vertex depths in metres, decoding residuals if need be.
+    /// The vertex depths in metres, decoding residuals if need be; a depth
+    /// that is not finite and positive is an error (fuzz regression
+    /// `wire_bincode`: exact depths were passed on unchecked).
     pub fn decode_depths(&self) -> Result<Vec<f32>, ResidualError> {
         match &self.depths {
-            Depths::Exact(z) if z.len() == self.vertices.len() => Ok(z.clone()),
+            Depths::Exact(z) if z.len() == self.vertices.len() => {
+                match z.iter().find(|v| !(v.is_finite() && **v > 0.0)) {
+                    // The wire promises finite positive depths; a body that breaks it is refused.
+                    Some(&bad) => Err(ResidualError::Invalid(bad)),
+                    None => Ok(z.clone()),
+                }
+            }
             Depths::Exact(z) => Err(ResidualError::Count {
                 depths: z.len(),
                 vertices: self.vertices.len(),
