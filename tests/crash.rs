@@ -8,7 +8,7 @@ mod raw_http;
 use std::time::{Duration, Instant};
 
 use dmesh::image::encode_pfm;
-use raw_http::{http, start_with};
+use raw_http::{http, multipart, start_with};
 
 const W: u32 = 24;
 const H: u32 = 16;
@@ -26,18 +26,11 @@ fn upload_body(seed: u32) -> Vec<u8> {
     let camera = format!(
         r#"{{"width": {W}, "height": {H}, "projection": {{"perspective": {{"fx": 20, "fy": 20, "cx": 11.5, "cy": 7.5}}}}}}"#
     );
-    let mut out = Vec::new();
-    for (name, data) in [
+    multipart(&[
         ("camera", camera.as_bytes()),
         ("depth", &encode_pfm(W, H, &z)),
         ("color", &color),
-    ] {
-        out.extend_from_slice(format!("--B\r\nContent-Disposition: form-data; name=\"{name}\"\r\n\r\n").as_bytes());
-        out.extend_from_slice(data);
-        out.extend_from_slice(b"\r\n");
-    }
-    out.extend_from_slice(b"--B--\r\n");
-    out
+    ])
 }
 
 fn start(data: &std::path::Path) -> (std::process::Child, std::net::SocketAddr) {

@@ -25,7 +25,7 @@ use std::sync::{Arc, Mutex, RwLock};
 use std::time::{Duration, Instant};
 
 use dmesh::image::encode_pfm;
-use raw_http::{http, start_with};
+use raw_http::{http, multipart, start_with};
 
 const W: u32 = 160;
 const H: u32 = 120;
@@ -59,18 +59,11 @@ fn upload_body(view: u32, version: u32) -> Vec<u8> {
         r#"{{"width": {W}, "height": {H}, "projection": {{"perspective": {{"fx": 130, "fy": 130, "cx": 79.5, "cy": 59.5}}}}, "pose": {{"rotation": [0, 0, 0, 1], "translation": [{}, 0, 0]}}}}"#,
         f64::from(view) * 0.05
     );
-    let mut out = Vec::new();
-    for (name, data) in [
+    multipart(&[
         ("camera", camera.as_bytes()),
         ("depth", &encode_pfm(W, H, &depth)),
         ("color", &color),
-    ] {
-        out.extend_from_slice(format!("--B\r\nContent-Disposition: form-data; name=\"{name}\"\r\n\r\n").as_bytes());
-        out.extend_from_slice(data);
-        out.extend_from_slice(b"\r\n");
-    }
-    out.extend_from_slice(b"--B--\r\n");
-    out
+    ])
 }
 
 /// What the uploads of one view have got: the last acknowledged version,

@@ -119,11 +119,9 @@ mod tests {
         });
     }
 
-    /// The layout `PROTOCOL.md` gives under "Render response", which the
-    /// browser viewer's decoder is written from.
-    #[test]
-    fn bincode_layout_matches_protocol_md() {
-        let strips = crate::strips::StripResponse {
+    /// A mesh of no triangles, extracted in `extract_ms`.
+    fn empty_strips(extract_ms: f64) -> crate::strips::StripResponse {
+        crate::strips::StripResponse {
             version: crate::PROTOCOL_VERSION,
             scene: "s".into(),
             view: "v".into(),
@@ -133,8 +131,15 @@ mod tests {
             depths: crate::strips::Depths::Exact(vec![]),
             indices: crate::strips::Indices::U16(vec![]),
             triangles: 0,
-            extract_ms: 0.5,
-        };
+            extract_ms,
+        }
+    }
+
+    /// The layout `PROTOCOL.md` gives under "Render response", which the
+    /// browser viewer's decoder is written from.
+    #[test]
+    fn bincode_layout_matches_protocol_md() {
+        let strips = empty_strips(0.5);
         let strip_bytes = crate::to_bincode(&strips).unwrap();
         let response = RenderResponse {
             version: crate::PROTOCOL_VERSION,
@@ -165,18 +170,7 @@ mod tests {
 
     #[test]
     fn response_round_trips() {
-        let strips = crate::strips::StripResponse {
-            version: crate::PROTOCOL_VERSION,
-            scene: "s".into(),
-            view: "v".into(),
-            lod: crate::strips::Lod::Tau(1.0),
-            camera: camera(),
-            vertices: vec![],
-            depths: crate::strips::Depths::Exact(vec![]),
-            indices: crate::strips::Indices::U16(vec![]),
-            triangles: 0,
-            extract_ms: 0.0,
-        };
+        let strips = empty_strips(0.0);
         crate::round_trip::both(&RenderResponse {
             version: crate::PROTOCOL_VERSION,
             views: vec![RenderedView {

@@ -31,11 +31,7 @@ pub fn http(
     let mut reply = Vec::new();
     s.read_to_end(&mut reply)?;
     let text = String::from_utf8_lossy(&reply);
-    let status = text
-        .split(' ')
-        .nth(1)
-        .and_then(|c| c.parse().ok())
-        .ok_or_else(|| std::io::Error::other("no status line"))?;
+    let status = status_of(&text)?;
     let body_at = reply
         .windows(4)
         .position(|w| w == b"\r\n\r\n")
@@ -85,11 +81,7 @@ pub fn get_with_etag(addr: SocketAddr, path: &str, tag: &str) -> std::io::Result
     let mut reply = Vec::new();
     s.read_to_end(&mut reply)?;
     let text = String::from_utf8_lossy(&reply);
-    let status = text
-        .split(' ')
-        .nth(1)
-        .and_then(|c| c.parse().ok())
-        .ok_or_else(|| std::io::Error::other("no status line"))?;
+    let status = status_of(&text)?;
     let etag = text
         .split("\r\n\r\n")
         .next()
@@ -98,4 +90,25 @@ pub fn get_with_etag(addr: SocketAddr, path: &str, tag: &str) -> std::io::Result
         .find_map(|l| l.strip_prefix("etag: ").or_else(|| l.strip_prefix("ETag: ")))
         .map(str::to_string);
     Ok((status, etag))
+}
+
+/// A `multipart/form-data` body of `parts` with the boundary `B`.
+pub fn multipart(parts: &[(&str, &[u8])]) -> Vec<u8> {
+    let mut out = Vec::new();
+    for (name, data) in parts {
+        out.extend_from_slice(format!("--B\r\nContent-Disposition: form-data; name=\"{name}\"\r\n\r\n").as_bytes());
+        out.extend_from_slice(data);
+        out.extend_from_slice(b"\r\n");
+    }
+    out.extend_from_slice(b"--B--\r\n");
+    out
+}
+
+/// The status code of a reply's first line.
+fn status_of(reply: &str) -> std::io::Result<u16> {
+    reply
+        .split(' ')
+        .nth(1)
+        .and_then(|c| c.parse().ok())
+        .ok_or_else(|| std::io::Error::other("no status line"))
 }
