@@ -56,7 +56,7 @@ async fn residual_bits_and_triangle_budgets() {
         truth,
         "bits = 16 must be lossless for 16-bit input"
     );
-    let mut last_bytes = usize::MAX;
+    let mut finer = 0.0f32;
     for bits in (0..=16).rev() {
         let (headers, r, bytes) = fetch(format!("/v1/scenes/r/views/v/strips?epsilon=0&bits={bits}")).await;
         let dmesh_proto::Depths::Residual(res) = &r.depths else {
@@ -70,8 +70,14 @@ async fn residual_bits_and_triangle_budgets() {
         if bits > 0 {
             assert!(f64::from(res.max_error) <= res.step() / 2.0 + 1e-6, "bits {bits}");
         }
-        assert!(bytes <= last_bytes && bytes < exact_bytes, "bits {bits}: {bytes} bytes");
-        last_bytes = bytes;
+        // Each bit at least halves the error (escapes may cost a few bytes).
+        assert!(
+            finer <= res.max_error / 2.0,
+            "bits {bits}: {} then {finer}",
+            res.max_error
+        );
+        assert!(bytes < exact_bytes, "bits {bits}: {bytes} bytes");
+        finer = res.max_error;
     }
 
     // Budgets: never above max_triangles; the response says the tolerance used.

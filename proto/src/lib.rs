@@ -32,7 +32,7 @@ pub use strips::{Depths, Indices, Lod, StripRequest, StripResponse, WireVertex};
 pub use view::{SceneList, ViewList, ViewSummary};
 
 /// Version of the wire format, sent in every response.
-pub const PROTOCOL_VERSION: u16 = 2;
+pub const PROTOCOL_VERSION: u16 = 3;
 
 /// Media type of bincode bodies.
 pub const BINCODE_MEDIA_TYPE: &str = "application/x-bincode";

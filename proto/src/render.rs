@@ -155,7 +155,7 @@ mod tests {
             },
         };
         let b = crate::to_bincode(&response).unwrap();
-        assert_eq!(&b[0..2], &2u16.to_le_bytes());
+        assert_eq!(&b[0..2], &3u16.to_le_bytes());
         assert_eq!(&b[2..10], &1u64.to_le_bytes());
         assert_eq!(&b[10..18], &0.25f64.to_le_bytes());
         let at = 18 + strip_bytes.len();

@@ -2,27 +2,36 @@
 //! bit-depth"; the proxy-plus-residue idea of Verlani et al. Sec. 4, Table 2,
 //! with the mesh's own coarser levels as the proxy).
 //!
-//! Vertices travel coarse to fine. Each depth is a code `n` in `0..2^bits` on a
-//! uniform grid, `z = ((code_origin + n * code_step) * scale + offset) as f32`
-//! (the arithmetic in f64), sent as the residual from the prediction of its
-//! *parent edge*: the vertex bisects the edge `a-b` of the restricted quadtree
-//! (the same `a, b` as its error metric), both endpoints come earlier, and the
-//! prediction is `(n_a + n_b) >> 1`. The residual is taken modulo `2^bits`, so
-//! it always fits in `bits` bits and decoding is exact on the code grid; small
-//! residuals (smooth surfaces) compress well under gzip or zstd.
+//! Vertices travel coarse to fine. A vertex bisects the edge `a-b` of the
+//! restricted quadtree (its *parent edge*, the same `a, b` as its error
+//! metric); both endpoints come earlier, and its depth is predicted from
+//! their *decoded* depths (closed loop, so errors do not accumulate). With
+//! `bits = 0` the prediction is the depth. With `bits >= 1` the prediction
+//! residual travels as a `bits`-bit code: code 0 is an *escape* (the exact
+//! `f32` follows in `exact`), code `c >= 1` is the residual
+//! `(c - 2^(bits-1)) * step`, symmetric about zero.
+//!
+//! The step comes from the residuals themselves, not from the depth range:
+//! the largest open-loop residual `R` split into the codes' range, but never
+//! more than the decoding error `E(bits - 1)` of one bit less. The encoder
+//! runs the decoder at every bit-depth from 0 up and escapes any vertex
+//! whose decoded depth would be further than `E(bits - 1) / 2` from the
+//! truth, so by construction `max_error(bits) <= max_error(bits - 1) / 2`:
+//! each bit at least halves the error, and no bit-depth is worse than
+//! `bits = 0`'s interpolation.
 //!
 //! A vertex whose parent edge has an endpoint missing from the mesh (root
-//! corners, and vertices next to dropped, segmented triangles) is an *anchor*:
-//! its depth travels as an exact `f32`. With `bits = 0` no residuals travel and
-//! every other depth is the mean of its parent edge's decoded depths.
+//! corners, and vertices next to dropped, segmented triangles) is an
+//! *anchor*: its depth travels exact, with no code.
 //!
 //! When the server knows the depth came from integers (`z = raw * scale +
-//! offset`, a 16-bit PNG for instance) the code grid is the raw grid, so
-//! `bits = 16` reproduces those depths bit for bit. Otherwise the grid spans
-//! the mesh's depth range in `2^bits - 1` steps. Either way `max_error` states
-//! the largest decoding error of this response, computed by the encoder
-//! running the decoder; for `bits >= 1` it is at most half a step
-//! ([`ResidualDepths::step`]) plus the f32 rounding of the depth.
+//! offset`, a 16-bit PNG for instance) and every depth lies on that
+//! *lattice*, the coding runs in raw units: predictions are floored to an
+//! integer, the step is a whole number of raw units, and a step of 1 is
+//! lossless, which `bits = 16` always reaches for 16-bit input (its
+//! interpolation error is under 2^16 raw units, and each bit halves it).
+//! `max_error` states the largest decoding error of this response, computed
+//! by the encoder running the decoder.
 
 use std::collections::HashMap;
 
@@ -31,26 +40,27 @@ use serde::{Deserialize, Serialize};
 /// Largest residual bit-depth.
 pub const MAX_BITS: u8 = 16;
 
+/// Raw values of lattice depths stay below this, so sums of two are exact
+/// in f64 (and in JavaScript numbers).
+const MAX_RAW: f64 = (1u64 << 50) as f64;
+
 /// Depths coded as residuals from parent-edge predictions.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ResidualDepths {
-    /// Bits per residual, `0..=16`.
+    /// Bits per residual code, `0..=16`.
     pub bits: u8,
     /// Side of the root quads of the reference view's grid (a power of two):
     /// it decides each vertex's parent edge, see [`parent_edge`].
     pub root_side: u32,
-    /// Metres per raw unit.
-    pub scale: f64,
-    /// Metres at raw 0.
-    pub offset: f64,
-    /// Raw value of code 0.
-    pub code_origin: i64,
-    /// Raw units per code step.
-    pub code_step: u32,
-    /// Exact depths of the anchor vertices, in vertex order.
-    pub anchors: Vec<f32>,
-    /// One `bits`-bit residual per non-anchor vertex in vertex order, packed
+    /// The integer lattice the depths lie on, when coding runs in raw units.
+    pub lattice: Option<RawGrid>,
+    /// Residual per code step: metres, or whole raw units on a lattice (0
+    /// with `bits = 0`).
+    pub step: f64,
+    /// Exact depths of the anchors and escaped vertices, in vertex order.
+    pub exact: Vec<f32>,
+    /// One `bits`-bit code per non-anchor vertex in vertex order, packed
     /// least significant bit first.
     pub residuals: Vec<u8>,
     /// Largest `|decoded - true|` depth over the vertices, metres.
@@ -76,7 +86,10 @@ pub enum ResidualError {
     /// `root_side` not a power of two.
     #[error("root_side is {0}; it must be a power of two")]
     RootSide(u32),
-    /// Fewer anchors or residual bits than the vertices need.
+    /// A step or lattice that no encoder writes.
+    #[error("residual depths have a bad header: {0}")]
+    Header(&'static str),
+    /// Fewer exact depths or residual bits than the vertices need.
     #[error("residual depths are truncated: {0}")]
     Truncated(&'static str),
     /// The codes decode to a depth that is not finite and positive.
@@ -136,31 +149,63 @@ fn parents(ij: &[(u16, u16)], root_side: u32) -> Vec<Option<(usize, usize)>> {
         .collect()
 }
 
-impl ResidualDepths {
-    /// Metres per code step: the quantisation step (0 with `bits = 0`).
-    pub fn step(&self) -> f64 {
-        if self.bits == 0 {
-            0.0
-        } else {
-            f64::from(self.code_step) * self.scale.abs()
+/// The arithmetic both ends share: depths in *units* (metres, or raw
+/// integers on a lattice), predictions and reconstructions.
+#[derive(Clone, Copy)]
+struct Units {
+    lattice: Option<RawGrid>,
+}
+
+impl Units {
+    /// Units of an exact depth.
+    fn of(self, z: f32) -> f64 {
+        match self.lattice {
+            None => f64::from(z),
+            Some(g) => ((f64::from(z) - g.offset) / g.scale).round(),
         }
     }
 
-    /// Depth of code `n`.
-    fn depth_of(&self, n: u32) -> f32 {
-        let raw = self.code_origin + i64::from(n) * i64::from(self.code_step);
-        (raw as f64 * self.scale + self.offset) as f32
+    /// The prediction from the parent edge's endpoints.
+    fn predict(self, a: f64, b: f64) -> f64 {
+        match self.lattice {
+            None => (a + b) * 0.5,
+            Some(_) => ((a + b) * 0.5).floor(),
+        }
     }
 
-    /// The code nearest to depth `z`, clamped to `0..2^bits`.
-    fn code_of(&self, z: f32) -> u32 {
-        let raw = ((f64::from(z) - self.offset) / self.scale).round();
-        let n = ((raw - self.code_origin as f64) / f64::from(self.code_step)).round();
-        n.clamp(0.0, f64::from((1u32 << self.bits) - 1)) as u32
+    /// A reconstruction `u` as a depth, and as the units its children see.
+    fn depth(self, u: f64) -> (f32, f64) {
+        match self.lattice {
+            None => {
+                let z = u as f32;
+                (z, f64::from(z))
+            }
+            Some(g) => ((u * g.scale + g.offset) as f32, u),
+        }
+    }
+}
+
+fn valid(z: f32) -> bool {
+    z.is_finite() && z > 0.0
+}
+
+/// Half the code range: code `c >= 1` is the residual `(c - half) * step`.
+fn half(bits: u8) -> u32 {
+    1 << (bits - 1)
+}
+
+impl ResidualDepths {
+    /// Metres per code step: the quantisation step (0 with `bits = 0`).
+    pub fn step(&self) -> f64 {
+        match self.lattice {
+            _ if self.bits == 0 => 0.0,
+            None => self.step,
+            Some(g) => self.step * g.scale.abs(),
+        }
     }
 
     /// Codes `depths` of the vertices `ij` (coarse to fine) with `bits` bits.
-    /// `raw` is used when every depth lies on it exactly.
+    /// `raw` is used as the lattice when every depth lies on it exactly.
     pub fn encode(
         ij: &[(u16, u16)],
         depths: &[f32],
@@ -175,131 +220,152 @@ impl ResidualDepths {
                 vertices: ij.len(),
             });
         }
-        let mut out = Self {
-            bits,
-            root_side,
-            scale: 1.0,
-            offset: 0.0,
-            code_origin: 0,
-            code_step: 1,
-            anchors: Vec::new(),
-            residuals: Vec::new(),
-            max_error: 0.0,
-        };
-        if bits > 0 {
-            out.choose_grid(depths, raw);
-        }
         let parents = parents(ij, root_side);
-        let mut codes = vec![0u32; ij.len()];
-        let mut decoded = vec![0f32; ij.len()];
-        let mut writer = BitWriter::default();
-        let modulus_mask = if bits == 0 { 0 } else { (1u32 << bits) - 1 };
-        for (k, (&z, p)) in depths.iter().zip(&parents).enumerate() {
-            match *p {
-                None => {
-                    out.anchors.push(z);
-                    decoded[k] = z;
-                    codes[k] = if bits > 0 { out.code_of(z) } else { 0 };
-                }
-                Some((a, b)) if bits == 0 => decoded[k] = mean(decoded[a], decoded[b]),
-                Some((a, b)) => {
-                    let n = out.code_of(z);
-                    let prediction = (codes[a] + codes[b]) >> 1;
-                    writer.push(n.wrapping_sub(prediction) & modulus_mask, bits);
-                    codes[k] = n;
-                    decoded[k] = out.depth_of(n);
-                }
-            }
-            out.max_error = out.max_error.max((decoded[k] - z).abs());
+        let mut out = Self::pass(&parents, depths, 0, Units { lattice: None }, 0.0, 0.0);
+        out.root_side = root_side;
+        if bits == 0 {
+            return Ok(out);
         }
-        out.residuals = writer.finish();
-        // A coarsened raw grid can round past the depth range; with a
-        // negative scale that could reach zero. The range grid cannot.
-        if raw.is_some() && decoded.iter().any(|z| !(z.is_finite() && *z > 0.0)) {
-            return Self::encode(ij, depths, bits, root_side, None);
+        let units = Units {
+            lattice: raw.filter(|g| on_lattice(depths, *g)),
+        };
+        // The residuals' own range, in metres: the largest open-loop residual.
+        let metres = units.lattice.map_or(1.0, |g| g.scale.abs());
+        let range = parents
+            .iter()
+            .zip(depths)
+            .filter_map(|(p, &z)| {
+                let (a, b) = (*p)?;
+                let u = |k: usize| units.of(depths[k]);
+                Some((units.of(z) - units.predict(u(a), u(b))).abs() * metres)
+            })
+            .fold(0.0f64, f64::max);
+        for b in 1..=bits {
+            let previous = out.max_error;
+            let codes = f64::from(half(b) - 1);
+            let mut step = f64::from(previous);
+            if codes > 0.0 {
+                step = step.min(range / codes);
+            }
+            if let Some(g) = units.lattice {
+                step = (step / g.scale.abs()).floor().clamp(1.0, MAX_RAW);
+            }
+            out = Self::pass(&parents, depths, b, units, step, previous / 2.0);
+            out.root_side = root_side;
         }
         Ok(out)
     }
 
-    /// Picks the code grid: the raw grid when every depth lies on it (coarsened
-    /// by an integer step until the span fits), else the depth range.
-    fn choose_grid(&mut self, depths: &[f32], raw: Option<RawGrid>) {
-        let levels = (1u64 << self.bits) - 1;
-        let on_raw = raw.filter(|g| g.scale != 0.0 && g.scale.is_finite()).and_then(|g| {
-            let mut lo = i64::MAX;
-            let mut hi = i64::MIN;
-            for &z in depths {
-                let r = ((f64::from(z) - g.offset) / g.scale).round();
-                if r.is_nan() || r.abs() >= 9e15 || (r * g.scale + g.offset) as f32 != z {
-                    return None;
+    /// One encoding at `bits` with `step`: every coded vertex decodes within
+    /// `limit` of its depth or escapes.
+    fn pass(parents: &[Option<(usize, usize)>], depths: &[f32], bits: u8, units: Units, step: f64, limit: f32) -> Self {
+        let mut out = Self {
+            bits,
+            root_side: 1,
+            lattice: units.lattice,
+            step: if bits == 0 { 0.0 } else { step },
+            exact: Vec::new(),
+            residuals: Vec::new(),
+            max_error: 0.0,
+        };
+        let mut held = vec![0f64; depths.len()];
+        let mut writer = BitWriter::default();
+        for (k, (&z, p)) in depths.iter().zip(parents).enumerate() {
+            let decoded = match *p {
+                None => None,
+                Some((a, b)) if bits == 0 => Some(units.depth(units.predict(held[a], held[b]))),
+                Some((a, b)) => {
+                    let prediction = units.predict(held[a], held[b]);
+                    let q = if step > 0.0 {
+                        ((units.of(z) - prediction) / step).round()
+                    } else {
+                        0.0
+                    };
+                    let coded = (q.abs() < f64::from(half(bits)))
+                        .then(|| units.depth(prediction + q * step))
+                        .filter(|&(d, _)| valid(d) && (d - z).abs() <= limit);
+                    writer.push(coded.map_or(0, |_| (q + f64::from(half(bits))) as u32), bits);
+                    coded
                 }
-                lo = lo.min(r as i64);
-                hi = hi.max(r as i64);
-            }
-            Some((g, lo, hi))
-        });
-        match on_raw {
-            Some((g, lo, hi)) if lo <= hi => {
-                let span = (hi - lo) as u64;
-                let step = span.div_ceil(levels).max(1);
-                if let Ok(step) = u32::try_from(step) {
-                    self.scale = g.scale;
-                    self.offset = g.offset;
-                    self.code_origin = lo;
-                    self.code_step = step;
-                    return;
-                }
-            }
-            _ => {}
+            };
+            let (d, u) = decoded.unwrap_or_else(|| {
+                out.exact.push(z);
+                (z, units.of(z))
+            });
+            held[k] = u;
+            out.max_error = out.max_error.max((d - z).abs());
         }
-        let (lo, hi) = depths
-            .iter()
-            .fold((f32::INFINITY, f32::NEG_INFINITY), |(l, h), &z| (l.min(z), h.max(z)));
-        if lo < hi {
-            self.offset = f64::from(lo);
-            self.scale = (f64::from(hi) - f64::from(lo)) / levels as f64;
-        } else if lo.is_finite() {
-            self.offset = f64::from(lo);
-        }
+        out.residuals = writer.finish();
+        out
     }
 
     /// Decodes the depths of the vertices `ij` (the response's vertices, in order).
     pub fn decode(&self, ij: &[(u16, u16)]) -> Result<Vec<f32>, ResidualError> {
         check_header(self.bits, self.root_side)?;
+        let units = Units { lattice: self.lattice };
+        if let Some(g) = self.lattice {
+            if !(g.scale.is_finite() && g.scale != 0.0 && g.offset.is_finite()) {
+                return Err(ResidualError::Header("lattice scale must be finite and non-zero"));
+            }
+            if !(self.step >= 1.0 && self.step <= MAX_RAW && self.step.fract() == 0.0) {
+                return Err(ResidualError::Header("a lattice step is a whole number of raw units"));
+            }
+        } else if !(self.step.is_finite() && self.step >= 0.0) {
+            return Err(ResidualError::Header("step must be finite and not negative"));
+        }
         let parents = parents(ij, self.root_side);
         let coded = parents.iter().filter(|p| p.is_some()).count();
-        if self.anchors.len() != parents.len() - coded {
-            return Err(ResidualError::Truncated("anchor count does not match the vertices"));
-        }
         if self.bits > 0 && self.residuals.len() != (coded * usize::from(self.bits)).div_ceil(8) {
             return Err(ResidualError::Truncated("residual bytes do not match the vertices"));
         }
-        let mask = if self.bits == 0 { 0 } else { (1u32 << self.bits) - 1 };
-        let mut anchors = self.anchors.iter();
+        let mut exact = self.exact.iter();
         let mut reader = BitReader::new(&self.residuals);
-        let mut codes = vec![0u32; ij.len()];
+        let mut held = vec![0f64; ij.len()];
         let mut out = vec![0f32; ij.len()];
         for (k, p) in parents.iter().enumerate() {
-            match *p {
-                None => {
-                    let z = *anchors.next().ok_or(ResidualError::Truncated("anchors"))?;
-                    out[k] = z;
-                    codes[k] = if self.bits > 0 { self.code_of(z) } else { 0 };
+            let code = match *p {
+                None => None,
+                Some(_) if self.bits == 0 => Some(u32::MAX),
+                Some(_) => Some(reader.take(self.bits)).filter(|&c| c != 0),
+            };
+            let (z, u) = match (code, *p) {
+                (Some(c), Some((a, b))) => {
+                    let prediction = units.predict(held[a], held[b]);
+                    if self.bits == 0 {
+                        units.depth(prediction)
+                    } else {
+                        let q = f64::from(c) - f64::from(half(self.bits));
+                        units.depth(prediction + q * self.step)
+                    }
                 }
-                Some((a, b)) if self.bits == 0 => out[k] = mean(out[a], out[b]),
-                Some((a, b)) => {
-                    let r = reader.take(self.bits);
-                    let n = ((codes[a] + codes[b]) >> 1).wrapping_add(r) & mask;
-                    codes[k] = n;
-                    out[k] = self.depth_of(n);
+                _ => {
+                    let z = *exact.next().ok_or(ResidualError::Truncated("exact depths end early"))?;
+                    (z, units.of(z))
                 }
+            };
+            if !valid(z) || (self.lattice.is_some() && u.abs() >= MAX_RAW) {
+                return Err(ResidualError::Invalid(z));
             }
-            if !(out[k].is_finite() && out[k] > 0.0) {
-                return Err(ResidualError::Invalid(out[k]));
-            }
+            out[k] = z;
+            held[k] = u;
+        }
+        if exact.next().is_some() {
+            return Err(ResidualError::Truncated("more exact depths than anchors and escapes"));
         }
         Ok(out)
     }
+}
+
+/// Whether every depth is `raw * g.scale + g.offset` for an integer `raw`
+/// small enough for exact sums.
+fn on_lattice(depths: &[f32], g: RawGrid) -> bool {
+    g.scale != 0.0
+        && g.scale.is_finite()
+        && g.offset.is_finite()
+        && depths.iter().all(|&z| {
+            let r = ((f64::from(z) - g.offset) / g.scale).round();
+            r.abs() < MAX_RAW && (r * g.scale + g.offset) as f32 == z
+        })
 }
 
 fn check_header(bits: u8, root_side: u32) -> Result<(), ResidualError> {
@@ -310,10 +376,6 @@ fn check_header(bits: u8, root_side: u32) -> Result<(), ResidualError> {
         return Err(ResidualError::RootSide(root_side));
     }
     Ok(())
-}
-
-fn mean(a: f32, b: f32) -> f32 {
-    ((f64::from(a) + f64::from(b)) * 0.5) as f32
 }
 
 #[derive(Default)]
@@ -432,10 +494,42 @@ mod tests {
                     "bits {bits}: {} > {bound}",
                     r.max_error
                 );
-                let coded = ij.len() - r.anchors.len();
+                let coded = parents(&ij, 16).iter().filter(|p| p.is_some()).count();
                 assert_eq!(r.residuals.len(), (coded * usize::from(bits)).div_ceil(8));
             }
         }
+    }
+
+    /// Each added bit at least halves the decoding error, and no bit-depth
+    /// is worse than `bits = 0`'s interpolation (issue: 2 bits were).
+    fn assert_each_bit_halves(ij: &[(u16, u16)], z: &[f32], raw: Option<RawGrid>) {
+        let errors: Vec<f32> = (0..=MAX_BITS)
+            .map(|bits| ResidualDepths::encode(ij, z, bits, 16, raw).unwrap().max_error)
+            .collect();
+        for (b, w) in errors.windows(2).enumerate() {
+            assert!(w[1] <= w[0] / 2.0, "bits {} -> {}: {:?}", b, b + 1, errors);
+        }
+    }
+
+    #[test]
+    fn each_bit_at_least_halves_the_error() {
+        let ij = grid_vertices();
+        assert_each_bit_halves(&ij, &surface(&ij), None);
+        // A depth step: large residuals at a few vertices, escaped at low bits.
+        let z: Vec<f32> = ij
+            .iter()
+            .map(|&(i, j)| if i > 11 { 9.0 } else { 1.0 + 0.02 * f32::from(j) })
+            .collect();
+        assert_each_bit_halves(&ij, &z, None);
+        let grid = RawGrid {
+            scale: 0.001,
+            offset: 0.0,
+        };
+        let z: Vec<f32> = ij
+            .iter()
+            .map(|&(i, j)| ((500.0 + f64::from(i * i * 37 + j * 911)) * 0.001) as f32)
+            .collect();
+        assert_each_bit_halves(&ij, &z, Some(grid));
     }
 
     #[test]
@@ -451,12 +545,13 @@ mod tests {
             .collect();
         let grid = RawGrid { scale, offset: 0.0 };
         let r = ResidualDepths::encode(&ij, &z, 16, 16, Some(grid)).unwrap();
-        assert_eq!(r.code_step, 1);
+        assert_eq!(r.lattice, Some(grid));
+        assert_eq!(r.step, 1.0);
         assert_eq!(r.decode(&ij).unwrap(), z);
         assert_eq!(r.max_error, 0.0);
         // Fewer bits coarsen the raw grid by an integer step.
-        let r = ResidualDepths::encode(&ij, &z, 8, 16, Some(grid)).unwrap();
-        assert!(r.code_step > 1);
+        let r = ResidualDepths::encode(&ij, &z, 2, 16, Some(grid)).unwrap();
+        assert!(r.step > 1.0 && r.step.fract() == 0.0, "{}", r.step);
         assert!(f64::from(r.max_error) <= r.step() / 2.0 + 1e-6);
     }
 
@@ -466,7 +561,7 @@ mod tests {
         let ij = [(0, 0), (16, 0), (0, 16), (8, 8)];
         let z = [1.0, 2.0, 3.0, 4.5];
         let r = ResidualDepths::encode(&ij, &z, 4, 16, None).unwrap();
-        assert_eq!(r.anchors, z.to_vec());
+        assert_eq!(r.exact, z.to_vec());
         assert!(r.residuals.is_empty());
         assert_eq!(r.decode(&ij).unwrap(), z.to_vec());
     }
@@ -485,7 +580,7 @@ mod tests {
         r.residuals.pop();
         assert!(matches!(r.decode(&ij), Err(ResidualError::Truncated(_))));
         r.residuals.clear();
-        r.anchors.clear();
+        r.exact.clear();
         assert!(r.decode(&ij).is_err());
     }
 
@@ -543,7 +638,11 @@ mod tests {
                 prop_assert!((a - b).abs() <= r.max_error, "{a} vs {b}");
             }
             if bits == 16 && z.iter().all(|&v| v > 1e-3) {
-                prop_assert_eq!(back, z);
+                prop_assert_eq!(back, z.clone());
+            }
+            if bits > 1 {
+                let fewer = ResidualDepths::encode(&ij, &z, bits - 1, 16, Some(grid)).unwrap();
+                prop_assert!(r.max_error <= fewer.max_error / 2.0, "{} vs {}", r.max_error, fewer.max_error);
             }
         }
     }
@@ -552,12 +651,62 @@ mod tests {
     fn corrupt_headers_are_errors_not_infinities() {
         let ij = grid_vertices();
         let z = surface(&ij);
-        let mut r = ResidualDepths::encode(&ij, &z, 8, 16, None).unwrap();
-        r.scale = f64::MAX;
+        let good = ResidualDepths::encode(&ij, &z, 8, 16, None).unwrap();
+        let mut r = good.clone();
+        r.step = f64::MAX;
         assert!(matches!(r.decode(&ij), Err(ResidualError::Invalid(_))));
-        r.scale = 0.0;
-        r.offset = -1.0;
+        for step in [-1.0, f64::NAN, f64::INFINITY] {
+            r.step = step;
+            assert!(matches!(r.decode(&ij), Err(ResidualError::Header(_))), "{step}");
+        }
+        let mut r = good.clone();
+        r.lattice = Some(RawGrid {
+            scale: 0.0,
+            offset: 1.0,
+        });
+        assert!(matches!(r.decode(&ij), Err(ResidualError::Header(_))));
+        r.lattice = Some(RawGrid {
+            scale: 1.0,
+            offset: -1e6,
+        });
+        r.step = 1.5;
+        assert!(matches!(r.decode(&ij), Err(ResidualError::Header(_))));
+        r.step = 1.0;
         assert!(matches!(r.decode(&ij), Err(ResidualError::Invalid(_))));
+        let mut r = good;
+        r.exact.push(1.0);
+        assert!(matches!(r.decode(&ij), Err(ResidualError::Truncated(_))));
+    }
+
+    #[test]
+    fn bincode_layout_matches_protocol_md() {
+        let r = ResidualDepths {
+            bits: 3,
+            root_side: 16,
+            lattice: Some(RawGrid {
+                scale: 0.001,
+                offset: 0.5,
+            }),
+            step: 2.0,
+            exact: vec![1.5, 2.5],
+            residuals: vec![0xab],
+            max_error: 0.125,
+        };
+        let b = crate::to_bincode(&r).unwrap();
+        assert_eq!(b[0], 3);
+        assert_eq!(&b[1..5], &16u32.to_le_bytes());
+        assert_eq!(b[5], 1, "Some(lattice)");
+        assert_eq!(&b[6..14], &0.001f64.to_le_bytes());
+        assert_eq!(&b[14..22], &0.5f64.to_le_bytes());
+        assert_eq!(&b[22..30], &2.0f64.to_le_bytes());
+        assert_eq!(&b[30..38], &2u64.to_le_bytes());
+        assert_eq!(&b[38..42], &1.5f32.to_le_bytes());
+        assert_eq!(&b[46..54], &1u64.to_le_bytes());
+        assert_eq!(b[54], 0xab);
+        assert_eq!(&b[55..59], &0.125f32.to_le_bytes());
+        assert_eq!(b.len(), 59);
+        let none = crate::to_bincode(&ResidualDepths { lattice: None, ..r }).unwrap();
+        assert_eq!((none[5], none.len()), (0, 59 - 16));
     }
 
     #[test]

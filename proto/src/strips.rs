@@ -255,7 +255,7 @@ mod tests {
         let r = sample();
         let b = crate::to_bincode(&r).unwrap();
         // version
-        assert_eq!(&b[0..2], &2u16.to_le_bytes());
+        assert_eq!(&b[0..2], &3u16.to_le_bytes());
         // scene: u64 length + bytes
         assert_eq!(&b[2..10], &4u64.to_le_bytes());
         assert_eq!(&b[10..14], b"demo");

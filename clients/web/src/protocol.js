@@ -11,11 +11,9 @@
  * @typedef {object} Residual
  * @property {number} bits
  * @property {number} root_side
- * @property {number} scale
- * @property {number} offset
- * @property {number} code_origin
- * @property {number} code_step
- * @property {ArrayLike<number>} anchors
+ * @property {{scale: number, offset: number} | null} lattice
+ * @property {number} step
+ * @property {ArrayLike<number>} exact
  * @property {ArrayLike<number>} residuals
  * @property {number} max_error
  */
@@ -50,7 +48,7 @@
  * @property {{select_ms: number, extract_ms: number, total_ms: number}} timings
  */
 
-export const PROTOCOL_VERSION = 2;
+export const PROTOCOL_VERSION = 3;
 export const BINCODE = 'application/x-bincode';
 
 /** A malformed body: the message says what and where. */
@@ -143,14 +141,14 @@ export function readCamera(r) {
 function readResidual(r) {
   const bits = r.u8('bits');
   const root_side = r.u32('root_side');
-  const scale = r.f64('scale');
-  const offset = r.f64('offset');
-  const code_origin = r.i64('code_origin');
-  const code_step = r.u32('code_step');
-  const anchors = r.array(Float32Array, r.len(4, 'anchors'), 'anchors');
+  const tag = r.u8('lattice');
+  if (tag > 1) throw new WireError(`lattice option tag ${tag}`);
+  const lattice = tag === 1 ? { scale: r.f64('lattice scale'), offset: r.f64('lattice offset') } : null;
+  const step = r.f64('step');
+  const exact = r.array(Float32Array, r.len(4, 'exact'), 'exact');
   const residuals = r.array(Uint8Array, r.len(1, 'residuals'), 'residuals');
   const max_error = r.f32('max_error');
-  return { bits, root_side, scale, offset, code_origin, code_step, anchors, residuals, max_error };
+  return { bits, root_side, lattice, step, exact, residuals, max_error };
 }
 
 /** A strip response (PROTOCOL.md, "Strip response"). @param {Reader} r @returns {Strips} */
@@ -252,6 +250,9 @@ export function renderFromJson(json) {
 /** Rust's `f64::round`: halves away from zero. @param {number} x */
 const round = (x) => Math.sign(x) * Math.round(Math.abs(x));
 
+/** Raw lattice values stay below this (sums of two exact in a double). */
+const MAX_RAW = 2 ** 50;
+
 /**
  * The edge a grid vertex bisects (PROTOCOL.md, "Residual depths"), or null.
  * @param {number} i @param {number} j @param {number} rootSide
@@ -275,35 +276,45 @@ export function parentEdge(i, j, rootSide) {
 }
 
 /**
- * Residual-coded depths back to metres, in vertex order.
+ * Residual-coded depths back to metres, in vertex order (PROTOCOL.md,
+ * "Residual depths": closed-loop prediction from the parent edge, code 0 an
+ * escape to the next exact depth, arithmetic in raw units on a lattice).
  * @param {Residual} res @param {Uint16Array} ij @returns {Float32Array}
  */
 export function decodeResidual(res, ij) {
-  const { bits, root_side: side, scale, offset, code_origin: origin, code_step: step } = res;
+  const { bits, root_side: side, lattice, step } = res;
   if (bits > 16) throw new WireError(`residual bits ${bits}; at most 16`);
   if (!(side > 0 && (side & (side - 1)) === 0)) throw new WireError(`root_side ${side} is not a power of two`);
+  if (lattice) {
+    if (!(Number.isFinite(lattice.scale) && lattice.scale !== 0 && Number.isFinite(lattice.offset))) {
+      throw new WireError('lattice scale must be finite and non-zero');
+    }
+    if (!(step >= 1 && step <= MAX_RAW && Number.isInteger(step))) throw new WireError(`lattice step ${step} is not a whole number of raw units`);
+  } else if (!(Number.isFinite(step) && step >= 0)) {
+    throw new WireError(`step ${step} must be finite and not negative`);
+  }
   const n = ij.length / 2;
-  const mask = bits === 0 ? 0 : 2 ** bits - 1;
+  const half = bits === 0 ? 0 : 2 ** (bits - 1);
   /** @type {Map<number, number>} */
   const seen = new Map();
   const key = (/** @type {number} */ i, /** @type {number} */ j) => i * 65536 + j;
-  const codes = new Uint32Array(n);
+  const units = new Float64Array(n);
   const out = new Float32Array(n);
-  let anchor = 0;
+  let next = 0;
   let bit = 0;
   const take = () => {
     let v = 0;
     for (let b = 0; b < bits; b++, bit++) {
       const byte = res.residuals[bit >> 3];
       if (byte === undefined) throw new WireError('residuals end early');
-      v |= ((byte >> (bit & 7)) & 1) << b;
+      v += ((byte >> (bit & 7)) & 1) * 2 ** b;
     }
     return v;
   };
-  const depthOf = (/** @type {number} */ c) => Math.fround((origin + c * step) * scale + offset);
-  const codeOf = (/** @type {number} */ z) => {
-    const raw = round((z - offset) / scale);
-    return Math.min(Math.max(round((raw - origin) / step), 0), mask);
+  const exact = (/** @type {number} */ k) => {
+    if (next >= res.exact.length) throw new WireError('exact depths end early');
+    out[k] = res.exact[next++];
+    units[k] = lattice ? round((out[k] - lattice.offset) / lattice.scale) : out[k];
   };
   for (let k = 0; k < n; k++) {
     const i = ij[2 * k];
@@ -312,19 +323,32 @@ export function decodeResidual(res, ij) {
     const a = e && seen.get(key(e[0], e[1]));
     const b = e && seen.get(key(e[2], e[3]));
     if (a === undefined || b === undefined || a === null || b === null) {
-      if (anchor >= res.anchors.length) throw new WireError('anchors end early');
-      out[k] = res.anchors[anchor++];
-      codes[k] = bits > 0 ? codeOf(out[k]) : 0;
-    } else if (bits === 0) {
-      out[k] = Math.fround((out[a] + out[b]) * 0.5);
+      exact(k);
     } else {
-      codes[k] = (((codes[a] + codes[b]) >>> 1) + take()) & mask;
-      out[k] = depthOf(codes[k]);
+      const mid = (units[a] + units[b]) * 0.5;
+      const p = lattice ? Math.floor(mid) : mid;
+      const c = bits === 0 ? -1 : take();
+      if (c === -1) {
+        out[k] = Math.fround(p);
+        units[k] = out[k];
+      } else if (c === 0) {
+        exact(k);
+      } else {
+        const u = p + (c - half) * step;
+        if (lattice) {
+          out[k] = Math.fround(u * lattice.scale + lattice.offset);
+          units[k] = u;
+        } else {
+          out[k] = Math.fround(u);
+          units[k] = out[k];
+        }
+      }
     }
     if (!(Number.isFinite(out[k]) && out[k] > 0)) throw new WireError(`decoded depth ${out[k]} at vertex ${k}`);
+    if (lattice && !(Math.abs(units[k]) < MAX_RAW)) throw new WireError(`raw depth ${units[k]} at vertex ${k} out of range`);
     seen.set(key(i, j), k);
   }
-  if (anchor !== res.anchors.length) throw new WireError('anchor count does not match the vertices');
+  if (next !== res.exact.length) throw new WireError('more exact depths than anchors and escapes');
   return out;
 }
 

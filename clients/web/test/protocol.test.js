@@ -6,7 +6,9 @@
 
 import assert from 'node:assert/strict';
 import { after, before, test } from 'node:test';
-import { decodeRender, renderFromJson, stripTriangles, parentEdge, WireError, octDecode } from '../src/protocol.js';
+import zlib from 'node:zlib';
+import { PNG } from 'pngjs';
+import { decodeRender, renderFromJson, stripTriangles, parentEdge, WireError, octDecode, Reader, readStrips } from '../src/protocol.js';
 import { demoNovel, render, startServer } from './harness.js';
 
 /** @type {Awaited<ReturnType<typeof startServer>>} */
@@ -68,6 +70,63 @@ test('residual depths decode within the stated bound of the exact ones', async (
       if (bits === 4) assert.ok(worst > 0, '4 bits cannot be lossless on the demo');
     });
   }
+});
+
+/** A 16-bit greyscale PNG of `raw(i, j)`, written by hand (pngjs writes 8 bits).
+ * @param {number} w @param {number} h @param {(i: number, j: number) => number} raw */
+function png16(w, h, raw) {
+  const rows = Buffer.alloc(h * (1 + 2 * w));
+  for (let j = 0; j < h; j++) {
+    for (let i = 0; i < w; i++) rows.writeUInt16BE(raw(i, j), j * (1 + 2 * w) + 1 + 2 * i);
+  }
+  const chunk = (/** @type {string} */ type, /** @type {Buffer} */ data) => {
+    const body = Buffer.concat([Buffer.from(type, 'ascii'), data]);
+    const out = Buffer.alloc(12 + data.length);
+    out.writeUInt32BE(data.length, 0);
+    body.copy(out, 4);
+    out.writeUInt32BE(zlib.crc32(body), 8 + data.length);
+    return out;
+  };
+  const ihdr = Buffer.alloc(13);
+  ihdr.writeUInt32BE(w, 0);
+  ihdr.writeUInt32BE(h, 4);
+  ihdr.set([16, 0, 0, 0, 0], 8);
+  return Buffer.concat([Buffer.from([137, 80, 78, 71, 13, 10, 26, 10]), chunk('IHDR', ihdr), chunk('IDAT', zlib.deflateSync(rows)), chunk('IEND', Buffer.alloc(0))]);
+}
+
+test('16-bit depth: lattice residuals decode exactly as the server states, each bit halves the error, 16 bits are lossless', async () => {
+  const camera = {
+    width: 65, height: 49,
+    projection: { perspective: { fx: 60, fy: 60, cx: 32, cy: 24 } },
+    pose: { rotation: [0, 0, 0, 1], translation: [0, 0, 0] },
+  };
+  const form = new FormData();
+  form.set('camera', JSON.stringify(camera));
+  form.set('depth_kind', 'z');
+  form.set('scale', '0.001');
+  form.set('depth', new Blob([new Uint8Array(png16(65, 49, (i, j) => 2000 + 7 * i * i + 13 * j + ((i * 31 + j * 17) % 5) + (i > 40 ? 1500 : 0)))], { type: 'image/png' }), 'depth.png');
+  const colour = new PNG({ width: 65, height: 49 });
+  colour.data.fill(128);
+  form.set('color', new Blob([new Uint8Array(PNG.sync.write(colour))], { type: 'image/png' }), 'color.png');
+  const r = await fetch(`${server.url}/v1/scenes/lattice/views/v`, { method: 'PUT', body: form });
+  assert.equal(r.status, 201, await r.text());
+  const strips = async (/** @type {string} */ q) => {
+    const res = await fetch(`${server.url}/v1/scenes/lattice/views/v/strips?${q}`, { headers: { accept: 'application/x-bincode' } });
+    assert.equal(res.status, 200);
+    return readStrips(new Reader(await res.arrayBuffer()));
+  };
+  const exact = await strips('epsilon=0');
+  let previous = Infinity;
+  for (let bits = 0; bits <= 16; bits++) {
+    const s = await strips(`epsilon=0&bits=${bits}`);
+    assert.ok(same(s.ij, exact.ij));
+    let worst = 0;
+    for (let q = 0; q < s.depth.length; q++) worst = Math.max(worst, Math.fround(Math.abs(s.depth[q] - exact.depth[q])));
+    assert.equal(worst, s.maxDepthError, `${bits} bits: the browser decodes what the server's decoder does`);
+    assert.ok(worst <= previous / 2, `${bits} bits: ${worst} after ${previous}`);
+    previous = worst;
+  }
+  assert.equal(previous, 0, '16 bits of 16-bit depth are lossless');
 });
 
 test('malformed bodies are refused with a reason', async () => {
