@@ -2,6 +2,9 @@
 
 use dmesh_client::report::{cases, markdown, sweep, write, Options, Sweep};
 
+/// Differences of PSNR below this are noise of the blend, not of the depth.
+const PSNR_RESOLUTION_DB: f64 = 0.05;
+
 #[test]
 fn quick_report_sweeps_and_writes_tables_and_curves() {
     let options = Options {
@@ -32,10 +35,13 @@ fn quick_report_sweeps_and_writes_tables_and_curves() {
         exact.psnr
     );
     assert!(sixteen.bytes < exact.bytes);
-    // One more bit never lowers the view's quality.
+    // One more bit never lowers the view's quality, to within the
+    // measurement's resolution: depth moves of a hundredth of a pixel flip
+    // silhouette pixels, so exact f32 depth itself lands 0.05 dB either side
+    // of 16 bits (docs/report).
     let bits: Vec<_> = of(Sweep::Bits).collect();
     assert!(
-        bits.windows(2).all(|w| w[1].psnr >= w[0].psnr),
+        bits.windows(2).all(|w| w[1].psnr >= w[0].psnr - PSNR_RESOLUTION_DB),
         "{:?}",
         bits.iter().map(|r| (r.setting, r.psnr)).collect::<Vec<_>>()
     );
@@ -98,5 +104,31 @@ fn each_residual_bit_at_least_halves_the_error_on_every_report_scene() {
             }
             assert!(errors[0] > 0.0, "{} view {k}: interpolation is not exact", case.name);
         }
+    }
+}
+
+/// The committed report (`docs/report/report.json`, regenerated with the
+/// README's command) keeps its bits rows monotone in PSNR on every scene,
+/// to within the blend's resolution.
+#[test]
+fn the_committed_reports_bits_rows_are_monotone_in_psnr() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/report/report.json");
+    let rows: Vec<serde_json::Value> = serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    let mut scenes = std::collections::BTreeMap::<String, Vec<(f64, f64)>>::new();
+    for r in rows.iter().filter(|r| r["sweep"] == "bits") {
+        let (setting, psnr) = (r["setting"].as_f64().unwrap(), r["psnr"].as_f64().unwrap());
+        scenes
+            .entry(r["scene"].as_str().unwrap().to_string())
+            .or_default()
+            .push((setting, psnr));
+    }
+    assert_eq!(scenes.len(), 4, "{:?}", scenes.keys());
+    for (scene, mut bits) in scenes {
+        bits.sort_by(|a, b| a.0.total_cmp(&b.0));
+        assert!(bits.len() >= 8, "{scene}: {bits:?}");
+        for w in bits.windows(2) {
+            assert!(w[1].1 >= w[0].1 - PSNR_RESOLUTION_DB, "{scene}: {bits:?}");
+        }
+        assert!(bits[1].1 > bits[0].1, "{scene}: 2 bits beat interpolation: {bits:?}");
     }
 }

@@ -40,6 +40,10 @@ use serde::{Deserialize, Serialize};
 /// Largest residual bit-depth.
 pub const MAX_BITS: u8 = 16;
 
+/// The share of open-loop residuals the codes are sized to reach; the rest
+/// escape to exact depths.
+const RANGE_QUANTILE: f64 = 0.9;
+
 /// Raw values of lattice depths stay below this, so sums of two are exact
 /// in f64 (and in JavaScript numbers).
 const MAX_RAW: f64 = (1u64 << 50) as f64;
@@ -229,9 +233,12 @@ impl ResidualDepths {
         let units = Units {
             lattice: raw.filter(|g| on_lattice(depths, *g)),
         };
-        // The residuals' own range, in metres: the largest open-loop residual.
+        // The residuals' own range, in metres: a high quantile of the
+        // open-loop residuals, so that the few beyond it (vertices beside a
+        // depth jump that segmentation kept) escape instead of coarsening
+        // every other vertex's step.
         let metres = units.lattice.map_or(1.0, |g| g.scale.abs());
-        let range = parents
+        let mut residuals: Vec<f64> = parents
             .iter()
             .zip(depths)
             .filter_map(|(p, &z)| {
@@ -239,14 +246,13 @@ impl ResidualDepths {
                 let u = |k: usize| units.of(depths[k]);
                 Some((units.of(z) - units.predict(u(a), u(b))).abs() * metres)
             })
-            .fold(0.0f64, f64::max);
+            .collect();
+        let range = quantile(&mut residuals, RANGE_QUANTILE);
         for b in 1..=bits {
             let previous = out.max_error;
-            let codes = f64::from(half(b) - 1);
-            let mut step = f64::from(previous);
-            if codes > 0.0 {
-                step = step.min(range / codes);
-            }
+            // Codes reach (half - 1) steps each way; one bit has only zero.
+            let codes = f64::from(half(b) - 1).max(0.5);
+            let mut step = f64::from(previous).min(range / codes);
             if let Some(g) = units.lattice {
                 step = (step / g.scale.abs()).floor().clamp(1.0, MAX_RAW);
             }
@@ -354,6 +360,15 @@ impl ResidualDepths {
         }
         Ok(out)
     }
+}
+
+/// The `q`-quantile of `values` (0 when empty), reordering them.
+fn quantile(values: &mut [f64], q: f64) -> f64 {
+    if values.is_empty() {
+        return 0.0;
+    }
+    let k = ((values.len() - 1) as f64 * q).round() as usize;
+    *values.select_nth_unstable_by(k, f64::total_cmp).1
 }
 
 /// Whether every depth is `raw * g.scale + g.offset` for an integer `raw`
