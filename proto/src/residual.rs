@@ -12,8 +12,9 @@
 //! `(c - 2^(bits-1)) * step`, symmetric about zero.
 //!
 //! The step comes from the residuals themselves, not from the depth range:
-//! the largest open-loop residual `R` split into the codes' range, but never
-//! more than the decoding error `E(bits - 1)` of one bit less. The encoder
+//! the 90th percentile `R` of the open-loop residuals split into the codes'
+//! range (the few beyond escape), but never more than the decoding error
+//! `E(bits - 1)` of one bit less. The encoder
 //! runs the decoder at every bit-depth from 0 up and escapes any vertex
 //! whose decoded depth would be further than `E(bits - 1) / 2` from the
 //! truth, so by construction `max_error(bits) <= max_error(bits - 1) / 2`:
@@ -225,26 +226,30 @@ impl ResidualDepths {
             });
         }
         let parents = parents(ij, root_side);
-        let mut out = Self::pass(&parents, depths, 0, Units { lattice: None }, 0.0, 0.0);
-        out.root_side = root_side;
+        let continuous = Units { lattice: None };
+        let metres: Vec<f64> = depths.iter().map(|&z| f64::from(z)).collect();
+        let mut out = Self::pass(&parents, depths, &metres, root_side, 0, continuous, 0.0, 0.0);
         if bits == 0 {
             return Ok(out);
         }
         let units = Units {
             lattice: raw.filter(|g| on_lattice(depths, *g)),
         };
+        let truth: Vec<f64> = match units.lattice {
+            None => metres,
+            Some(_) => depths.iter().map(|&z| units.of(z)).collect(),
+        };
         // The residuals' own range, in metres: a high quantile of the
         // open-loop residuals, so that the few beyond it (vertices beside a
         // depth jump that segmentation kept) escape instead of coarsening
         // every other vertex's step.
-        let metres = units.lattice.map_or(1.0, |g| g.scale.abs());
+        let unit = units.lattice.map_or(1.0, |g| g.scale.abs());
         let mut residuals: Vec<f64> = parents
             .iter()
-            .zip(depths)
-            .filter_map(|(p, &z)| {
+            .zip(&truth)
+            .filter_map(|(p, &u)| {
                 let (a, b) = (*p)?;
-                let u = |k: usize| units.of(depths[k]);
-                Some((units.of(z) - units.predict(u(a), u(b))).abs() * metres)
+                Some((u - units.predict(truth[a], truth[b])).abs() * unit)
             })
             .collect();
         let range = quantile(&mut residuals, RANGE_QUANTILE);
@@ -256,18 +261,27 @@ impl ResidualDepths {
             if let Some(g) = units.lattice {
                 step = (step / g.scale.abs()).floor().clamp(1.0, MAX_RAW);
             }
-            out = Self::pass(&parents, depths, b, units, step, previous / 2.0);
-            out.root_side = root_side;
+            out = Self::pass(&parents, depths, &truth, root_side, b, units, step, previous / 2.0);
         }
         Ok(out)
     }
 
     /// One encoding at `bits` with `step`: every coded vertex decodes within
-    /// `limit` of its depth or escapes.
-    fn pass(parents: &[Option<(usize, usize)>], depths: &[f32], bits: u8, units: Units, step: f64, limit: f32) -> Self {
+    /// `limit` of its depth or escapes. `truth` holds the depths in `units`.
+    #[allow(clippy::too_many_arguments)]
+    fn pass(
+        parents: &[Option<(usize, usize)>],
+        depths: &[f32],
+        truth: &[f64],
+        root_side: u32,
+        bits: u8,
+        units: Units,
+        step: f64,
+        limit: f32,
+    ) -> Self {
         let mut out = Self {
             bits,
-            root_side: 1,
+            root_side,
             lattice: units.lattice,
             step: if bits == 0 { 0.0 } else { step },
             exact: Vec::new(),
@@ -277,26 +291,25 @@ impl ResidualDepths {
         let mut held = vec![0f64; depths.len()];
         let mut writer = BitWriter::default();
         for (k, (&z, p)) in depths.iter().zip(parents).enumerate() {
-            let decoded = match *p {
-                None => None,
-                Some((a, b)) if bits == 0 => Some(units.depth(units.predict(held[a], held[b]))),
-                Some((a, b)) => {
-                    let prediction = units.predict(held[a], held[b]);
-                    let q = if step > 0.0 {
-                        ((units.of(z) - prediction) / step).round()
-                    } else {
-                        0.0
-                    };
-                    let coded = (q.abs() < f64::from(half(bits)))
-                        .then(|| units.depth(prediction + q * step))
-                        .filter(|&(d, _)| valid(d) && (d - z).abs() <= limit);
-                    writer.push(coded.map_or(0, |_| (q + f64::from(half(bits))) as u32), bits);
-                    coded
+            let decoded = p.and_then(|(a, b)| {
+                let prediction = units.predict(held[a], held[b]);
+                if bits == 0 {
+                    return Some(units.depth(prediction));
                 }
-            };
+                let q = if step > 0.0 {
+                    ((truth[k] - prediction) / step).round()
+                } else {
+                    0.0
+                };
+                let coded = (q.abs() < f64::from(half(bits)))
+                    .then(|| units.depth(prediction + q * step))
+                    .filter(|&(d, _)| valid(d) && (d - z).abs() <= limit);
+                writer.push(coded.map_or(0, |_| (q + f64::from(half(bits))) as u32), bits);
+                coded
+            });
             let (d, u) = decoded.unwrap_or_else(|| {
                 out.exact.push(z);
-                (z, units.of(z))
+                (z, truth[k])
             });
             held[k] = u;
             out.max_error = out.max_error.max((d - z).abs());
@@ -329,22 +342,18 @@ impl ResidualDepths {
         let mut held = vec![0f64; ij.len()];
         let mut out = vec![0f32; ij.len()];
         for (k, p) in parents.iter().enumerate() {
-            let code = match *p {
-                None => None,
-                Some(_) if self.bits == 0 => Some(u32::MAX),
-                Some(_) => Some(reader.take(self.bits)).filter(|&c| c != 0),
-            };
-            let (z, u) = match (code, *p) {
-                (Some(c), Some((a, b))) => {
-                    let prediction = units.predict(held[a], held[b]);
-                    if self.bits == 0 {
-                        units.depth(prediction)
-                    } else {
-                        let q = f64::from(c) - f64::from(half(self.bits));
-                        units.depth(prediction + q * self.step)
-                    }
+            let decoded = p.and_then(|(a, b)| {
+                let prediction = units.predict(held[a], held[b]);
+                if self.bits == 0 {
+                    return Some(units.depth(prediction));
                 }
-                _ => {
+                let c = reader.take(self.bits);
+                let q = f64::from(c) - f64::from(half(self.bits));
+                (c != 0).then(|| units.depth(prediction + q * self.step))
+            });
+            let (z, u) = match decoded {
+                Some(d) => d,
+                None => {
                     let z = *exact.next().ok_or(ResidualError::Truncated("exact depths end early"))?;
                     (z, units.of(z))
                 }
