@@ -2,12 +2,12 @@
 //! strip response, 16-bit indices when the vertex count allows.
 
 use dmesh_proto::{
-    Depths, Indices, Lod as WireLod, RawGrid, ResidualDepths, ResidualError, StripResponse, WireVertex,
-    PROTOCOL_VERSION,
+    Depths, Indices, Lod as WireLod, RawGrid, Reach as WireReach, ResidualDepths, ResidualError, StripResponse,
+    WireVertex, PROTOCOL_VERSION,
 };
 
 use crate::camera::Camera;
-use crate::mesh::{Lod, Mesh, MeshVertex};
+use crate::mesh::{Lod, Mesh, MeshVertex, Reach, MAX_CULLED};
 
 impl From<&MeshVertex> for WireVertex {
     fn from(v: &MeshVertex) -> Self {
@@ -34,6 +34,26 @@ pub fn mesh_vertices(r: &StripResponse) -> Result<Vec<MeshVertex>, ResidualError
             rho: v.rho,
         })
         .collect())
+}
+
+/// The engine form of a response's [`WireReach`], refusing a camera, a
+/// clearance or a sphere a server could not have sent (not finite, negative).
+pub fn engine_reach(r: &WireReach) -> crate::error::Result<Reach> {
+    let bad = |what: &str| crate::error::Error::invalid(format!("reach: {what}"));
+    if r.clearance.is_some_and(|c| !(c.is_finite() && c > 0.0)) {
+        return Err(bad("the clearance must be a positive number of metres"));
+    }
+    if r.culled.len() > MAX_CULLED
+        || r.culled.iter().flatten().any(|v| !v.is_finite())
+        || r.culled.iter().any(|s| s[3] < 0.0)
+    {
+        return Err(bad("culled spheres must be at most 256, finite, with radius >= 0"));
+    }
+    Ok(Reach {
+        view: Camera::try_from(&r.view)?,
+        clearance: r.clearance,
+        culled: r.culled.clone(),
+    })
 }
 
 /// How a response carries its depths.
@@ -95,6 +115,11 @@ pub fn strip_response(
         indices,
         triangles: u32::try_from(mesh.triangles.len()).unwrap_or(u32::MAX),
         extract_ms: mesh.extract_ms,
+        reach: mesh.reach.as_ref().map(|r| WireReach {
+            view: (&r.view).into(),
+            clearance: r.clearance,
+            culled: r.culled.clone(),
+        }),
     })
 }
 

@@ -317,6 +317,7 @@ mod tests {
             indices: dmesh_proto::Indices::U16(vec![0, 1, 2, 3]),
             triangles: 2,
             extract_ms: 0.0,
+            reach: None,
         }
     }
 

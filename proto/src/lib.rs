@@ -28,11 +28,11 @@ pub use camera::{Camera, Pose, Projection};
 pub use error::{ErrorBody, ErrorDetail};
 pub use render::{RenderRequest, RenderResponse, RenderedView, Selection, Timings};
 pub use residual::{RawGrid, ResidualDepths, ResidualError};
-pub use strips::{Depths, Indices, Lod, StripRequest, StripResponse, WireVertex};
+pub use strips::{Depths, Indices, Lod, Reach, StripRequest, StripResponse, WireVertex};
 pub use view::{SceneList, ViewList, ViewSummary};
 
 /// Version of the wire format, sent in every response.
-pub const PROTOCOL_VERSION: u16 = 3;
+pub const PROTOCOL_VERSION: u16 = 4;
 
 /// Media type of bincode bodies.
 pub const BINCODE_MEDIA_TYPE: &str = "application/x-bincode";

@@ -132,6 +132,7 @@ mod tests {
             indices: crate::strips::Indices::U16(vec![]),
             triangles: 0,
             extract_ms,
+            reach: None,
         }
     }
 
@@ -155,7 +156,7 @@ mod tests {
             },
         };
         let b = crate::to_bincode(&response).unwrap();
-        assert_eq!(&b[0..2], &3u16.to_le_bytes());
+        assert_eq!(&b[0..2], &4u16.to_le_bytes());
         assert_eq!(&b[2..10], &1u64.to_le_bytes());
         assert_eq!(&b[10..18], &0.25f64.to_le_bytes());
         let at = 18 + strip_bytes.len();

@@ -147,6 +147,30 @@ pub struct StripResponse {
     pub triangles: u32,
     /// Server-side extraction time in milliseconds.
     pub extract_ms: f64,
+    /// For a view-dependent mesh (`lod` is `Tau`), how far its camera may move
+    /// before it must be fetched again; `None` for a static one.
+    #[serde(default)]
+    pub reach: Option<Reach>,
+}
+
+/// What a view-dependent mesh still serves once the camera moves
+/// (PROTOCOL.md, "Reach"): for a camera with eye `E'` and focal length `f'`
+/// at distance `d` from `view`'s eye, the mesh's error is at most
+/// `tau * (f' / f) * clearance / (clearance - d)` pixels while `d <
+/// clearance`, and a camera whose frustum misses every `culled` sphere sees
+/// nothing the mesh lacks.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Reach {
+    /// The camera the vertices were selected and the triangles culled for.
+    pub view: Camera,
+    /// Smallest `|p - E| - r` in metres over the vertices the tolerance left
+    /// out with a nonzero error (`p` the vertex, `r` its nested bounding
+    /// radius, `E` the eye); `None` when there was none.
+    pub clearance: Option<f64>,
+    /// World-frame spheres `[x, y, z, radius]` holding every triangle the
+    /// frustum culled (at most 256).
+    pub culled: Vec<[f64; 4]>,
 }
 
 #[cfg(test)]
@@ -195,6 +219,7 @@ mod tests {
             indices: Indices::U16(vec![0, 1, 2, u16::MAX, 2, 1, 0]),
             triangles: 2,
             extract_ms: 0.25,
+            reach: None,
         }
     }
 
@@ -255,7 +280,7 @@ mod tests {
         let r = sample();
         let b = crate::to_bincode(&r).unwrap();
         // version
-        assert_eq!(&b[0..2], &3u16.to_le_bytes());
+        assert_eq!(&b[0..2], &4u16.to_le_bytes());
         // scene: u64 length + bytes
         assert_eq!(&b[2..10], &4u64.to_le_bytes());
         assert_eq!(&b[10..14], b"demo");
@@ -288,6 +313,25 @@ mod tests {
         let tail = idx + 12 + 14;
         assert_eq!(&b[tail..tail + 4], &2u32.to_le_bytes());
         assert_eq!(&b[tail + 4..tail + 12], &0.25f64.to_le_bytes());
-        assert_eq!(b.len(), tail + 12);
+        // reach: Option tag 0 (static)
+        assert_eq!(b[tail + 12], 0);
+        assert_eq!(b.len(), tail + 13);
+        // with a reach: tag 1, the camera (100 bytes), Option<f64>, Vec<[f64; 4]>
+        let mut r = sample();
+        r.reach = Some(Reach {
+            view: r.camera.clone(),
+            clearance: Some(1.5),
+            culled: vec![[1.0, 2.0, 3.0, 0.5]],
+        });
+        let b = crate::to_bincode(&r).unwrap();
+        let at = tail + 12;
+        assert_eq!(b[at], 1);
+        assert_eq!(&b[at + 1..at + 101], &crate::to_bincode(&r.camera).unwrap()[..]);
+        assert_eq!(b[at + 101], 1);
+        assert_eq!(&b[at + 102..at + 110], &1.5f64.to_le_bytes());
+        assert_eq!(&b[at + 110..at + 118], &1u64.to_le_bytes());
+        assert_eq!(&b[at + 118..at + 126], &1.0f64.to_le_bytes());
+        assert_eq!(b.len(), at + 150);
+        crate::round_trip::both(&r);
     }
 }

@@ -26,6 +26,7 @@ use glam::DVec3;
 use super::error_metric::norm_bound;
 use super::grid::{cell_half, half_of, Pt};
 use super::hierarchy::{and_bit, cell_bit, or_bit, DepthMesh};
+use super::reach::{merge_spheres, Reach, MAX_CULLED};
 use super::select::{PlaneMask, Select, Static, ViewDependent, ALL_PLANES};
 use super::strips::{stripify, stripify_greedy, stripify_tunnelled, StripOrder, BREAK};
 use crate::camera::Camera;
@@ -76,6 +77,9 @@ pub struct Mesh {
     pub dropped_triangles: usize,
     /// Wall-clock time of the extraction.
     pub extract_ms: f64,
+    /// For a view-dependent mesh, how far the requesting camera may move
+    /// before the mesh stops meeting its tolerance or misses culled parts.
+    pub reach: Option<Reach>,
 }
 
 impl Mesh {
@@ -105,6 +109,17 @@ struct Walk<'a, S> {
     sel: &'a S,
     tris: Vec<[u32; 3]>,
     dropped: usize,
+    /// Smallest [`Select::left_out`] over the left-out vertices with an error.
+    clearance: f64,
+    /// Culled triangles' spheres in the reference frame.
+    culled: Vec<(DVec3, f64)>,
+}
+
+/// What a walk found besides its triangles.
+struct Walked {
+    dropped: usize,
+    clearance: f64,
+    culled: Vec<(DVec3, f64)>,
 }
 
 impl<S: Select> Walk<'_, S> {
@@ -135,9 +150,12 @@ impl<S: Select> Walk<'_, S> {
                 self.skip();
             } else if mask != 0 && {
                 let c = 0.5 * (pl + pr);
-                self.sel
-                    .cull(c, norm_bound(pl - c).max(norm_bound(pa - c)), mask)
-                    .is_none()
+                let radius = norm_bound(pl - c).max(norm_bound(pa - c));
+                let culled = self.sel.cull(c, radius, mask).is_none();
+                if culled {
+                    self.culled.push((c, radius));
+                }
+                culled
             } {
                 self.skip();
             } else {
@@ -171,15 +189,22 @@ impl<S: Select> Walk<'_, S> {
             match self.sel.cull(pm, reach, mask) {
                 Some(left) => left,
                 None => {
+                    self.culled.push((pm, reach));
                     self.skip();
                     return;
                 }
             }
         };
-        if self.sel.active(self.mesh.err2[mi], pm, radius) {
+        let err2 = self.mesh.err2[mi];
+        if self.sel.active(err2, pm, radius) {
             self.tri((l, pl), (a, pa), (m, pm), mask);
             self.tri((a, pa), (r, pr), (m, pm), mask);
-        } else if flags & or_bit(half) != 0 {
+            return;
+        }
+        if err2 > 0.0 {
+            self.clearance = self.clearance.min(self.sel.left_out(pm, radius));
+        }
+        if flags & or_bit(half) != 0 {
             self.dropped += 1;
             self.skip();
         } else {
@@ -219,7 +244,7 @@ impl DepthMesh {
                     eps2: if eps2.is_finite() { eps2 } else { f32::MAX },
                     all: eps == 0.0,
                 };
-                self.run(&sel, strips)
+                self.run(&sel, strips).0
             }
             Lod::Tau { tau, view } => {
                 if !(tau.is_finite() && tau >= 0.0) {
@@ -227,7 +252,9 @@ impl DepthMesh {
                         "tau is {tau}; it must be a finite number of pixels >= 0"
                     )));
                 }
-                self.run(&ViewDependent::new(&self.camera, view, tau), strips)
+                let (mut mesh, walked) = self.run(&ViewDependent::new(&self.camera, view, tau), strips);
+                mesh.reach = Some(self.reach(view, walked));
+                mesh
             }
         };
         let mut mesh = tris;
@@ -238,7 +265,7 @@ impl DepthMesh {
     /// Walks and assembles with this thread's scratch buffers: the triangle
     /// list of the walk and the grid-sized vertex map are kept between
     /// extractions, so a request allocates only what it returns.
-    fn run<S: Select>(&self, sel: &S, strips: StripOrder) -> Mesh {
+    fn run<S: Select>(&self, sel: &S, strips: StripOrder) -> (Mesh, Walked) {
         thread_local! {
             static SCRATCH: std::cell::RefCell<Scratch> = const {
                 std::cell::RefCell::new(Scratch { tris: Vec::new(), slot: Vec::new() })
@@ -248,19 +275,43 @@ impl DepthMesh {
             let mut scratch = cell.borrow_mut();
             let Scratch { tris, slot } = &mut *scratch;
             tris.clear();
-            let dropped = self.walk(sel, tris);
+            let walked = self.walk(sel, tris);
             let mut mesh = self.assemble(tris, strips, slot);
-            mesh.dropped_triangles = dropped;
-            mesh
+            mesh.dropped_triangles = walked.dropped;
+            (mesh, walked)
         })
     }
 
-    fn walk<S: Select>(&self, sel: &S, tris: &mut Vec<[u32; 3]>) -> usize {
+    /// The [`Reach`] of a view-dependent mesh for `view` from its walk.
+    fn reach(&self, view: &Camera, walked: Walked) -> Reach {
+        let mut culled = walked.culled;
+        while culled.len() > MAX_CULLED {
+            culled = culled
+                .chunks(2)
+                .map(|pair| pair.iter().copied().reduce(merge_spheres).unwrap_or(pair[0]))
+                .collect();
+        }
+        Reach {
+            view: *view,
+            clearance: walked.clearance.is_finite().then_some(walked.clearance),
+            culled: culled
+                .into_iter()
+                .map(|(c, r)| {
+                    let w = self.camera.to_world(c);
+                    [w.x, w.y, w.z, r]
+                })
+                .collect(),
+        }
+    }
+
+    fn walk<S: Select>(&self, sel: &S, tris: &mut Vec<[u32; 3]>) -> Walked {
         let mut walk = Walk {
             mesh: self,
             sel,
             tris: std::mem::take(tris),
             dropped: 0,
+            clearance: f64::INFINITY,
+            culled: Vec::new(),
         };
         let g = self.grid;
         let s = g.side();
@@ -280,7 +331,11 @@ impl DepthMesh {
             }
         }
         *tris = walk.tris;
-        walk.dropped
+        Walked {
+            dropped: walk.dropped,
+            clearance: walk.clearance,
+            culled: walk.culled,
+        }
     }
 
     /// Numbers the used vertices coarse to fine and rewrites the indices.
@@ -361,6 +416,7 @@ impl DepthMesh {
             triangles,
             dropped_triangles: 0,
             extract_ms: 0.0,
+            reach: None,
         }
     }
 }

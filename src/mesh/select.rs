@@ -42,6 +42,11 @@ pub(crate) trait Select {
     /// radius)` is entirely outside one plane of `mask`; otherwise the planes
     /// of `mask` it is not entirely inside.
     fn cull(&self, centre: DVec3, radius: f64, mask: PlaneMask) -> Option<PlaneMask>;
+    /// For a vertex `active` left out: the eye distance its test allowed,
+    /// `|p - E| - r` (infinite when the test does not depend on the eye).
+    fn left_out(&self, _p: DVec3, _r: f32) -> f64 {
+        f64::INFINITY
+    }
 }
 
 /// Static selection by an object-space tolerance.
@@ -139,6 +144,14 @@ impl Select for ViewDependent {
                 dist <= 0.0 || f2 * e2 > self.tau2 * dist * dist
             }
             None => e2 > self.tau2,
+        }
+    }
+
+    #[inline]
+    fn left_out(&self, p: DVec3, r: f32) -> f64 {
+        match self.focal2 {
+            Some(_) => (p - self.eye).length() - f64::from(r),
+            None => f64::INFINITY,
         }
     }
 

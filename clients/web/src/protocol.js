@@ -34,6 +34,14 @@
  * @property {number} triangles
  * @property {number} extract_ms
  * @property {number} maxDepthError   0 for exact depths
+ * @property {Reach | null} reach     for a view-dependent mesh, how far its camera may move
+ */
+/**
+ * What a view-dependent mesh still serves once the camera moves (PROTOCOL.md, "Reach").
+ * @typedef {object} Reach
+ * @property {CameraJson} view        the camera it was selected and culled for
+ * @property {number | null} clearance  metres; null: exact wherever the eye goes
+ * @property {number[][]} culled      world spheres [x, y, z, r] holding what was culled
  */
 /**
  * @typedef {object} RenderedView
@@ -48,7 +56,7 @@
  * @property {{select_ms: number, extract_ms: number, total_ms: number}} timings
  */
 
-export const PROTOCOL_VERSION = 3;
+export const PROTOCOL_VERSION = 4;
 export const BINCODE = 'application/x-bincode';
 
 /** A malformed body: the message says what and where. */
@@ -151,6 +159,22 @@ function readResidual(r) {
   return { bits, root_side, lattice, step, exact, residuals, max_error };
 }
 
+/** An `Option<Reach>` (PROTOCOL.md, "Reach"). @param {Reader} r @returns {Reach | null} */
+function readReach(r) {
+  const tag = r.u8('reach');
+  if (tag > 1) throw new WireError(`reach option tag ${tag}`);
+  if (tag === 0) return null;
+  const view = readCamera(r);
+  const some = r.u8('clearance');
+  if (some > 1) throw new WireError(`clearance option tag ${some}`);
+  const clearance = some === 1 ? r.f64('clearance') : null;
+  const count = r.len(32, 'culled');
+  /** @type {number[][]} */
+  const culled = [];
+  for (let k = 0; k < count; k++) culled.push([r.f64(), r.f64(), r.f64(), r.f64()]);
+  return { view, clearance, culled };
+}
+
 /** A strip response (PROTOCOL.md, "Strip response"). @param {Reader} r @returns {Strips} */
 export function readStrips(r) {
   const version = r.u16('version');
@@ -195,7 +219,8 @@ export function readStrips(r) {
   }
   const triangles = r.u32('triangles');
   const extract_ms = r.f64('extract_ms');
-  return { version, scene, view, lod, camera, vertexCount: n, ij, normal, rho, depth, indices, triangles, extract_ms, maxDepthError };
+  const reach = readReach(r);
+  return { version, scene, view, lod, camera, vertexCount: n, ij, normal, rho, depth, indices, triangles, extract_ms, maxDepthError, reach };
 }
 
 /** A render response: version, views (weight, strips, colour URL), timings.
@@ -239,7 +264,7 @@ export function renderFromJson(json) {
       color_url: v.color_url,
       strips: {
         version: s.version, scene: s.scene, view: s.view, lod: s.lod, camera: s.camera, vertexCount: n,
-        ij, normal, rho, depth, indices, triangles: s.triangles, extract_ms: s.extract_ms,
+        ij, normal, rho, depth, indices, triangles: s.triangles, extract_ms: s.extract_ms, reach: s.reach ?? null,
         maxDepthError: s.depths.residual ? s.depths.residual.max_error : 0,
       },
     };
