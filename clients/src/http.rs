@@ -26,6 +26,13 @@ pub struct CallError {
     message: String,
 }
 
+impl CallError {
+    /// The status the server answered.
+    pub fn status(&self) -> StatusCode {
+        self.status
+    }
+}
+
 impl Server {
     /// A client of `base` (`http://host:port`); colour images are cached in `cache` by ETag.
     pub fn new(base: &str, cache: Option<PathBuf>) -> Self {
@@ -140,6 +147,15 @@ impl Server {
 
     /// The reference cameras of a scene's views.
     pub async fn cameras(&self, scene: &str) -> anyhow::Result<Vec<dmesh::camera::Camera>> {
+        self.views(scene)
+            .await?
+            .iter()
+            .map(|v| Ok(dmesh::camera::Camera::try_from(&v.camera)?))
+            .collect()
+    }
+
+    /// The summaries of a scene's views, in the server's (sorted) order.
+    pub async fn views(&self, scene: &str) -> anyhow::Result<Vec<dmesh_proto::ViewSummary>> {
         let (_, _, bytes) = self
             .call(Method::GET, &format!("/v1/scenes/{scene}/views"), &[], Vec::new())
             .await?;
@@ -154,10 +170,31 @@ impl Server {
                     Vec::new(),
                 )
                 .await?;
-            let summary: dmesh_proto::ViewSummary = serde_json::from_slice(&bytes)?;
-            out.push(dmesh::camera::Camera::try_from(&summary.camera)?);
+            out.push(serde_json::from_slice(&bytes)?);
         }
         Ok(out)
+    }
+
+    /// One view's mesh (bincode on the wire), with the response's size in bytes.
+    pub async fn strips(
+        &self,
+        scene: &str,
+        view: &str,
+        request: &dmesh_proto::StripRequest,
+    ) -> anyhow::Result<(dmesh_proto::StripResponse, usize)> {
+        let headers = [
+            (header::CONTENT_TYPE, "application/json".to_string()),
+            (header::ACCEPT, dmesh_proto::BINCODE_MEDIA_TYPE.to_string()),
+        ];
+        let (_, _, bytes) = self
+            .call(
+                Method::POST,
+                &format!("/v1/scenes/{scene}/views/{view}/strips"),
+                &headers,
+                serde_json::to_vec(request)?,
+            )
+            .await?;
+        Ok((dmesh_proto::from_bincode(&bytes)?, bytes.len()))
     }
 
     /// Sends a render request without decoding the answer: its size and the

@@ -17,3 +17,4 @@ pub mod http;
 pub mod loadtest;
 pub mod novel;
 pub mod report;
+pub mod walkthrough;

@@ -123,6 +123,62 @@ enum Command {
         #[arg(long)]
         quick: bool,
     },
+    /// Move along a camera path, drawing every frame from held meshes and
+    /// fetching by strategy (Qu et al.'s workload balancing); prints the
+    /// frame-time comparison of the strategies run.
+    Walkthrough {
+        /// Server base URL.
+        #[arg(long, default_value = "http://127.0.0.1:8080")]
+        server: String,
+        /// Scene id.
+        #[arg(long)]
+        scene: String,
+        /// The path file (JSON: key cameras and a frame count).
+        #[arg(long)]
+        path: PathBuf,
+        /// Strategies, comma separated: full, keyframe, balanced (or all).
+        #[arg(long, default_value = "all")]
+        strategy: String,
+        /// Frames between keyframes of the keyframe strategy.
+        #[arg(long, default_value_t = 10)]
+        keyframe_every: u32,
+        /// Balanced refresh budget per frame in triangles (default: one held view's worth).
+        #[arg(long, conflicts_with_all = ["budget_ms", "budget_bytes"])]
+        budget_triangles: Option<f64>,
+        /// Balanced refresh budget per frame in request milliseconds.
+        #[arg(long, conflicts_with = "budget_bytes")]
+        budget_ms: Option<f64>,
+        /// Balanced refresh budget per frame in response bytes.
+        #[arg(long)]
+        budget_bytes: Option<f64>,
+        /// View-dependent tolerance, pixels.
+        #[arg(long, default_value_t = 1.0)]
+        tau: f64,
+        /// A held mesh is refetched once its error bound passes tau times this.
+        #[arg(long, default_value_t = 1.5)]
+        stale_factor: f64,
+        /// Guard band: request a frustum wider by this fraction of the image on each side.
+        #[arg(long, default_value_t = 0.15)]
+        guard: f64,
+        /// Residual bit-depth of the depths (0-16; default exact).
+        #[arg(long)]
+        bits: Option<u8>,
+        /// Most views a frame draws.
+        #[arg(long, default_value_t = 5)]
+        max_views: usize,
+        /// Write every frame's image under DIR/STRATEGY/.
+        #[arg(long)]
+        frames_out: Option<PathBuf>,
+        /// The scene file (or `demo`) to render ground truth from: PSNR, inverse-depth RMSE, coverage per frame.
+        #[arg(long)]
+        truth: Option<String>,
+        /// Write NAME.csv, NAME.json and the frame-time and PSNR plots here (NAME: the path file's stem).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Print the summaries as JSON instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
     /// PSNR (valid mask) and inverse-depth RMSE between two images.
     Compare {
         /// First image (PNG).
@@ -139,6 +195,21 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+}
+
+/// One progress line on stderr, redrawn in place on a terminal (every 50
+/// frames and at the end otherwise, so a log stays readable).
+fn progress(what: &str, done: u32, total: u32, last_ms: f64) {
+    use std::io::IsTerminal;
+    let tty = std::io::stderr().is_terminal();
+    if !tty && done % 50 != 0 && done != total {
+        return;
+    }
+    let width = 30usize;
+    let filled = (width as u64 * u64::from(done) / u64::from(total.max(1))) as usize;
+    let bar: String = "#".repeat(filled) + &"-".repeat(width - filled);
+    let end = if tty { "\r" } else { "\n" };
+    eprint!("{what:>9} [{bar}] {done}/{total} frames, last {last_ms:.1} ms{end}");
 }
 
 fn read(path: &Path) -> Result<Vec<u8>> {
@@ -401,6 +472,129 @@ fn run(cli: Cli) -> Result<()> {
             dmesh_client::report::write(&rows, &out)?;
             print!("{}", dmesh_client::report::markdown(&rows));
             eprintln!("wrote {}", out.display());
+            Ok(())
+        }
+        Command::Walkthrough {
+            server,
+            scene,
+            path,
+            strategy,
+            keyframe_every,
+            budget_triangles,
+            budget_ms,
+            budget_bytes,
+            tau,
+            stale_factor,
+            guard,
+            bits,
+            max_views,
+            frames_out,
+            truth,
+            out,
+            json,
+        } => {
+            use dmesh_client::walkthrough::{self, policy};
+            if !(tau.is_finite() && tau > 0.0) {
+                bail!("--tau is {tau}; it must be a positive number of pixels");
+            }
+            if !(stale_factor.is_finite() && stale_factor >= 1.0) {
+                bail!("--stale-factor is {stale_factor}; it must be at least 1");
+            }
+            if !(guard.is_finite() && (0.0..=1.0).contains(&guard)) {
+                bail!("--guard is {guard}; it must be between 0 and 1");
+            }
+            if keyframe_every == 0 {
+                bail!("--keyframe-every must be at least 1");
+            }
+            if bits.is_some_and(|b| b > 16) {
+                bail!("--bits must be 0 to 16");
+            }
+            let budget = match (budget_triangles, budget_ms, budget_bytes) {
+                (Some(n), _, _) => policy::Budget::Triangles(n),
+                (_, Some(ms), _) => policy::Budget::Millis(ms),
+                (_, _, Some(b)) => policy::Budget::Bytes(b),
+                _ => policy::Budget::OneView,
+            };
+            if let policy::Budget::Triangles(v) | policy::Budget::Millis(v) | policy::Budget::Bytes(v) = budget {
+                if !(v.is_finite() && v >= 0.0) {
+                    bail!("the budget is {v}; it must be a number >= 0");
+                }
+            }
+            let strategies: Vec<policy::Strategy> = strategy
+                .split(',')
+                .flat_map(|s| match s.trim() {
+                    "all" => vec![
+                        Ok(policy::Strategy::Full),
+                        Ok(policy::Strategy::Keyframe { every: keyframe_every }),
+                        Ok(policy::Strategy::Balanced),
+                    ],
+                    "full" => vec![Ok(policy::Strategy::Full)],
+                    "keyframe" => vec![Ok(policy::Strategy::Keyframe { every: keyframe_every })],
+                    "balanced" => vec![Ok(policy::Strategy::Balanced)],
+                    other => vec![Err(anyhow::anyhow!(
+                        "unknown strategy {other:?}; use full, keyframe, balanced or all"
+                    ))],
+                })
+                .collect::<Result<_>>()?;
+            let walk_path = walkthrough::path::Path::from_json(&String::from_utf8(read(&path)?)?)
+                .with_context(|| format!("path {}", path.display()))?;
+            let truth = truth
+                .map(|name| -> Result<dmesh::sim::SceneSpec> {
+                    Ok(if name == "demo" {
+                        dmesh::sim::SceneSpec::demo()
+                    } else {
+                        dmesh::sim::SceneSpec::from_json(&String::from_utf8(read(Path::new(&name))?)?)?
+                    })
+                })
+                .transpose()?;
+            let name = path.file_stem().and_then(|s| s.to_str()).unwrap_or("walk").to_string();
+            let walks = rt.block_on(async {
+                let s = Server::new(&server, None);
+                let loaded = walkthrough::Scene::load(&s, &scene).await?;
+                let mut walks = Vec::new();
+                for strategy in strategies {
+                    let policy = policy::Policy {
+                        strategy,
+                        budget,
+                        tau,
+                        stale_factor,
+                    };
+                    let options = walkthrough::Options {
+                        guard,
+                        bits,
+                        max_views,
+                        frames_out: frames_out.as_ref().map(|d| d.join(strategy.name())),
+                        truth: truth.clone(),
+                        ..walkthrough::Options::default()
+                    };
+                    let total = walk_path.frames;
+                    let frames = walkthrough::run(&s, &loaded, &walk_path, &policy, &options, |f| {
+                        progress(strategy.name(), f.frame + 1, total, f.frame_ms);
+                    })
+                    .await?;
+                    if std::io::IsTerminal::is_terminal(&std::io::stderr()) {
+                        eprintln!();
+                    }
+                    walks.push((strategy.name().to_string(), frames));
+                }
+                anyhow::Ok(walks)
+            })?;
+            let summaries = match &out {
+                Some(dir) => {
+                    let written = walkthrough::summary::write(dir, &name, &name, &walks)?;
+                    eprintln!("wrote {}/{name}.{{csv,json}} and plots", dir.display());
+                    written
+                }
+                None => walks
+                    .iter()
+                    .map(|(s, f)| walkthrough::summary::Summary::of(s, f))
+                    .collect(),
+            };
+            if json {
+                println!("{}", serde_json::to_string_pretty(&summaries)?);
+            } else {
+                print!("{}", walkthrough::summary::markdown(&name, &summaries));
+            }
             Ok(())
         }
         Command::Compare {

@@ -2,8 +2,9 @@
 //! ingest through the client, render novel views by blending, and measure
 //! them against the simulator's ground truth.
 
-use std::sync::Arc;
+mod common;
 
+use common::{ingest, start};
 use dmesh::camera::Camera;
 use dmesh::sim::rig::camera;
 use dmesh::sim::SceneSpec;
@@ -13,53 +14,6 @@ use dmesh_client::http::Server;
 use dmesh_client::loadtest::Detail;
 use dmesh_client::novel::render_novel;
 use glam::DVec3;
-
-struct Running {
-    base: String,
-    task: tokio::task::JoinHandle<std::io::Result<()>>,
-    _dir: tempfile::TempDir,
-}
-
-impl Drop for Running {
-    fn drop(&mut self) {
-        self.task.abort();
-    }
-}
-
-async fn start() -> Running {
-    let dir = tempfile::tempdir().unwrap();
-    let store = dmesh::store::FileStore::open(dir.path()).unwrap();
-    let state = Arc::new(dmesh::http::AppState::new(
-        Arc::new(store),
-        dmesh::http::Settings::default(),
-    ));
-    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
-    let base = format!("http://{}", listener.local_addr().unwrap());
-    // Slots for every client these tests run at once: they check what is
-    // served, not shedding (tests/server.rs and the browser tests do).
-    let pipeline = dmesh::http::Pipeline {
-        max_concurrency: 16,
-        ..dmesh::http::Pipeline::default()
-    };
-    let task = tokio::spawn(dmesh::http::serve_on(listener, state, pipeline));
-    Running { base, task, _dir: dir }
-}
-
-async fn ingest(server: &Server, scene: &SceneSpec) {
-    for (k, v) in scene.reference_views().unwrap().iter().enumerate() {
-        let cam = serde_json::to_string(&dmesh_proto::Camera::from(&v.camera)).unwrap();
-        let depth = dmesh::image::encode_pfm(v.depth.width, v.depth.height, &v.depth.z);
-        let img = image::RgbImage::from_raw(v.color.width, v.color.height, v.color.rgb.clone()).unwrap();
-        let mut color = Vec::new();
-        image::DynamicImage::ImageRgb8(img)
-            .write_to(&mut std::io::Cursor::new(&mut color), image::ImageFormat::Png)
-            .unwrap();
-        server
-            .put_view("box", &format!("v{k:02}"), &cam, &depth, &color)
-            .await
-            .unwrap();
-    }
-}
 
 async fn render(server: &Server, novel: &Camera, tau: f64, max_views: u32) -> Blended {
     let request = Detail {
@@ -84,7 +38,7 @@ async fn a_view_at_its_own_camera_reproduces_its_colour() {
     let running = start().await;
     let server = Server::new(&running.base, None);
     let scene = SceneSpec::demo();
-    ingest(&server, &scene).await;
+    ingest(&server, "box", &scene).await;
     let refs = scene.reference_views().unwrap();
     for k in [0usize, 3, 9] {
         let cam = refs[k].camera;
@@ -111,7 +65,7 @@ async fn blended_novel_views_match_ground_truth() {
     let running = start().await;
     let server = Server::new(&running.base, None);
     let scene = SceneSpec::demo();
-    ingest(&server, &scene).await;
+    ingest(&server, "box", &scene).await;
     let step = std::f64::consts::TAU / 8.0;
     for (angle, height) in [(0.5 * step, 1.2), (2.3 * step, 1.9), (5.5 * step, 2.6)] {
         let cam = novel(&scene, angle, height);
@@ -159,7 +113,7 @@ async fn no_rubber_sheet_between_the_pole_and_the_wall() {
     let running = start().await;
     let server = Server::new(&running.base, None);
     let scene = SceneSpec::demo();
-    ingest(&server, &scene).await;
+    ingest(&server, "box", &scene).await;
     // From the -z side the pole (z = 1) stands in front of the wall (z = 1.5).
     let cam = novel(&scene, std::f64::consts::PI + 0.2, 1.0);
     let truth = scene.ground_truth(&cam).unwrap();
@@ -203,7 +157,7 @@ async fn the_load_test_stops_by_itself_and_counts_everything() {
     let running = start().await;
     let server = Server::new(&running.base, None);
     let scene = SceneSpec::demo();
-    ingest(&server, &scene).await;
+    ingest(&server, "box", &scene).await;
     let cameras = dmesh_client::loadtest::orbit(&server.cameras("box").await.unwrap(), 6).unwrap();
     let stop = dmesh_client::loadtest::Stop::Requests(24);
     let report = dmesh_client::loadtest::run(&server, "box", &cameras, Detail::default(), 4, stop)
@@ -267,7 +221,7 @@ async fn seams_between_references_are_filled_and_disocclusions_kept() {
     let running = start().await;
     let server = Server::new(&running.base, None);
     let scene = SceneSpec::demo();
-    ingest(&server, &scene).await;
+    ingest(&server, "box", &scene).await;
     let step = std::f64::consts::TAU / 8.0;
     let (mut before, mut filled_total, mut holes_kept, mut wrong) = (0, 0, 0, 0);
     // Halfway between neighbouring references, at 320 x 240.

@@ -56,6 +56,11 @@ const FILES: &[(&str, &str, &[u8])] = &[
         include_bytes!("../../clients/web/src/renderer.js"),
     ),
     (
+        "walkthrough.js",
+        "text/javascript; charset=utf-8",
+        include_bytes!("../../clients/web/src/walkthrough.js"),
+    ),
+    (
         "worker.js",
         "text/javascript; charset=utf-8",
         include_bytes!("../../clients/web/src/worker.js"),

@@ -325,6 +325,7 @@ pub fn write(rows: &[Row], out: &std::path::Path) -> anyhow::Result<()> {
         title: "PSNR against extraction time (tau sweep)",
         x_label: "extraction ms over the selected views (log)",
         y_label: "PSNR dB (valid mask)",
+        linear_x: false,
         series: scenes
             .iter()
             .map(|s| (s.to_string(), curve(s, Sweep::Tau, |r| r.extract_ms)))
@@ -335,6 +336,7 @@ pub fn write(rows: &[Row], out: &std::path::Path) -> anyhow::Result<()> {
         title: "PSNR against response bytes (tau and bits sweeps)",
         x_label: "bincode bytes over the selected views (log)",
         y_label: "PSNR dB (valid mask)",
+        linear_x: false,
         series: scenes
             .iter()
             .flat_map(|s| {

@@ -20,7 +20,7 @@ const COLOURS: [RGBColor; 6] = [
     RGBColor(23, 190, 207),
 ];
 
-/// A chart: labelled series of `(x, y)` points, x on a log axis.
+/// A chart: labelled series of `(x, y)` points, x on a log axis unless `linear_x`.
 pub struct Chart<'a> {
     /// Title.
     pub title: &'a str,
@@ -28,8 +28,11 @@ pub struct Chart<'a> {
     pub x_label: &'a str,
     /// Y axis label.
     pub y_label: &'a str,
-    /// `(name, points)`; points with a non-finite or non-positive x are left out.
+    /// `(name, points)`; points with a non-finite x or y (or, on a log axis,
+    /// a non-positive x) are left out.
     pub series: Vec<(String, Vec<(f64, f64)>)>,
+    /// A linear x axis and lines without point markers (for per-frame series).
+    pub linear_x: bool,
 }
 
 fn register_font() -> anyhow::Result<()> {
@@ -50,7 +53,7 @@ impl Chart<'_> {
                 let kept = pts
                     .iter()
                     .copied()
-                    .filter(|(x, y)| x.is_finite() && *x > 0.0 && y.is_finite())
+                    .filter(|(x, y)| x.is_finite() && (self.linear_x || *x > 0.0) && y.is_finite())
                     .collect();
                 (name.as_str(), kept)
             })
@@ -73,31 +76,61 @@ impl Chart<'_> {
         let pad = ((y1 - y0) * 0.08).max(0.5);
         let e = |err| anyhow!("drawing {:?}: {err:?}", self.title);
         root.fill(&WHITE).map_err(e)?;
-        let mut chart = ChartBuilder::on(&root)
+        let mut builder = ChartBuilder::on(&root);
+        builder
             .caption(self.title, ("sans-serif", 20))
             .margin(12)
             .x_label_area_size(44)
-            .y_label_area_size(56)
-            .build_cartesian_2d((x0 / 1.3..x1 * 1.3).log_scale(), (y0 - pad)..(y1 + pad))
-            .map_err(e)?;
+            .y_label_area_size(56);
+        if self.linear_x {
+            let mut chart = builder
+                .build_cartesian_2d(x0..x1.max(x0 + 1.0), (y0 - pad)..(y1 + pad))
+                .map_err(e)?;
+            self.mesh_and_series(&mut chart, &series, false).map_err(e)?;
+            Self::legend(&mut chart).map_err(e)?;
+        } else {
+            let mut chart = builder
+                .build_cartesian_2d((x0 / 1.3..x1 * 1.3).log_scale(), (y0 - pad)..(y1 + pad))
+                .map_err(e)?;
+            self.mesh_and_series(&mut chart, &series, true).map_err(e)?;
+            Self::legend(&mut chart).map_err(e)?;
+        }
+        root.present().map_err(e)?;
+        Ok(())
+    }
+
+    fn mesh_and_series<'b, DB: DrawingBackend + 'b, X>(
+        &self,
+        chart: &mut ChartContext<'b, DB, Cartesian2d<X, plotters::coord::types::RangedCoordf64>>,
+        series: &[(&str, Vec<(f64, f64)>)],
+        markers: bool,
+    ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>>
+    where
+        X: Ranged<ValueType = f64> + plotters::coord::ranged1d::ValueFormatter<f64>,
+    {
         chart
             .configure_mesh()
             .x_desc(self.x_label)
             .y_desc(self.y_label)
             .label_style(("sans-serif", 13))
-            .draw()
-            .map_err(e)?;
+            .draw()?;
         for (k, (name, pts)) in series.iter().enumerate() {
             let colour = COLOURS[k % COLOURS.len()];
+            let width = if markers { 2 } else { 1 };
             chart
-                .draw_series(LineSeries::new(pts.iter().copied(), colour.stroke_width(2)))
-                .map_err(e)?
+                .draw_series(LineSeries::new(pts.iter().copied(), colour.stroke_width(width)))?
                 .label(*name)
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], colour.stroke_width(2)));
-            chart
-                .draw_series(pts.iter().map(|&p| Circle::new(p, 3, colour.filled())))
-                .map_err(e)?;
+            if markers {
+                chart.draw_series(pts.iter().map(|&p| Circle::new(p, 3, colour.filled())))?;
+            }
         }
+        Ok(())
+    }
+
+    fn legend<'b, DB: DrawingBackend + 'b, X: Ranged<ValueType = f64>>(
+        chart: &mut ChartContext<'b, DB, Cartesian2d<X, plotters::coord::types::RangedCoordf64>>,
+    ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
         chart
             .configure_series_labels()
             .position(SeriesLabelPosition::LowerRight)
@@ -105,9 +138,6 @@ impl Chart<'_> {
             .background_style(WHITE.mix(0.85))
             .border_style(BLACK)
             .draw()
-            .map_err(e)?;
-        root.present().map_err(e)?;
-        Ok(())
     }
 
     /// Writes `base.svg` and `base.png`.

@@ -3,15 +3,21 @@
 // blends them on the GPU (renderer.js). The page state lives in the URL:
 //   ?scene=ID&camera=<camera JSON>&tau=1 (or epsilon, max_triangles, budget_ms)
 //   &bits=B&cos_k=K&relight=1|x,y,z&mode=blend|coverage|wireframe&fill=0..2&w=W&h=H
-// At most one render request is in flight: while it runs, camera moves only
-// mark the state stale, and the latest camera goes out when it returns.
+//   &policy=render|balanced
+// At most one round of requests is in flight: while it runs, camera moves
+// only mark the state stale, and the latest camera goes out when it returns.
 // Between answers every frame redraws the held meshes from the current
-// camera, so motion stays smooth however long the server takes.
+// camera, so motion stays smooth however long the server takes. With
+// `policy=render` a round is one /render request for the camera; with
+// `policy=balanced` (walkthrough.js, Qu et al.'s workload balancing) it is
+// the strips of the frame's holes plus the oldest held meshes that fit one
+// view's worth of triangles, and the held meshes' ages show in the overlay.
 
 import { BINCODE } from './protocol.js';
 import { checkCamera, firstCamera, lookedAt, resized } from './camera.js';
 import { Navigator, distanceTo } from './controls.js';
 import { Renderer, RenderError } from './renderer.js';
+import { plan, selectViews, widened } from './walkthrough.js';
 
 /** @typedef {import('./protocol.js').CameraJson} CameraJson */
 /** @typedef {import('./protocol.js').RenderResponse} RenderResponse */
@@ -92,7 +98,9 @@ function readUrl() {
       problems.push(`camera: ${e instanceof SyntaxError ? 'not JSON' : /** @type {Error} */ (e).message}`);
     }
   }
-  return { scene: q.get('scene'), camera, lodKind, lodValue, bits, cosK, light, mode, w, h, fill: fill ?? 2, problems };
+  let policy = q.get('policy') || 'render';
+  if (!['render', 'balanced'].includes(policy)) { problems.push(`policy=${policy}: use render or balanced`); policy = 'render'; }
+  return { scene: q.get('scene'), camera, lodKind, lodValue, bits, cosK, light, mode, w, h, fill: fill ?? 2, policy, problems };
 }
 
 const url = readUrl();
@@ -110,6 +118,8 @@ const state = {
   fill: url.fill,
   /** Intrinsics (width, height, projection) the camera is scaled from. */
   intrinsics: /** @type {CameraJson | null} */ (url.camera),
+  /** How rounds of requests are made. */
+  policy: /** @type {'render' | 'balanced'} */ (url.policy),
 };
 
 /** The figures the overlay shows; also `window.dmeshStats`. */
@@ -128,6 +138,10 @@ const stats = {
   draw_ms: 0,
   frame_ms: 0,
   retries: 0,
+  /** The balanced policy's last round: frame, holes by kind, refreshed, budget (triangles). */
+  walk: { frame: 0, holes: 0, missing: 0, stale: 0, uncovered: 0, refreshed: 0, budget: 0, planned: 0 },
+  /** @type {{view: string, age: number}[]} ages of the held meshes drawn */
+  ages: [],
   context_restores: 0,
   accum_format: '',
   width: 0,
@@ -199,6 +213,7 @@ function writeUrl() {
     if (state.fill !== 2) q.set('fill', String(state.fill));
     if (state.w !== null) q.set('w', String(state.w));
     if (state.h !== null) q.set('h', String(state.h));
+    if (state.policy !== 'render') q.set('policy', state.policy);
     history.replaceState(null, '', `${location.pathname}?${q}`);
   }, 150);
 }
@@ -225,6 +240,16 @@ function decode(body, json, lines) {
   return new Promise((resolve, reject) => {
     pending.set(id, { resolve, reject });
     worker.postMessage({ id, body, json, lines }, [body]);
+  });
+}
+
+/** One strip response, decoded in the worker. @param {ArrayBuffer} body @param {boolean} lines
+ * @returns {Promise<{strips: any, lines: Uint32Array | null}>} */
+function decodeStrips(body, lines) {
+  const id = nextId++;
+  return new Promise((resolve, reject) => {
+    pending.set(id, { resolve, reject });
+    worker.postMessage({ id, body, json: false, lines, kind: 'strips' }, [body]);
   });
 }
 
@@ -322,7 +347,7 @@ async function pump() {
   if (inFlight || sent === wanted || !sceneLoaded || !state.scene || !state.intrinsics || !renderer) return;
   inFlight = true;
   try {
-    await update();
+    await (state.policy === 'balanced' ? updateBalanced() : update());
   } catch (e) {
     if (e instanceof HttpError && e.status === 404) {
       say(`Scene "${state.scene}" is not on this server: ${e.message}. Pick one of the scenes above.`);
@@ -414,14 +439,146 @@ async function update() {
   }
 }
 
+// ---- the balanced walkthrough (walkthrough.js) --------------------------
+
+/** The scene's reference views: id, camera, colour URL (from loadScene). */
+let refs = /** @type {{view: string, camera: CameraJson, color_url: string}[]} */ ([]);
+/** Held meshes by view id, with their age in rounds since fetched. */
+const held = /** @type {Map<string, {strips: any, lines: Uint32Array | null, age: number, tau: number, color_url: string}>} */ (new Map());
+const GUARD = 0.15;
+const STALE_FACTOR = 1.5;
+/** Requests a round sends at once: the server reads as many as its cores at a time. */
+const ROUND_CONCURRENCY = 2;
+
+/** One view's strips for `cam` (bincode), decoded in the worker. @param {number} v @param {CameraJson} cam */
+async function fetchStrips(v, cam) {
+  const ref = refs[v];
+  const path = `/v1/scenes/${encodeURIComponent(/** @type {string} */ (state.scene))}/views/${encodeURIComponent(ref.view)}/strips`;
+  const body = requestBody(cam);
+  for (;;) {
+    const r = await fetch(path, {
+      method: 'POST',
+      headers: { 'content-type': 'application/json', accept: BINCODE },
+      body: JSON.stringify(body),
+    });
+    if (r.status === 503) {
+      stats.retries++;
+      await sleep(retryAfter(r) * 1000);
+      continue;
+    }
+    if (!r.ok) throw new HttpError(r.status, await serverMessage(r));
+    const buffer = await r.arrayBuffer();
+    const bytes = buffer.byteLength;
+    const { strips, lines } = await decodeStrips(buffer, state.mode === 'wireframe');
+    return { v, strips, lines, bytes, extract: serverTiming(r.headers.get('server-timing')).extract ?? strips.extract_ms };
+  }
+}
+
+/** The selected held meshes for `cam`, weights renormalised over those held. @param {CameraJson} cam */
+function heldSelection(cam) {
+  const sel = selectViews(cam, refs.map((r) => r.camera));
+  const have = sel.filter((s) => held.has(refs[s.index].view));
+  const total = have.reduce((t, s) => t + s.weight, 0) || 1;
+  return { sel, have: have.map((s) => ({ index: s.index, weight: s.weight / total })) };
+}
+
+/** Points the renderer at the held meshes `cam` selects: new buffers only when the set changed. @param {CameraJson} cam */
+function syncHeld(cam) {
+  if (!renderer || renderer.lost) return;
+  const { have } = heldSelection(cam);
+  const chosen = have.map((s) => /** @type {NonNullable<ReturnType<typeof held.get>>} */ (held.get(refs[s.index].view)));
+  const same = renderer.views.length === chosen.length && renderer.views.every((v, k) => v.strips === chosen[k].strips);
+  if (!same) {
+    renderer.setViews(chosen.map((h, k) => ({ weight: have[k].weight, strips: h.strips, color_url: h.color_url, lines: h.lines })));
+  } else {
+    renderer.views.forEach((v, k) => { v.weight = have[k].weight; });
+  }
+  stats.ages = have.map((s) => ({ view: refs[s.index].view, age: /** @type {any} */ (held.get(refs[s.index].view)).age }));
+}
+
+async function updateBalanced() {
+  for (;;) {
+    const generation = wanted;
+    sent = generation;
+    const cam = camera();
+    const t0 = performance.now();
+    for (const h of held.values()) h.age++;
+    const { sel } = heldSelection(cam);
+    if (sel.length === 0) throw new Error('No reference view looks this way: turn towards the scene.');
+    const heldList = refs.map((r) => {
+      const h = held.get(r.view);
+      return h ? { age: h.age, tau: h.tau, reach: h.strips.reach, triangles: h.strips.triangles } : null;
+    });
+    const tau = state.lodKind === 'tau' ? state.lodValue : 1;
+    const p = plan({ camera: cam, selected: sel.map((s) => s.index), held: heldList, tau, staleFactor: STALE_FACTOR, budget: null });
+    const asked = widened(cam, GUARD);
+    const todo = [...p.holes.map((h) => h[0]), ...p.refresh];
+    const got = [];
+    for (let k = 0; k < todo.length; k += ROUND_CONCURRENCY) {
+      got.push(...(await Promise.all(todo.slice(k, k + ROUND_CONCURRENCY).map((v) => fetchStrips(v, asked)))));
+    }
+    for (const g of got) {
+      await texture(refs[g.v].color_url);
+      const lod = g.strips.lod;
+      held.set(refs[g.v].view, { strips: g.strips, lines: g.lines, age: 0, tau: lod.tau ?? tau, color_url: refs[g.v].color_url });
+    }
+    if (!renderer || renderer.lost) return;
+    const t1 = performance.now();
+    syncHeld(camera());
+    const drawn = draw(true);
+    const t2 = performance.now();
+    say(null);
+    stats.error = null;
+    const count = (/** @type {string} */ why) => p.holes.filter((h) => h[1] === why).length;
+    Object.assign(stats, {
+      scene: state.scene,
+      updates: stats.updates + 1,
+      walk: {
+        frame: stats.walk.frame + 1, holes: p.holes.length, missing: count('missing'), stale: count('stale'),
+        uncovered: count('uncovered'), refreshed: p.refresh.length, budget: p.budget, planned: p.plannedHoles + p.plannedRefresh,
+      },
+      views: renderer.views.map((v) => ({
+        view: v.strips.view,
+        weight: v.weight,
+        triangles: v.strips.triangles,
+        vertices: v.strips.vertexCount,
+        lod: v.strips.lod,
+        max_depth_error: v.strips.maxDepthError,
+        age: /** @type {any} */ (held.get(v.strips.view)).age,
+      })),
+      triangles: renderer.views.reduce((s, v) => s + v.strips.triangles, 0),
+      vertices: renderer.views.reduce((s, v) => s + v.strips.vertexCount, 0),
+      bytes: got.reduce((s, g) => s + g.bytes, 0),
+      transfer_bytes: got.reduce((s, g) => s + g.bytes, 0),
+      extract_ms: got.reduce((s, g) => s + g.extract, 0),
+      server_ms: got.reduce((s, g) => s + g.extract, 0),
+      draw_ms: drawn ? t2 - t1 : 0,
+      frame_ms: t2 - t0,
+      width: cam.width,
+      height: cam.height,
+      camera: cam,
+    });
+    overlay();
+    if (wanted === generation) {
+      if (!firstDrawn && drawn) {
+        firstDrawn = true;
+        Object.assign(window, { dmeshReady: true });
+      }
+      return;
+    }
+  }
+}
+
 // ---- drawing -----------------------------------------------------------
 
 /** @type {CameraJson | null} */
 let lastDrawn = null;
 /** Draws the held meshes from the current camera; `sync` waits for the GPU. */
 function draw(sync = false) {
-  if (!renderer || renderer.lost || renderer.views.length === 0) return false;
+  if (!renderer || renderer.lost) return false;
   const cam = camera();
+  if (state.policy === 'balanced' && held.size) syncHeld(cam);
+  if (renderer.views.length === 0) return false;
   renderer.draw({
     camera: cam,
     mode: state.mode,
@@ -488,6 +645,7 @@ const bitsRange = /** @type {HTMLInputElement} */ ($('bits'));
 const bitsLabel = $('bits-label');
 const modeSelect = /** @type {HTMLSelectElement} */ ($('mode'));
 const navSelect = /** @type {HTMLSelectElement} */ ($('nav'));
+const policySelect = /** @type {HTMLSelectElement} */ ($('policy'));
 const cosInput = /** @type {HTMLInputElement} */ ($('cos-k'));
 const relightBox = /** @type {HTMLInputElement} */ ($('relight'));
 const lightAz = /** @type {HTMLInputElement} */ ($('light-az'));
@@ -513,6 +671,7 @@ function syncPanel() {
   bitsRange.value = String(state.bits ?? -1);
   bitsLabel.textContent = state.bits === null ? 'exact' : `${state.bits} bits`;
   modeSelect.value = state.mode;
+  policySelect.value = state.policy;
   cosInput.value = state.cosK === null ? '' : String(state.cosK);
   relightBox.checked = !!state.light;
   const l = state.light || DEFAULT_LIGHT;
@@ -553,6 +712,11 @@ modeSelect.addEventListener('change', () => {
   state.mode = /** @type {'blend' | 'coverage' | 'wireframe'} */ (modeSelect.value);
   changed();
 });
+policySelect.addEventListener('change', () => {
+  state.policy = /** @type {'render' | 'balanced'} */ (policySelect.value);
+  held.clear();
+  changed();
+});
 navSelect.addEventListener('change', () => { nav.mode = /** @type {'orbit' | 'fly'} */ (navSelect.value); });
 cosInput.addEventListener('change', () => {
   const v = cosInput.value.trim() === '' ? null : Number(cosInput.value);
@@ -588,9 +752,16 @@ const fmt = (/** @type {number} */ v, d = 1) => (Number.isFinite(v) ? v.toFixed(
 const kb = (/** @type {number} */ b) => `${(b / 1024).toFixed(1)} kB`;
 function overlay() {
   const lod = (/** @type {any} */ l) => (l.tau !== undefined ? `tau ${fmt(l.tau, 2)} px` : `eps ${fmt(l.epsilon * 1000, 2)} mm`);
-  const rows = stats.views.map((v) => `<tr><td>${escape(v.view)}</td><td>${fmt(v.weight, 3)}</td><td>${v.triangles.toLocaleString()}</td><td>${lod(v.lod)}</td></tr>`);
+  const balanced = state.policy === 'balanced';
+  const ages = new Map(stats.ages.map((a) => [a.view, a.age]));
+  const age = (/** @type {string} */ v) => (balanced ? `<td>${ages.get(v) ?? '–'}</td>` : '');
+  const rows = stats.views.map((v) => `<tr><td>${escape(v.view)}</td><td>${fmt(v.weight, 3)}</td><td>${v.triangles.toLocaleString()}</td><td>${lod(v.lod)}</td>${age(v.view)}</tr>`);
+  const w = stats.walk;
+  const walkRow = balanced
+    ? `<tr><td>round ${w.frame}</td><td>${w.holes} holes (${w.missing} new, ${w.stale} stale, ${w.uncovered} uncovered), ${w.refreshed} refreshed within ${Math.round(w.budget).toLocaleString()} triangles</td></tr>`
+    : '';
   $('stats').innerHTML = `
-    <table class="views"><tr><th>view</th><th>weight</th><th>triangles</th><th>tolerance</th></tr>${rows.join('')}</table>
+    <table class="views"><tr><th>view</th><th>weight</th><th>triangles</th><th>tolerance</th>${balanced ? '<th>age</th>' : ''}</tr>${rows.join('')}</table>
     <table class="figures">
       <tr><td>triangles</td><td>${stats.triangles.toLocaleString()}</td></tr>
       <tr><td>bytes</td><td>${kb(stats.bytes)} (${kb(stats.transfer_bytes)} sent)</td></tr>
@@ -599,6 +770,7 @@ function overlay() {
       <tr><td>draw</td><td>${fmt(stats.draw_ms, 2)} ms</td></tr>
       <tr><td>frame</td><td>${fmt(stats.frame_ms, 1)} ms</td></tr>
       <tr><td>canvas</td><td>${stats.width} × ${stats.height} (dpr ${stats.dpr}, ${stats.accum_format})</td></tr>
+      ${walkRow}
     </table>`;
 }
 /** @param {string} s */
@@ -633,12 +805,15 @@ async function loadScene() {
   for (const v of list.views) {
     summaries.push(await getJson(`/v1/scenes/${encodeURIComponent(scene)}/views/${encodeURIComponent(v)}`));
   }
-  const refs = summaries.map((s) => /** @type {CameraJson} */ (s.camera));
-  target = lookedAt(refs);
+  refs = summaries.map((s) => ({ view: s.view, camera: /** @type {CameraJson} */ (s.camera), color_url: s.color_url }));
+  held.clear();
+  renderer?.setViews([]);
+  const cams = refs.map((r) => r.camera);
+  target = lookedAt(cams);
   fresh.clear();
   if (!state.intrinsics) {
     const { w, h } = size();
-    const first = firstCamera(refs, w, h);
+    const first = firstCamera(cams, w, h);
     state.intrinsics = first.camera;
     nav.set(first.camera, distanceTo(first.camera, first.target));
   } else {

@@ -1,7 +1,7 @@
 // Decodes render responses off the main thread (bincode, or the JSON
 // fallback) and hands back the typed arrays, transferred, not copied.
 
-import { decodeRender, renderFromJson, stripTriangles } from './protocol.js';
+import { decodeRender, readStrips, Reader, renderFromJson, stripTriangles } from './protocol.js';
 
 /** Edges of the strips' triangles, each once, for the wireframe view.
  * @param {Uint16Array | Uint32Array} indices */
@@ -18,9 +18,20 @@ function edges(indices) {
 }
 
 self.onmessage = (/** @type {MessageEvent} */ e) => {
-  const { id, body, json, lines } = e.data;
+  const { id, body, json, lines, kind } = e.data;
   const start = performance.now();
   try {
+    if (kind === 'strips') {
+      const r = new Reader(body);
+      const s = readStrips(r);
+      r.end();
+      const wire = lines ? edges(s.indices) : null;
+      /** @type {Transferable[]} */
+      const transfer = [s.ij.buffer, s.normal.buffer, s.rho.buffer, s.depth.buffer, s.indices.buffer];
+      if (wire) transfer.push(wire.buffer);
+      self.postMessage({ id, strips: s, lines: wire, decodeMs: performance.now() - start }, { transfer });
+      return;
+    }
     const r = json ? renderFromJson(JSON.parse(new TextDecoder().decode(body))) : decodeRender(body);
     const decodeMs = performance.now() - start;
     const wire = r.views.map((v) => (lines ? edges(v.strips.indices) : null));

@@ -78,6 +78,41 @@ test('the demo novel view at tau = 1 matches dmesh-client render', async () => {
   await page.close();
 });
 
+test('the balanced policy draws held meshes with their ages, refreshes within its budget, and matches render per move', async () => {
+  const camera = demoNovel();
+  const { page, errors } = await openViewer(browser, viewerUrl(server.url, { scene: 'demo', camera, tau: 1, w: 256, h: 192, policy: 'balanced' }));
+  await waitReady(page);
+  const first = await page.evaluate(() => /** @type {any} */ (window).dmeshStats);
+  assert.ok(first.walk.frame >= 1 && first.walk.missing >= 2, `the first round fetches every selected view: ${JSON.stringify(first.walk)}`);
+  assert.ok(first.ages.length >= 2 && first.ages.every((/** @type {any} */ a) => a.age === 0));
+  // Move: each round ages the held meshes by one; the held ones are kept.
+  await page.focus('#view');
+  for (let k = 0; k < 6; k++) {
+    const frame = await page.evaluate(() => /** @type {any} */ (window).dmeshStats.walk.frame);
+    await page.keyboard.down('d');
+    await page.waitForTimeout(60);
+    await page.keyboard.up('d');
+    await page.waitForFunction((n) => /** @type {any} */ (window).dmeshStats.walk.frame > n && /** @type {any} */ (window).dmeshIdle(), frame, { timeout: 60_000 });
+    const s = await page.evaluate(() => /** @type {any} */ (window).dmeshStats);
+    if (s.walk.refreshed > 0 && s.walk.holes === 0) assert.ok(s.walk.planned <= s.walk.budget, `planned ${s.walk.planned} > budget ${s.walk.budget}`);
+  }
+  const moved = await page.evaluate(() => /** @type {any} */ (window).dmeshStats);
+  assert.ok(moved.ages.some((/** @type {any} */ a) => a.age > 0), `some held mesh was drawn again: ${JSON.stringify(moved.ages)}`);
+  assert.match(await page.locator('#stats').innerText(), /age[\s\S]*round \d+/);
+  const balanced = await capture(page);
+  writePng(path.join(OUT, 'demo-balanced-webgl.png'), balanced);
+  // The same camera with one /render per move.
+  const { page: other } = await openViewer(browser, viewerUrl(server.url, { scene: 'demo', camera: moved.camera, tau: 1, w: 256, h: 192 }));
+  await waitReady(other);
+  const fresh = await capture(other);
+  const { psnr: db } = psnr(balanced, fresh);
+  console.log(`balanced after 6 rounds against render per move: PSNR ${db.toFixed(2)} dB; ages ${moved.ages.map((/** @type {any} */ a) => a.age).join(',')}`);
+  assert.ok(db >= 30, `PSNR ${db} dB < 30`);
+  assert.deepEqual(errors, []);
+  await other.close();
+  await page.close();
+});
+
 test('strips with restarts draw exactly the triangles decode_strips yields', async () => {
   const summary = await uploadGrid(server.url, 'grid');
   assert.ok(summary.segmented_triangles > 0, 'the step and the hole are segmented');

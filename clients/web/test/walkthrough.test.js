@@ -1,0 +1,56 @@
+// The browser's walkthrough policy (src/walkthrough.js) against the same
+// cases as the Rust policy's tests, and its selection against the server's.
+import test from 'node:test';
+import assert from 'node:assert/strict';
+import { covers, errorFactor, plan, selectViews, widened } from '../src/walkthrough.js';
+import { lookAlong } from '../src/camera.js';
+
+/** @param {number[]} eye @param {number[]} [forward] */
+function cam(eye, forward = [0, 0, 1]) {
+  return {
+    width: 64, height: 48,
+    projection: { perspective: { fx: 50, fy: 50, cx: 31.5, cy: 23.5 } },
+    pose: { rotation: lookAlong(/** @type {any} */ (forward)), translation: eye },
+  };
+}
+
+test('the error factor grows with the eye move and ends at the clearance', () => {
+  const reach = { view: cam([0, 0, 0]), clearance: 2, culled: [] };
+  assert.equal(errorFactor(reach, cam([0, 0, 0])), 1);
+  assert.equal(errorFactor(reach, cam([1, 0, 0])), 2);
+  assert.equal(errorFactor(reach, cam([0, 2, 0])), null);
+  assert.equal(errorFactor({ ...reach, clearance: null }, cam([9, 9, 9])), 0);
+});
+
+test('a culled sphere in view is not covered, one behind is', () => {
+  const reach = { view: cam([0, 0, 0]), clearance: null, culled: [[0, 0, -5, 1]] };
+  assert.ok(covers(reach, cam([0, 0, 0])));
+  reach.culled.push([0, 0, 5, 1]);
+  assert.ok(!covers(reach, cam([0, 0, 0])));
+  assert.ok(covers(reach, cam([0, 0, 0], [1, 0, 0])), "looking sideways, neither is in view");
+  // A guard band: the widened camera sees a sphere just outside the frame.
+  const edge = { view: cam([0, 0, 0]), clearance: null, culled: [[4.2, 0, 5, 0.1]] };
+  assert.ok(covers(edge, cam([0, 0, 0])));
+  assert.ok(!covers(edge, widened(cam([0, 0, 0]), 0.25)));
+});
+
+test('holes come first and apart; the refresh takes the oldest while they fit', () => {
+  const held = (/** @type {number} */ age, /** @type {number} */ t) => ({ age, tau: 1, triangles: t, reach: { view: cam([0, 0, 0]), clearance: 10, culled: [] } });
+  const p = plan({ camera: cam([0, 0, 0]), selected: [0, 1, 2, 3], held: [held(3, 100), held(7, 100), held(5, 100), null], tau: 1, staleFactor: 1.5, budget: 250 });
+  assert.deepEqual(p.holes, [[3, 'missing']]);
+  assert.deepEqual(p.refresh, [1]);
+  assert.ok(p.plannedHoles + p.plannedRefresh <= p.budget);
+  // Moved past the stale factor: every held mesh is a hole.
+  const q = plan({ camera: cam([6, 0, 0]), selected: [0, 1], held: [held(1, 10), held(1, 10)], tau: 1, staleFactor: 1.5, budget: null });
+  assert.deepEqual(q.holes, [[0, 'stale'], [1, 'stale']]);
+  assert.deepEqual(q.refresh, []);
+});
+
+test('selection keeps views within 135 degrees, heaviest first, weights summing to 1', () => {
+  const refs = [cam([0, 0, 0]), cam([1, 0, 0], [0.5, 0, 0.866]), cam([1, 0, 0], [0.985, 0, -0.174]), cam([0, 0, 0], [0, 0, -1])];
+  const sel = selectViews(cam([0.2, 0, 0], [0.174, 0, 0.985]), refs, 5);
+  assert.equal(sel[0].index, 0);
+  assert.ok(sel.every((s) => s.index !== 3));
+  assert.equal(sel.length, 3);
+  assert.ok(Math.abs(sel.reduce((s, w) => s + w.weight, 0) - 1) < 1e-12);
+});
