@@ -22,7 +22,7 @@ for _ in $(seq 100); do
 done
 client=./target/release/dmesh-client
 url="http://127.0.0.1:$port"
-$client ingest --server "$url" --scene terrain --simulate examples/scenes/terrain.json >/dev/null
+$client ingest --server "$url" --scene terrain --simulate examples/scenes/terrain.json >/dev/null 2>&1
 echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs)"
 $client walkthrough --server "$url" --scene demo --path examples/paths/demo-orbit.json --truth demo --out "$out"
 echo

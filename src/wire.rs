@@ -47,12 +47,14 @@ pub fn engine_reach(r: &WireReach) -> crate::error::Result<Reach> {
         || r.culled.iter().flatten().any(|v| !v.is_finite())
         || r.culled.iter().any(|s| s[3] < 0.0)
     {
-        return Err(bad("culled spheres must be at most 256, finite, with radius >= 0"));
+        return Err(bad(&format!(
+            "culled spheres must be at most {MAX_CULLED}, finite, with radius >= 0"
+        )));
     }
     Ok(Reach {
         view: Camera::try_from(&r.view)?,
         clearance: r.clearance,
-        culled: r.culled.clone(),
+        culled: r.culled.iter().map(|s| s.map(f64::from)).collect(),
     })
 }
 
@@ -118,7 +120,19 @@ pub fn strip_response(
         reach: mesh.reach.as_ref().map(|r| WireReach {
             view: (&r.view).into(),
             clearance: r.clearance,
-            culled: r.culled.clone(),
+            culled: r
+                .culled
+                .iter()
+                .map(|&[x, y, z, radius]| {
+                    // Rounding moves a centre by at most half an ulp per axis;
+                    // the radius grows by their sum (and its own rounding, up).
+                    let c = [x as f32, y as f32, z as f32];
+                    let slack: f64 = [x, y, z].iter().zip(c).map(|(&v, f)| (v - f64::from(f)).abs()).sum();
+                    let r = (radius + slack) as f32;
+                    let r = if f64::from(r) < radius + slack { r.next_up() } else { r };
+                    [c[0], c[1], c[2], r]
+                })
+                .collect(),
         }),
     })
 }

@@ -84,6 +84,7 @@ proptest! {
         let hier = DepthMesh::build(&depth, &camera(w, h), &Segmentation::default()).unwrap();
         let cam = view(DVec3::new(eye.0, eye.1, eye.2), yaw, pitch);
         let mesh = hier.extract(Lod::Tau { tau, view: &cam }).unwrap();
+        prop_assert!(mesh.reach.as_ref().unwrap().covers(&cam), "a mesh covers its own camera");
         prop_assume!(mesh.dropped_triangles == 0);
         let cov = covered(&mesh, w, h);
         for y in 0..h {

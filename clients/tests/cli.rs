@@ -71,3 +71,32 @@ fn failures_are_one_line() {
         assert!(err.contains(needle), "{args:?}: {err}");
     }
 }
+
+#[test]
+fn walkthrough_refuses_bad_input_in_one_line_before_any_request() {
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("bad.json");
+    std::fs::write(
+        &bad,
+        r#"{"width": 64, "height": 48, "fov_deg": 60, "frames": 10, "keys": []}"#,
+    )
+    .unwrap();
+    let good = concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/paths/demo-orbit.json");
+    // A port nothing listens on: every case must fail before connecting.
+    let server = "http://127.0.0.1:9";
+    let cases: [(Vec<&str>, &str); 5] = [
+        (vec!["--path", "/nonexistent/path.json"], "cannot read"),
+        (vec!["--path", bad.to_str().unwrap()], "two keys"),
+        (vec!["--path", good, "--strategy", "fast"], "unknown strategy"),
+        (vec!["--path", good, "--tau=-1"], "--tau"),
+        (vec!["--path", good, "--budget-triangles=-5"], "budget"),
+    ];
+    for (args, want) in cases {
+        let mut all = vec!["walkthrough", "--server", server, "--scene", "demo"];
+        all.extend(args.iter());
+        let (code, _, err) = client(&all);
+        assert_ne!(code, 0, "{args:?} succeeded");
+        assert!(err.contains(want), "{args:?}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{args:?}: {err}");
+    }
+}

@@ -169,8 +169,8 @@ pub struct Reach {
     /// radius, `E` the eye); `None` when there was none.
     pub clearance: Option<f64>,
     /// World-frame spheres `[x, y, z, radius]` holding every triangle the
-    /// frustum culled (at most 256).
-    pub culled: Vec<[f64; 4]>,
+    /// frustum culled (at most 1024; f32, radii padded for the rounding).
+    pub culled: Vec<[f32; 4]>,
 }
 
 #[cfg(test)]
@@ -316,7 +316,7 @@ mod tests {
         // reach: Option tag 0 (static)
         assert_eq!(b[tail + 12], 0);
         assert_eq!(b.len(), tail + 13);
-        // with a reach: tag 1, the camera (100 bytes), Option<f64>, Vec<[f64; 4]>
+        // with a reach: tag 1, the camera (100 bytes), Option<f64>, Vec<[f32; 4]>
         let mut r = sample();
         r.reach = Some(Reach {
             view: r.camera.clone(),
@@ -330,8 +330,8 @@ mod tests {
         assert_eq!(b[at + 101], 1);
         assert_eq!(&b[at + 102..at + 110], &1.5f64.to_le_bytes());
         assert_eq!(&b[at + 110..at + 118], &1u64.to_le_bytes());
-        assert_eq!(&b[at + 118..at + 126], &1.0f64.to_le_bytes());
-        assert_eq!(b.len(), at + 150);
+        assert_eq!(&b[at + 118..at + 122], &1.0f32.to_le_bytes());
+        assert_eq!(b.len(), at + 134);
         crate::round_trip::both(&r);
     }
 }

@@ -189,7 +189,7 @@ impl<S: Select> Walk<'_, S> {
             match self.sel.cull(pm, reach, mask) {
                 Some(left) => left,
                 None => {
-                    self.culled.push((pm, reach));
+                    self.record_culled((l, pl), (r, pr), (a, pa), (m, pm), reach);
                     self.skip();
                     return;
                 }
@@ -212,6 +212,41 @@ impl<S: Select> Walk<'_, S> {
         }
     }
 }
+
+impl<S: Select> Walk<'_, S> {
+    /// Records the culled triangle `l r a` (split vertex `m`, its sphere's
+    /// radius `reach`) for the [`Reach`]: its sphere, or, while that sphere is
+    /// large against its distance from the eye (a camera beside it could not
+    /// be told apart from one looking at it), its children's.
+    fn record_culled(
+        &mut self,
+        (l, pl): (Pt, DVec3),
+        (r, pr): (Pt, DVec3),
+        (a, pa): (Pt, DVec3),
+        (m, pm): (Pt, DVec3),
+        reach: f64,
+    ) {
+        let span = l.0.abs_diff(r.0).max(l.1.abs_diff(r.1));
+        if span < CULL_MIN_SPAN || reach <= NEAR_CULLED * self.sel.left_out(pm, 0.0) {
+            self.culled.push((pm, reach));
+            return;
+        }
+        for (x, y) in [((l, pl), (a, pa)), ((a, pa), (r, pr))] {
+            let c = ((x.0 .0 + y.0 .0) / 2, (x.0 .1 + y.0 .1) / 2);
+            let pc = self.mesh.position(c);
+            let reach = f64::from(self.mesh.radius[self.mesh.grid.index(c)])
+                .max(norm_bound(x.1 - pc))
+                .max(norm_bound(y.1 - pc))
+                .max(norm_bound(pm - pc));
+            self.record_culled(x, y, (m, pm), (c, pc), reach);
+        }
+    }
+}
+
+/// A culled sphere is split while its radius exceeds this fraction of its
+/// distance from the eye (so it subtends at most about 15 degrees), and
+/// neighbours are merged while the merged one stays within it.
+pub(crate) const NEAR_CULLED: f64 = 0.25;
 
 /// Per-thread buffers of [`DepthMesh::extract_with`].
 struct Scratch {
@@ -252,8 +287,9 @@ impl DepthMesh {
                         "tau is {tau}; it must be a finite number of pixels >= 0"
                     )));
                 }
-                let (mut mesh, walked) = self.run(&ViewDependent::new(&self.camera, view, tau), strips);
-                mesh.reach = Some(self.reach(view, walked));
+                let sel = ViewDependent::new(&self.camera, view, tau);
+                let (mut mesh, walked) = self.run(&sel, strips);
+                mesh.reach = Some(self.reach(view, walked, &sel));
                 mesh
             }
         };
@@ -283,8 +319,25 @@ impl DepthMesh {
     }
 
     /// The [`Reach`] of a view-dependent mesh for `view` from its walk.
-    fn reach(&self, view: &Camera, walked: Walked) -> Reach {
-        let mut culled = walked.culled;
+    fn reach(&self, view: &Camera, walked: Walked, sel: &ViewDependent) -> Reach {
+        let eye = self.camera.to_camera(view.translation);
+        let mut culled: Vec<(DVec3, f64)> = Vec::with_capacity(walked.culled.len());
+        for s in walked.culled {
+            match culled.last_mut() {
+                Some(last) => {
+                    let merged = merge_spheres(*last, s);
+                    // Still small against its distance, and still outside the frustum.
+                    if merged.1 <= NEAR_CULLED * (merged.0 - eye).length()
+                        && sel.cull(merged.0, merged.1, ALL_PLANES).is_none()
+                    {
+                        *last = merged;
+                    } else {
+                        culled.push(s);
+                    }
+                }
+                None => culled.push(s),
+            }
+        }
         while culled.len() > MAX_CULLED {
             culled = culled
                 .chunks(2)

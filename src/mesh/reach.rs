@@ -22,7 +22,7 @@ use super::select::{Select, ViewDependent, ALL_PLANES};
 use crate::camera::{Camera, Projection};
 
 /// Most culled spheres a [`Reach`] lists.
-pub const MAX_CULLED: usize = 256;
+pub const MAX_CULLED: usize = 1024;
 
 /// How far a view-dependent mesh reaches; see the module doc.
 #[derive(Clone, Debug, PartialEq)]

@@ -195,22 +195,22 @@ pub fn csv(walks: &[(String, Vec<Frame>)]) -> String {
     s
 }
 
-/// Writes `NAME.csv`, `NAME.json` and the plots `NAME-frame-ms` and (with
-/// ground truth) `NAME-psnr` (SVG and PNG) into `dir`.
+/// Writes `NAME.csv` (per frame), `NAME.json` (the summaries) and the plots
+/// `NAME-frame-ms`, `NAME-fetch-ms` and, with ground truth, `NAME-psnr` (SVG
+/// and PNG) into `dir`.
 pub fn write(dir: &Path, name: &str, title: &str, walks: &[(String, Vec<Frame>)]) -> anyhow::Result<Vec<Summary>> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let summaries: Vec<Summary> = walks.iter().map(|(s, f)| Summary::of(s, f)).collect();
     std::fs::write(dir.join(format!("{name}.csv")), csv(walks))?;
+    // The per-frame rows are in the CSV; the JSON holds the summaries.
     #[derive(Serialize)]
     struct Out<'a> {
         title: &'a str,
         summaries: &'a [Summary],
-        frames: Vec<(&'a str, &'a [Frame])>,
     }
     let out = Out {
         title,
         summaries: &summaries,
-        frames: walks.iter().map(|(s, f)| (s.as_str(), f.as_slice())).collect(),
     };
     std::fs::write(dir.join(format!("{name}.json")), serde_json::to_vec_pretty(&out)?)?;
     let series = |f: fn(&Frame) -> Option<f64>| -> Vec<(String, Vec<(f64, f64)>)> {
@@ -233,6 +233,14 @@ pub fn write(dir: &Path, name: &str, title: &str, walks: &[(String, Vec<Frame>)]
         linear_x: true,
     }
     .write(&dir.join(format!("{name}-frame-ms")))?;
+    Chart {
+        title: &format!("{title}: requests waited on per frame"),
+        x_label: "frame",
+        y_label: "fetch ms (the part the strategy controls)",
+        series: series(|f| Some(f.fetch_ms)),
+        linear_x: true,
+    }
+    .write(&dir.join(format!("{name}-fetch-ms")))?;
     if walks.iter().any(|(_, f)| f.iter().any(|fr| fr.psnr.is_some())) {
         Chart {
             title: &format!("{title}: PSNR per frame"),

@@ -168,10 +168,10 @@ function readReach(r) {
   const some = r.u8('clearance');
   if (some > 1) throw new WireError(`clearance option tag ${some}`);
   const clearance = some === 1 ? r.f64('clearance') : null;
-  const count = r.len(32, 'culled');
+  const count = r.len(16, 'culled');
   /** @type {number[][]} */
   const culled = [];
-  for (let k = 0; k < count; k++) culled.push([r.f64(), r.f64(), r.f64(), r.f64()]);
+  for (let k = 0; k < count; k++) culled.push([r.f32(), r.f32(), r.f32(), r.f32()]);
   return { view, clearance, culled };
 }
 
