@@ -139,6 +139,7 @@ async fn a_still_camera_draws_the_same_image_with_every_strategy() {
     for strategy in [Strategy::Full, Strategy::Keyframe { every: 3 }, Strategy::Balanced] {
         let options = Options {
             frames_out: Some(dir.path().join(strategy.name())),
+            truth: Some(SceneSpec::demo()),
             ..Options::default()
         };
         let frames = run(
@@ -151,6 +152,15 @@ async fn a_still_camera_draws_the_same_image_with_every_strategy() {
         )
         .await
         .unwrap();
+        for f in &frames {
+            // Against the simulator's truth for the same camera.
+            let (psnr, coverage) = (f.psnr.unwrap(), f.coverage.unwrap());
+            assert!(
+                psnr > 30.0 && coverage > 0.9,
+                "frame {}: {psnr} dB, coverage {coverage}",
+                f.frame
+            );
+        }
         if strategy == Strategy::Balanced {
             // Nothing moves, so nothing goes stale: after the first frame only refreshes.
             assert!(frames.iter().skip(1).all(|f| f.holes == 0));

@@ -217,6 +217,36 @@ mod tests {
         assert!((eyes[39] - DVec3::new(0.0, 1.0, -4.0)).length() < 1e-12);
     }
 
+    proptest::proptest! {
+        /// Any path that parses gives every frame a finite camera or a clear
+        /// error, never a panic, whatever its keys (repeated, crossing, cut).
+        #[test]
+        fn every_frame_of_a_valid_path_is_a_finite_camera(
+            keys in proptest::collection::vec(
+                (proptest::array::uniform3(-5.0f64..5.0), proptest::array::uniform3(-5.0f64..5.0), proptest::bool::ANY),
+                2..7,
+            ),
+            frames in 1u32..200,
+            closed in proptest::bool::ANY,
+        ) {
+            let path = Path {
+                width: 32,
+                height: 24,
+                fov_deg: 60.0,
+                frames,
+                closed,
+                keys: keys.into_iter().map(|(eye, target, cut)| Key { eye, target, cut }).collect(),
+            };
+            if path.validate().is_ok() {
+                for t in 0..frames {
+                    if let Ok(c) = path.camera(t) {
+                        proptest::prop_assert!(c.translation.is_finite() && c.rotation.is_finite());
+                    }
+                }
+            }
+        }
+    }
+
     #[test]
     fn bad_paths_are_refused_with_a_reason() {
         let one = r#"{"width": 64, "height": 48, "fov_deg": 60, "frames": 10, "keys": [{"eye": [0,0,0], "target": [0,0,1]}]}"#;
