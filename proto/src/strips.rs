@@ -166,7 +166,8 @@ pub struct Reach {
     pub view: Camera,
     /// Smallest `|p - E| - r` in metres over the vertices the tolerance left
     /// out with a nonzero error (`p` the vertex, `r` its nested bounding
-    /// radius, `E` the eye); `None` when there was none.
+    /// radius, `E` the eye); `None` when there was none, and always for an
+    /// orthographic camera, whose test does not depend on the eye.
     pub clearance: Option<f64>,
     /// World-frame spheres `[x, y, z, radius]` holding every triangle the
     /// frustum culled (at most 1024; f32, radii padded for the rounding).

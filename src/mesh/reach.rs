@@ -11,7 +11,8 @@
 //!   `d = |E' - E|`, and `x / (x - d)` falls with `x`, so while `d < clearance`
 //!   the mesh's error in the new camera is at most
 //!   `tau (f' / f) clearance / (clearance - d)` pixels ([`Reach::error_factor`]).
-//!   For orthographic cameras the factor is the ratio of pixel sizes.
+//!   For orthographic cameras the factor is the ratio of pixel sizes, and
+//!   no clearance is recorded (the test does not depend on the eye).
 //! - Coverage. Every triangle the frustum culled lies in one of the `culled`
 //!   spheres, so a camera whose frustum misses them all sees nothing the mesh
 //!   lacks ([`Reach::covers`]); the test is the server's own plane test.
@@ -30,7 +31,8 @@ pub struct Reach {
     /// The camera the vertices were selected and the triangles culled for.
     pub view: Camera,
     /// Smallest `|p - E| - r` (metres, > 0) over the left-out vertices with a
-    /// nonzero error; `None` when there was none (exact wherever the eye goes).
+    /// nonzero error; `None` when there was none (a perspective mesh is then
+    /// exact wherever the eye goes) and always for an orthographic camera.
     pub clearance: Option<f64>,
     /// World-frame spheres `[x, y, z, r]` holding every culled triangle, at
     /// most [`MAX_CULLED`] (neighbours in traversal order are merged past it).
@@ -52,13 +54,11 @@ impl Reach {
                 let factor = (f1 / f0) * clearance / (clearance - d);
                 (d < clearance && factor.is_finite()).then_some(factor)
             }
+            // The orthographic test does not depend on the eye (no vertex
+            // records a clearance), only on the pixel size.
             (Projection::Orthographic { sx: ax, sy: ay, .. }, Projection::Orthographic { sx, sy, .. }) => {
                 let factor = ax.min(ay) / sx.min(sy);
-                (self.clearance.is_none() || factor.is_finite()).then_some(if self.clearance.is_none() {
-                    0.0
-                } else {
-                    factor
-                })
+                factor.is_finite().then_some(factor)
             }
             _ => None,
         }
@@ -130,6 +130,28 @@ mod tests {
             ..reach
         };
         assert_eq!(exact.error_factor(&camera_at(10.0 * DVec3::Z, 50.0)), Some(0.0));
+    }
+
+    #[test]
+    fn an_orthographic_factor_is_the_ratio_of_pixel_sizes_wherever_the_eye_is() {
+        let ortho = |s: f64, eye: DVec3| {
+            let p = Projection::Orthographic {
+                sx: s,
+                sy: s,
+                cx: 31.5,
+                cy: 23.5,
+            };
+            Camera::new(64, 48, p, DQuat::IDENTITY, eye).unwrap()
+        };
+        // An orthographic walk records no clearance, left-out vertices or not.
+        let reach = Reach {
+            view: ortho(0.01, DVec3::ZERO),
+            clearance: None,
+            culled: vec![],
+        };
+        assert_eq!(reach.error_factor(&ortho(0.01, 5.0 * DVec3::X)), Some(1.0));
+        assert_eq!(reach.error_factor(&ortho(0.005, DVec3::ZERO)), Some(2.0));
+        assert_eq!(reach.error_factor(&camera_at(DVec3::ZERO, 50.0)), None);
     }
 
     #[test]

@@ -59,7 +59,8 @@ export function errorFactor(reach, cam) {
   }
   const [a, b] = [reach.view.projection.orthographic, cam.projection.orthographic];
   if (!a || !b) return null;
-  return reach.clearance === null ? 0 : Math.min(a.sx, a.sy) / Math.min(b.sx, b.sy);
+  // The orthographic test does not depend on the eye: only the pixel sizes count.
+  return Math.min(a.sx, a.sy) / Math.min(b.sx, b.sy);
 }
 
 /** The camera's frustum planes in the world, `[nx, ny, nz, d]`: inside when n . p + d >= 0
