@@ -54,6 +54,7 @@ impl Texture {
 }
 
 /// One selected view to blend.
+#[derive(Clone, Copy)]
 pub struct ViewInput<'a> {
     /// Its blending weight (the server's, summing to 1 over the views).
     pub weight: f64,

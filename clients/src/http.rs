@@ -130,19 +130,19 @@ impl Server {
         scene: &str,
         request: &dmesh_proto::RenderRequest,
     ) -> anyhow::Result<dmesh_proto::RenderResponse> {
+        let (_, _, bytes) = self
+            .post_json(&format!("/v1/scenes/{scene}/render"), serde_json::to_vec(request)?)
+            .await?;
+        Ok(dmesh_proto::from_bincode(&bytes)?)
+    }
+
+    /// POSTs a JSON body asking for a bincode answer.
+    async fn post_json(&self, path: &str, body: Vec<u8>) -> anyhow::Result<(StatusCode, hyper::HeaderMap, Bytes)> {
         let headers = [
             (header::CONTENT_TYPE, "application/json".to_string()),
             (header::ACCEPT, dmesh_proto::BINCODE_MEDIA_TYPE.to_string()),
         ];
-        let (_, _, bytes) = self
-            .call(
-                Method::POST,
-                &format!("/v1/scenes/{scene}/render"),
-                &headers,
-                serde_json::to_vec(request)?,
-            )
-            .await?;
-        Ok(dmesh_proto::from_bincode(&bytes)?)
+        self.call(Method::POST, path, &headers, body).await
     }
 
     /// The reference cameras of a scene's views.
@@ -182,15 +182,9 @@ impl Server {
         view: &str,
         request: &dmesh_proto::StripRequest,
     ) -> anyhow::Result<(dmesh_proto::StripResponse, usize)> {
-        let headers = [
-            (header::CONTENT_TYPE, "application/json".to_string()),
-            (header::ACCEPT, dmesh_proto::BINCODE_MEDIA_TYPE.to_string()),
-        ];
         let (_, _, bytes) = self
-            .call(
-                Method::POST,
+            .post_json(
                 &format!("/v1/scenes/{scene}/views/{view}/strips"),
-                &headers,
                 serde_json::to_vec(request)?,
             )
             .await?;
@@ -202,15 +196,8 @@ impl Server {
     /// generator needs, without spending the machine's CPU on decoding), or
     /// the failing status (0 for a transport error).
     pub async fn render_timed(&self, scene: &str, request: &dmesh_proto::RenderRequest) -> Result<(u64, f64), u16> {
-        let headers = [
-            (header::CONTENT_TYPE, "application/json".to_string()),
-            (header::ACCEPT, dmesh_proto::BINCODE_MEDIA_TYPE.to_string()),
-        ];
         let body = serde_json::to_vec(request).map_err(|_| 0u16)?;
-        match self
-            .call(Method::POST, &format!("/v1/scenes/{scene}/render"), &headers, body)
-            .await
-        {
+        match self.post_json(&format!("/v1/scenes/{scene}/render"), body).await {
             Ok((_, resp_headers, bytes)) => {
                 let extract_ms = resp_headers
                     .get("server-timing")

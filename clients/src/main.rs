@@ -152,10 +152,10 @@ enum Command {
         #[arg(long)]
         budget_bytes: Option<f64>,
         /// View-dependent tolerance, pixels.
-        #[arg(long, default_value_t = 1.0)]
+        #[arg(long, default_value_t = dmesh_client::walkthrough::policy::DEFAULT_TAU)]
         tau: f64,
         /// A held mesh is refetched once its error bound passes tau times this.
-        #[arg(long, default_value_t = 1.5)]
+        #[arg(long, default_value_t = dmesh_client::walkthrough::policy::DEFAULT_STALE_FACTOR)]
         stale_factor: f64,
         /// Guard band: request a frustum wider by this fraction of the image on each side.
         #[arg(long, default_value_t = 0.15)]
@@ -227,30 +227,33 @@ fn read_pfm(path: &Path) -> Result<(u32, u32, Vec<f32>)> {
     dmesh::image::decode_pfm(&read(path)?, &Default::default()).with_context(|| format!("depth {}", path.display()))
 }
 
+/// A scene file, or `demo` for the built-in box scene.
+fn scene_spec(name: &str) -> Result<dmesh::sim::SceneSpec> {
+    Ok(if name == "demo" {
+        dmesh::sim::SceneSpec::demo()
+    } else {
+        dmesh::sim::SceneSpec::from_json(&String::from_utf8(read(Path::new(name))?)?)?
+    })
+}
+
 async fn ingest(server: &str, scene: &str, simulate: Option<&str>, dir: Option<&Path>) -> Result<()> {
     let s = Server::new(server, None);
     let views: Vec<(String, String, Vec<u8>, Vec<u8>)> = match (simulate, dir) {
-        (Some(name), _) => {
-            let spec = if name == "demo" {
-                dmesh::sim::SceneSpec::demo()
-            } else {
-                dmesh::sim::SceneSpec::from_json(&String::from_utf8(read(Path::new(name))?)?)?
-            };
-            spec.reference_views()?
-                .iter()
-                .enumerate()
-                .map(|(k, v)| {
-                    let cam = serde_json::to_string(&dmesh_proto::Camera::from(&v.camera))?;
-                    let depth = dmesh::image::encode_pfm(v.depth.width, v.depth.height, &v.depth.z);
-                    Ok((
-                        format!("v{k:02}"),
-                        cam,
-                        depth,
-                        png(v.color.width, v.color.height, &v.color.rgb)?,
-                    ))
-                })
-                .collect::<Result<_>>()?
-        }
+        (Some(name), _) => scene_spec(name)?
+            .reference_views()?
+            .iter()
+            .enumerate()
+            .map(|(k, v)| {
+                let cam = serde_json::to_string(&dmesh_proto::Camera::from(&v.camera))?;
+                let depth = dmesh::image::encode_pfm(v.depth.width, v.depth.height, &v.depth.z);
+                Ok((
+                    format!("v{k:02}"),
+                    cam,
+                    depth,
+                    png(v.color.width, v.color.height, &v.color.rgb)?,
+                ))
+            })
+            .collect::<Result<_>>()?,
         (None, Some(dir)) => {
             let mut out = Vec::new();
             let mut names: Vec<_> = std::fs::read_dir(dir)
@@ -520,33 +523,10 @@ fn run(cli: Cli) -> Result<()> {
                     bail!("the budget is {v}; it must be a number >= 0");
                 }
             }
-            let strategies: Vec<policy::Strategy> = strategy
-                .split(',')
-                .flat_map(|s| match s.trim() {
-                    "all" => vec![
-                        Ok(policy::Strategy::Full),
-                        Ok(policy::Strategy::Keyframe { every: keyframe_every }),
-                        Ok(policy::Strategy::Balanced),
-                    ],
-                    "full" => vec![Ok(policy::Strategy::Full)],
-                    "keyframe" => vec![Ok(policy::Strategy::Keyframe { every: keyframe_every })],
-                    "balanced" => vec![Ok(policy::Strategy::Balanced)],
-                    other => vec![Err(anyhow::anyhow!(
-                        "unknown strategy {other:?}; use full, keyframe, balanced or all"
-                    ))],
-                })
-                .collect::<Result<_>>()?;
+            let strategies = policy::Strategy::parse_list(&strategy, keyframe_every)?;
             let walk_path = walkthrough::path::Path::from_json(&String::from_utf8(read(&path)?)?)
                 .with_context(|| format!("path {}", path.display()))?;
-            let truth = truth
-                .map(|name| -> Result<dmesh::sim::SceneSpec> {
-                    Ok(if name == "demo" {
-                        dmesh::sim::SceneSpec::demo()
-                    } else {
-                        dmesh::sim::SceneSpec::from_json(&String::from_utf8(read(Path::new(&name))?)?)?
-                    })
-                })
-                .transpose()?;
+            let truth = truth.as_deref().map(scene_spec).transpose()?;
             let name = path.file_stem().and_then(|s| s.to_str()).unwrap_or("walk").to_string();
             let walks = rt.block_on(async {
                 let s = Server::new(&server, None);

@@ -50,13 +50,12 @@ fn still(frames: u32) -> Path {
     }
 }
 
-fn policy(strategy: Strategy, budget: Budget) -> Policy {
-    Policy {
-        strategy,
-        budget,
-        tau: 1.0,
-        stale_factor: 1.5,
-    }
+/// Walks `path` balanced under `budget`, with the default options.
+async fn walk_balanced(server: &Server, scene: &Scene, path: &Path, budget: Budget) -> Vec<Frame> {
+    let policy = Policy::new(Strategy::Balanced, budget);
+    run(server, scene, path, &policy, &Options::default(), |_| {})
+        .await
+        .unwrap()
 }
 
 async fn setup() -> (common::Running, Server, Scene) {
@@ -88,16 +87,7 @@ async fn balanced_refresh_keeps_to_its_budget_and_ages_count_frames() {
     // About 9 cm a frame: held meshes serve several frames.
     let path = orbit(40, std::f64::consts::FRAC_PI_3, false);
     let budget = Budget::OneView;
-    let frames = run(
-        &server,
-        &scene,
-        &path,
-        &policy(Strategy::Balanced, budget),
-        &Options::default(),
-        |_| {},
-    )
-    .await
-    .unwrap();
+    let frames = walk_balanced(&server, &scene, &path, budget).await;
     assert_within_budget(&frames);
     assert!(
         frames.iter().skip(1).any(|f| f.refreshed > 0),
@@ -146,7 +136,7 @@ async fn a_still_camera_draws_the_same_image_with_every_strategy() {
             &server,
             &scene,
             &path,
-            &policy(strategy, Budget::OneView),
+            &Policy::new(strategy, Budget::OneView),
             &options,
             |_| {},
         )
@@ -188,16 +178,7 @@ async fn a_cut_turns_into_holes_not_budget_overruns() {
     let (_running, server, scene) = setup().await;
     let path = orbit(40, std::f64::consts::TAU, true);
     let budget = Budget::Triangles(2000.0);
-    let frames = run(
-        &server,
-        &scene,
-        &path,
-        &policy(Strategy::Balanced, budget),
-        &Options::default(),
-        |_| {},
-    )
-    .await
-    .unwrap();
+    let frames = walk_balanced(&server, &scene, &path, budget).await;
     assert_within_budget(&frames);
     // The jump: the frame after it fetches holes (stale or uncovered), and far more than its neighbours.
     let eyes: Vec<glam::DVec3> = (0..40).map(|t| path.camera(t).unwrap().translation).collect();

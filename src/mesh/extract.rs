@@ -180,12 +180,7 @@ impl<S: Select> Walk<'_, S> {
         let mask = if mask == 0 || l.0.abs_diff(r.0).max(l.1.abs_diff(r.1)) < CULL_MIN_SPAN {
             0
         } else {
-            // A sphere around the split vertex holding the corners and, by
-            // nesting, every sample below.
-            let reach = f64::from(radius)
-                .max(norm_bound(pl - pm))
-                .max(norm_bound(pr - pm))
-                .max(norm_bound(pa - pm));
+            let reach = split_sphere(radius, pm, [pl, pr, pa]);
             match self.sel.cull(pm, reach, mask) {
                 Some(left) => left,
                 None => {
@@ -211,9 +206,7 @@ impl<S: Select> Walk<'_, S> {
             self.emit(l, r, a);
         }
     }
-}
 
-impl<S: Select> Walk<'_, S> {
     /// Records the culled triangle `l r a` (split vertex `m`, its sphere's
     /// radius `reach`) for the [`Reach`]: its sphere, or, while that sphere is
     /// large against its distance from the eye (a camera beside it could not
@@ -234,13 +227,19 @@ impl<S: Select> Walk<'_, S> {
         for (x, y) in [((l, pl), (a, pa)), ((a, pa), (r, pr))] {
             let c = ((x.0 .0 + y.0 .0) / 2, (x.0 .1 + y.0 .1) / 2);
             let pc = self.mesh.position(c);
-            let reach = f64::from(self.mesh.radius[self.mesh.grid.index(c)])
-                .max(norm_bound(x.1 - pc))
-                .max(norm_bound(y.1 - pc))
-                .max(norm_bound(pm - pc));
+            let reach = split_sphere(self.mesh.radius[self.mesh.grid.index(c)], pc, [x.1, y.1, pm]);
             self.record_culled(x, y, (m, pm), (c, pc), reach);
         }
     }
+}
+
+/// The radius of a sphere around a split vertex at `pm` with nested radius
+/// `radius` that holds its triangle's `corners` and, by nesting, every sample
+/// below.
+fn split_sphere(radius: f32, pm: DVec3, corners: [DVec3; 3]) -> f64 {
+    corners
+        .iter()
+        .fold(f64::from(radius), |r, &p| r.max(norm_bound(p - pm)))
 }
 
 /// A culled sphere is split while its radius exceeds this fraction of its

@@ -192,12 +192,6 @@ fn shed(e: &anyhow::Error) -> bool {
         .is_some_and(|c| c.status() == hyper::StatusCode::SERVICE_UNAVAILABLE)
 }
 
-/// One held mesh: what the policy sees and what the blend draws.
-struct Slot {
-    held: Held,
-    strips: StripResponse,
-}
-
 /// Walks `path` over `scene` with `policy`; `progress` is called after each frame.
 pub async fn run(
     server: &Server,
@@ -207,7 +201,9 @@ pub async fn run(
     options: &Options,
     mut progress: impl FnMut(&Frame),
 ) -> anyhow::Result<Vec<Frame>> {
-    let mut slots: Vec<Option<Slot>> = (0..scene.views.len()).map(|_| None).collect();
+    // Per reference view: what the policy sees of its held mesh, and what the blend draws.
+    let mut held: Vec<Option<Held>> = vec![None; scene.views.len()];
+    let mut strips: Vec<Option<StripResponse>> = vec![None; scene.views.len()];
     let mut frames = Vec::with_capacity(path.frames as usize);
     if let Some(dir) = &options.frames_out {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
@@ -215,8 +211,8 @@ pub async fn run(
     for t in 0..path.frames {
         let camera = path.camera(t)?;
         let start = Instant::now();
-        for slot in slots.iter_mut().flatten() {
-            slot.held.age += 1;
+        for h in held.iter_mut().flatten() {
+            h.age += 1;
         }
         let selected = select_views(
             &camera,
@@ -225,7 +221,6 @@ pub async fn run(
             options.max_views,
         )?;
         let indices: Vec<usize> = selected.iter().map(|w| w.index).collect();
-        let held: Vec<Option<Held>> = slots.iter().map(|s| s.as_ref().map(|s| s.held.clone())).collect();
         let plan = policy.plan(t, &camera, &indices, &held);
         let mut frame = Frame {
             frame: t,
@@ -265,55 +260,53 @@ pub async fn run(
             let (v, answer, ms, retries) = done?;
             frame.retries += retries;
             let refreshed = plan.refresh.contains(&v);
-            let (strips, bytes) = answer.with_context(|| format!("frame {t}: view {}", scene.views[v]))?;
-            let tau = match strips.lod {
+            let (mesh, bytes) = answer.with_context(|| format!("frame {t}: view {}", scene.views[v]))?;
+            let tau = match mesh.lod {
                 dmesh_proto::Lod::Tau(tau) => tau,
                 dmesh_proto::Lod::Epsilon(_) => policy.tau,
             };
-            let reach = strips.reach.as_ref().map(dmesh::wire::engine_reach).transpose()?;
-            frame.server_ms += strips.extract_ms;
+            let reach = mesh.reach.as_ref().map(dmesh::wire::engine_reach).transpose()?;
+            frame.server_ms += mesh.extract_ms;
             frame.bytes += bytes as u64;
-            frame.fetched_triangles += u64::from(strips.triangles);
+            frame.fetched_triangles += u64::from(mesh.triangles);
             if refreshed {
-                frame.refreshed_triangles += u64::from(strips.triangles);
+                frame.refreshed_triangles += u64::from(mesh.triangles);
             }
-            slots[v] = Some(Slot {
-                held: Held {
-                    age: 0,
-                    tau,
-                    reach,
-                    cost: Cost {
-                        triangles: f64::from(strips.triangles),
-                        bytes: bytes as f64,
-                        ms,
-                    },
+            held[v] = Some(Held {
+                age: 0,
+                tau,
+                reach,
+                cost: Cost {
+                    triangles: f64::from(mesh.triangles),
+                    bytes: bytes as f64,
+                    ms,
                 },
-                strips,
             });
+            strips[v] = Some(mesh);
         }
         frame.fetch_ms = start.elapsed().as_secs_f64() * 1e3;
-        let drawn: Vec<(usize, f64, &Slot, &Texture)> = selected
+        let drawn: Vec<(usize, ViewInput<'_>)> = selected
             .iter()
             .filter_map(|w| {
-                let slot = slots[w.index].as_ref()?;
-                Some((w.index, w.weight, slot, &scene.textures[w.index]))
+                let input = ViewInput {
+                    weight: w.weight,
+                    strips: strips[w.index].as_ref()?,
+                    texture: &scene.textures[w.index],
+                };
+                Some((w.index, input))
             })
             .collect();
-        let inputs: Vec<ViewInput<'_>> = drawn
-            .iter()
-            .map(|(_, weight, slot, texture)| ViewInput {
-                weight: *weight,
-                strips: &slot.strips,
-                texture,
-            })
-            .collect();
+        let inputs: Vec<ViewInput<'_>> = drawn.iter().map(|d| d.1).collect();
         let blend_start = Instant::now();
         let image = blend(&camera, &inputs, &options.blend)?;
         frame.blend_ms = blend_start.elapsed().as_secs_f64() * 1e3;
         frame.frame_ms = start.elapsed().as_secs_f64() * 1e3;
         frame.views = drawn.len() as u32;
-        frame.drawn_triangles = drawn.iter().map(|d| u64::from(d.2.strips.triangles)).sum();
-        frame.ages = drawn.iter().map(|d| (d.0, d.2.held.age)).collect();
+        frame.drawn_triangles = drawn.iter().map(|d| u64::from(d.1.strips.triangles)).sum();
+        frame.ages = drawn
+            .iter()
+            .filter_map(|d| held[d.0].as_ref().map(|h| (d.0, h.age)))
+            .collect();
         frame.ages.sort_unstable();
         if let Some(spec) = &options.truth {
             let truth = spec.ground_truth(&camera)?;

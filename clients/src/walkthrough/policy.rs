@@ -52,6 +52,22 @@ impl Strategy {
             Self::Balanced => "balanced",
         }
     }
+
+    /// The strategies of a comma-separated list of names (`all`: the three),
+    /// keyframes every `every` frames.
+    pub fn parse_list(list: &str, every: u32) -> anyhow::Result<Vec<Self>> {
+        let mut out = Vec::new();
+        for name in list.split(',').map(str::trim) {
+            match name {
+                "all" => out.extend([Self::Full, Self::Keyframe { every }, Self::Balanced]),
+                "full" => out.push(Self::Full),
+                "keyframe" => out.push(Self::Keyframe { every }),
+                "balanced" => out.push(Self::Balanced),
+                other => anyhow::bail!("unknown strategy {other:?}; use full, keyframe, balanced or all"),
+            }
+        }
+        Ok(out)
+    }
 }
 
 /// What a frame's refresh may spend.
@@ -114,6 +130,24 @@ pub struct Policy {
     pub tau: f64,
     /// A held mesh is a hole once its error bound exceeds `tau` times this.
     pub stale_factor: f64,
+}
+
+/// The target tolerance of a walkthrough unless told otherwise, pixels.
+pub const DEFAULT_TAU: f64 = 1.0;
+
+/// A held mesh is a hole once its error bound passes `tau` times this, unless told otherwise.
+pub const DEFAULT_STALE_FACTOR: f64 = 1.5;
+
+impl Policy {
+    /// `strategy` under `budget` at [`DEFAULT_TAU`] and [`DEFAULT_STALE_FACTOR`].
+    pub fn new(strategy: Strategy, budget: Budget) -> Self {
+        Self {
+            strategy,
+            budget,
+            tau: DEFAULT_TAU,
+            stale_factor: DEFAULT_STALE_FACTOR,
+        }
+    }
 }
 
 /// A frame's fetches.
@@ -251,18 +285,9 @@ mod tests {
         }
     }
 
-    fn policy(strategy: Strategy, budget: Budget) -> Policy {
-        Policy {
-            strategy,
-            budget,
-            tau: 1.0,
-            stale_factor: 1.5,
-        }
-    }
-
     #[test]
     fn the_refresh_takes_the_oldest_first_and_never_passes_the_budget() {
-        let p = policy(Strategy::Balanced, Budget::Triangles(250.0));
+        let p = Policy::new(Strategy::Balanced, Budget::Triangles(250.0));
         let cam = camera_at(DVec3::ZERO);
         let held: Vec<Option<Held>> = [(3, 100.0), (7, 100.0), (5, 100.0), (9, 300.0)]
             .iter()
@@ -280,7 +305,7 @@ mod tests {
 
     #[test]
     fn holes_are_fetched_apart_from_the_budget_and_shrink_the_refresh() {
-        let p = policy(Strategy::Balanced, Budget::Triangles(250.0));
+        let p = Policy::new(Strategy::Balanced, Budget::Triangles(250.0));
         let cam = camera_at(DVec3::ZERO);
         let mut views = vec![Some(held(4, 100.0, Some(10.0), vec![])); 3];
         views.push(None);
@@ -289,7 +314,7 @@ mod tests {
         assert_eq!(plan.holes, vec![(3, Hole::Missing)]);
         assert_eq!(plan.refresh.len(), 1);
         // Holes past the budget are still all fetched; nothing is refreshed.
-        let p = policy(Strategy::Balanced, Budget::Triangles(50.0));
+        let p = Policy::new(Strategy::Balanced, Budget::Triangles(50.0));
         let plan = p.plan(1, &cam, &[0, 1, 2, 3], &views);
         assert_eq!(plan.holes.len(), 1);
         assert!(plan.refresh.is_empty());
@@ -297,7 +322,7 @@ mod tests {
 
     #[test]
     fn a_moved_eye_makes_a_stale_hole_and_a_culled_part_in_view_an_uncovered_one() {
-        let p = policy(Strategy::Balanced, Budget::OneView);
+        let p = Policy::new(Strategy::Balanced, Budget::OneView);
         let near = held(1, 10.0, Some(1.0), vec![]);
         // d = 0.2 of a clearance of 1: factor 1.25 <= 1.5.
         assert_eq!(p.hole(Some(&near), &camera_at(DVec3::new(0.2, 0.0, 0.0))), None);
@@ -319,13 +344,30 @@ mod tests {
     }
 
     #[test]
+    fn strategy_lists_parse_by_name_and_refuse_unknown_ones() {
+        let all = Strategy::parse_list("all", 4).unwrap();
+        assert_eq!(
+            all,
+            vec![Strategy::Full, Strategy::Keyframe { every: 4 }, Strategy::Balanced]
+        );
+        assert_eq!(
+            Strategy::parse_list(" balanced,full", 4).unwrap(),
+            vec![Strategy::Balanced, Strategy::Full]
+        );
+        assert!(Strategy::parse_list("full,fast", 4)
+            .unwrap_err()
+            .to_string()
+            .contains("\"fast\""));
+    }
+
+    #[test]
     fn keyframes_refresh_everything_every_k_frames_and_full_every_frame() {
         let cam = camera_at(DVec3::ZERO);
         let views = vec![Some(held(2, 10.0, Some(10.0), vec![])); 3];
-        let k = policy(Strategy::Keyframe { every: 4 }, Budget::OneView);
+        let k = Policy::new(Strategy::Keyframe { every: 4 }, Budget::OneView);
         assert_eq!(k.plan(8, &cam, &[0, 1, 2], &views).refresh, vec![0, 1, 2]);
         assert!(k.plan(9, &cam, &[0, 1, 2], &views).refresh.is_empty());
-        let f = policy(Strategy::Full, Budget::OneView);
+        let f = Policy::new(Strategy::Full, Budget::OneView);
         assert_eq!(f.plan(9, &cam, &[0, 2], &views).refresh, vec![0, 2]);
     }
 }

@@ -213,8 +213,9 @@ pub fn write(dir: &Path, name: &str, title: &str, walks: &[(String, Vec<Frame>)]
         summaries: &summaries,
     };
     std::fs::write(dir.join(format!("{name}.json")), serde_json::to_vec_pretty(&out)?)?;
-    let series = |f: fn(&Frame) -> Option<f64>| -> Vec<(String, Vec<(f64, f64)>)> {
-        walks
+    // One chart per per-frame figure, a line per strategy.
+    let plot = |suffix: &str, what: &str, y_label: &str, f: fn(&Frame) -> Option<f64>| {
+        let series = walks
             .iter()
             .map(|(s, frames)| {
                 let pts = frames
@@ -223,33 +224,35 @@ pub fn write(dir: &Path, name: &str, title: &str, walks: &[(String, Vec<Frame>)]
                     .collect();
                 (s.clone(), pts)
             })
-            .collect()
-    };
-    Chart {
-        title: &format!("{title}: time per frame"),
-        x_label: "frame",
-        y_label: "frame ms (requests waited on + blend)",
-        series: series(|f| Some(f.frame_ms)),
-        linear_x: true,
-    }
-    .write(&dir.join(format!("{name}-frame-ms")))?;
-    Chart {
-        title: &format!("{title}: requests waited on per frame"),
-        x_label: "frame",
-        y_label: "fetch ms (the part the strategy controls)",
-        series: series(|f| Some(f.fetch_ms)),
-        linear_x: true,
-    }
-    .write(&dir.join(format!("{name}-fetch-ms")))?;
-    if walks.iter().any(|(_, f)| f.iter().any(|fr| fr.psnr.is_some())) {
+            .collect();
         Chart {
-            title: &format!("{title}: PSNR per frame"),
+            title: &format!("{title}: {what}"),
             x_label: "frame",
-            y_label: "PSNR dB against ground truth (valid mask)",
-            series: series(|f| f.psnr.filter(|p| p.is_finite())),
+            y_label,
+            series,
             linear_x: true,
         }
-        .write(&dir.join(format!("{name}-psnr")))?;
+        .write(&dir.join(format!("{name}-{suffix}")))
+    };
+    plot(
+        "frame-ms",
+        "time per frame",
+        "frame ms (requests waited on + blend)",
+        |f| Some(f.frame_ms),
+    )?;
+    plot(
+        "fetch-ms",
+        "requests waited on per frame",
+        "fetch ms (the part the strategy controls)",
+        |f| Some(f.fetch_ms),
+    )?;
+    if walks.iter().any(|(_, f)| f.iter().any(|fr| fr.psnr.is_some())) {
+        plot(
+            "psnr",
+            "PSNR per frame",
+            "PSNR dB against ground truth (valid mask)",
+            |f| f.psnr.filter(|p| p.is_finite()),
+        )?;
     }
     Ok(summaries)
 }

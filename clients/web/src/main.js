@@ -401,21 +401,7 @@ async function update() {
     const t1 = performance.now();
     const drawn = draw(true);
     const t2 = performance.now();
-    say(null);
-    stats.error = null;
-    Object.assign(stats, {
-      scene: state.scene,
-      updates: stats.updates + 1,
-      views: response.views.map((v) => ({
-        view: v.strips.view,
-        weight: v.weight,
-        triangles: v.strips.triangles,
-        vertices: v.strips.vertexCount,
-        lod: v.strips.lod,
-        max_depth_error: v.strips.maxDepthError,
-      })),
-      triangles: response.views.reduce((s, v) => s + v.strips.triangles, 0),
-      vertices: response.views.reduce((s, v) => s + v.strips.vertexCount, 0),
+    const done = shown(generation, drawn, response.views, null, {
       bytes,
       transfer_bytes: last && last.encodedBodySize ? last.encodedBodySize : bytes,
       extract_ms: timing.extract ?? response.timings.extract_ms,
@@ -427,16 +413,44 @@ async function update() {
       height: cam.height,
       camera: cam,
     });
-    overlay();
-    if (wanted === generation) {
-      // The frame for the state asked for is on screen.
-      if (!firstDrawn && drawn) {
-        firstDrawn = true;
-        Object.assign(window, { dmeshReady: true });
-      }
-      return;
-    }
+    if (done) return;
   }
+}
+
+/**
+ * Puts a round's figures on the page: the drawn `views` (with their ages
+ * when `age` is given) and `figures`. True once the frame for the state
+ * `generation` asked for is on screen.
+ * @param {number} generation @param {boolean} drawn
+ * @param {{weight: number, strips: any}[]} views @param {((view: string) => number) | null} age
+ * @param {Record<string, unknown>} figures
+ */
+function shown(generation, drawn, views, age, figures) {
+  say(null);
+  stats.error = null;
+  Object.assign(stats, {
+    scene: state.scene,
+    updates: stats.updates + 1,
+    views: views.map((v) => ({
+      view: v.strips.view,
+      weight: v.weight,
+      triangles: v.strips.triangles,
+      vertices: v.strips.vertexCount,
+      lod: v.strips.lod,
+      max_depth_error: v.strips.maxDepthError,
+      ...(age ? { age: age(v.strips.view) } : {}),
+    })),
+    triangles: views.reduce((s, v) => s + v.strips.triangles, 0),
+    vertices: views.reduce((s, v) => s + v.strips.vertexCount, 0),
+    ...figures,
+  });
+  overlay();
+  if (wanted !== generation) return false;
+  if (!firstDrawn && drawn) {
+    firstDrawn = true;
+    Object.assign(window, { dmeshReady: true });
+  }
+  return true;
 }
 
 // ---- the balanced walkthrough (walkthrough.js) --------------------------
@@ -454,24 +468,16 @@ const ROUND_CONCURRENCY = 2;
 async function fetchStrips(v, cam) {
   const ref = refs[v];
   const path = `/v1/scenes/${encodeURIComponent(/** @type {string} */ (state.scene))}/views/${encodeURIComponent(ref.view)}/strips`;
-  const body = requestBody(cam);
-  for (;;) {
-    const r = await fetch(path, {
-      method: 'POST',
-      headers: { 'content-type': 'application/json', accept: BINCODE },
-      body: JSON.stringify(body),
-    });
-    if (r.status === 503) {
-      stats.retries++;
-      await sleep(retryAfter(r) * 1000);
-      continue;
-    }
-    if (!r.ok) throw new HttpError(r.status, await serverMessage(r));
-    const buffer = await r.arrayBuffer();
-    const bytes = buffer.byteLength;
-    const { strips, lines } = await decodeStrips(buffer, state.mode === 'wireframe');
-    return { v, strips, lines, bytes, extract: serverTiming(r.headers.get('server-timing')).extract ?? strips.extract_ms };
-  }
+  const r = await fetchPatiently(path, {
+    method: 'POST',
+    headers: { 'content-type': 'application/json', accept: BINCODE },
+    body: JSON.stringify(requestBody(cam)),
+  }, Infinity);
+  if (!r.ok) throw new HttpError(r.status, await serverMessage(r));
+  const buffer = await r.arrayBuffer();
+  const bytes = buffer.byteLength;
+  const { strips, lines } = await decodeStrips(buffer, state.mode === 'wireframe');
+  return { v, strips, lines, bytes, extract: serverTiming(r.headers.get('server-timing')).extract ?? strips.extract_ms };
 }
 
 /** The selected held meshes for `cam`, weights renormalised over those held. @param {CameraJson} cam */
@@ -527,45 +533,25 @@ async function updateBalanced() {
     syncHeld(camera());
     const drawn = draw(true);
     const t2 = performance.now();
-    say(null);
-    stats.error = null;
     const count = (/** @type {string} */ why) => p.holes.filter((h) => h[1] === why).length;
-    Object.assign(stats, {
-      scene: state.scene,
-      updates: stats.updates + 1,
+    const bytes = got.reduce((s, g) => s + g.bytes, 0);
+    const extract = got.reduce((s, g) => s + g.extract, 0);
+    const done = shown(generation, drawn, renderer.views, (view) => /** @type {any} */ (held.get(view)).age, {
       walk: {
         frame: stats.walk.frame + 1, holes: p.holes.length, missing: count('missing'), stale: count('stale'),
         uncovered: count('uncovered'), refreshed: p.refresh.length, budget: p.budget, planned: p.plannedHoles + p.plannedRefresh,
       },
-      views: renderer.views.map((v) => ({
-        view: v.strips.view,
-        weight: v.weight,
-        triangles: v.strips.triangles,
-        vertices: v.strips.vertexCount,
-        lod: v.strips.lod,
-        max_depth_error: v.strips.maxDepthError,
-        age: /** @type {any} */ (held.get(v.strips.view)).age,
-      })),
-      triangles: renderer.views.reduce((s, v) => s + v.strips.triangles, 0),
-      vertices: renderer.views.reduce((s, v) => s + v.strips.vertexCount, 0),
-      bytes: got.reduce((s, g) => s + g.bytes, 0),
-      transfer_bytes: got.reduce((s, g) => s + g.bytes, 0),
-      extract_ms: got.reduce((s, g) => s + g.extract, 0),
-      server_ms: got.reduce((s, g) => s + g.extract, 0),
+      bytes,
+      transfer_bytes: bytes,
+      extract_ms: extract,
+      server_ms: extract,
       draw_ms: drawn ? t2 - t1 : 0,
       frame_ms: t2 - t0,
       width: cam.width,
       height: cam.height,
       camera: cam,
     });
-    overlay();
-    if (wanted === generation) {
-      if (!firstDrawn && drawn) {
-        firstDrawn = true;
-        Object.assign(window, { dmeshReady: true });
-      }
-      return;
-    }
+    if (done) return;
   }
 }
 
