@@ -30,7 +30,7 @@ struct Cli {
 enum Command {
     /// Mesh one depth image.
     Mesh(Box<MeshArgs>),
-    /// Serve views over HTTP from the embedded store.
+    /// Serve views over HTTP from the embedded store or an object store.
     Serve(ServeArgs),
     /// Mesh a built-in synthetic scene (terrain with boxes) at several tolerances.
     Demo {
@@ -49,8 +49,19 @@ struct ServeArgs {
     #[arg(long, default_value_t = std::net::SocketAddr::from(([127, 0, 0, 1], dmesh::http::DEFAULT_PORT)))]
     listen: std::net::SocketAddr,
     /// Data directory of the embedded store.
-    #[arg(long, default_value = dmesh::http::DEFAULT_DATA_DIR)]
+    #[arg(long, default_value = dmesh::http::DEFAULT_DATA_DIR, conflicts_with = "store")]
     data: PathBuf,
+    /// Keep views in an S3-compatible object store instead, `s3://BUCKET/PREFIX`,
+    /// so that replicas can share them. Endpoint, region and credentials come
+    /// from AWS_ENDPOINT_URL, AWS_REGION, AWS_ACCESS_KEY_ID and
+    /// AWS_SECRET_ACCESS_KEY; AWS_ALLOW_HTTP=true for a plain-HTTP endpoint.
+    #[arg(long, value_name = "URL")]
+    store: Option<String>,
+    /// With --store: the longest a cached view or scene listing is served
+    /// without checking its version in the store (how long another
+    /// replica's replace may go unseen).
+    #[arg(long, default_value_t = 0)]
+    revalidate_ms: u64,
     /// Bytes of built hierarchies kept in memory.
     #[arg(long, default_value_t = 1 << 30)]
     cache_bytes: usize,
@@ -398,8 +409,8 @@ fn run_demo(size: u32, ply: Option<&Path>) -> Result<()> {
 }
 
 /// Stores the simulated demo scene's reference views as scene `demo`, unless present.
-fn ingest_demo(store: &dmesh::store::FileStore) -> Result<()> {
-    use dmesh::store::{SegmentationSpec, StoredView, ViewStore};
+fn ingest_demo(store: &dyn dmesh::store::ViewStore) -> Result<()> {
+    use dmesh::store::{SegmentationSpec, StoredView};
     let scene = dmesh::sim::SceneSpec::demo();
     let existing = store.views("demo")?.unwrap_or_default();
     let views = scene.reference_views()?;
@@ -430,19 +441,27 @@ fn ingest_demo(store: &dmesh::store::FileStore) -> Result<()> {
 
 fn run_serve(a: &ServeArgs) -> Result<()> {
     use dmesh::http::{serve, AppState, Pipeline, Settings};
-    let store =
-        dmesh::store::FileStore::open(&a.data).with_context(|| format!("data directory {}", a.data.display()))?;
+    use dmesh::store::{FileStore, ObjectViewStore, ViewStore};
+    let store: std::sync::Arc<dyn ViewStore> = match &a.store {
+        Some(url) => {
+            std::sync::Arc::new(ObjectViewStore::from_url(url).with_context(|| format!("object store {url}"))?)
+        }
+        None => std::sync::Arc::new(
+            FileStore::open(&a.data).with_context(|| format!("data directory {}", a.data.display()))?,
+        ),
+    };
     let settings = Settings {
         max_upload_bytes: a.max_upload_bytes,
         limits: Limits {
             max_pixels: a.max_pixels,
         },
         cache_bytes: a.cache_bytes,
+        revalidate: std::time::Duration::from_millis(a.revalidate_ms),
     };
     if a.demo {
-        ingest_demo(&store)?;
+        ingest_demo(store.as_ref())?;
     }
-    let state = std::sync::Arc::new(AppState::new(std::sync::Arc::new(store), settings));
+    let state = std::sync::Arc::new(AppState::new(store, settings));
     let defaults = Pipeline::default();
     let pipeline = Pipeline {
         max_concurrency: a.max_concurrency.unwrap_or(defaults.max_concurrency),

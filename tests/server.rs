@@ -16,10 +16,17 @@ use hyper_util::client::legacy::Client;
 use hyper_util::rt::TokioExecutor;
 use server_support::*;
 
-#[tokio::test]
-async fn upload_list_strips_render_restart_delete() {
-    let dir = tempfile::tempdir().unwrap();
-    let router = start(state(dir.path(), Settings::default()), Pipeline::default()).await;
+on_both_stores!(
+    upload_list_strips_render_restart_delete,
+    bad_inputs_get_their_status_and_code_and_keep_the_stored_view,
+    overload_is_shed_with_503_and_retry_after_and_uploads_never_take_read_slots,
+    slow_requests_time_out_with_408,
+    responses_are_compressed_when_asked,
+);
+
+async fn upload_list_strips_render_restart_delete(kind: Store) {
+    let store = Backing::new(kind);
+    let router = start(store.state(Settings::default()), Pipeline::default()).await;
     let z = depth();
     type Upload<'a> = (&'a str, Vec<u8>, Vec<(&'a str, Vec<u8>)>);
     let uploads: [Upload; 3] = [
@@ -107,7 +114,7 @@ async fn upload_list_strips_render_restart_delete() {
 
     // A new server over the same data directory has every view.
     drop(router);
-    let restarted = start(state(dir.path(), Settings::default()), Pipeline::default()).await;
+    let restarted = start(store.state(Settings::default()), Pipeline::default()).await;
     for view in ["pfm", "exr", "png"] {
         let (status, _, _) = send(
             &restarted,
@@ -141,15 +148,15 @@ async fn upload_list_strips_render_restart_delete() {
     );
 }
 
-#[tokio::test]
-async fn bad_inputs_get_their_status_and_code_and_keep_the_stored_view() {
-    let dir = tempfile::tempdir().unwrap();
+async fn bad_inputs_get_their_status_and_code_and_keep_the_stored_view(kind: Store) {
+    let store = Backing::new(kind);
     let settings = Settings {
         max_upload_bytes: 64 << 10,
         limits: Limits { max_pixels: 1 << 20 },
         cache_bytes: 1 << 20,
+        ..Settings::default()
     };
-    let router = start(state(dir.path(), settings), Pipeline::default()).await;
+    let router = start(store.state(settings), Pipeline::default()).await;
     let z = depth();
     let good = encode_pfm(W, H, &z);
     let (status, _, _) = send(
@@ -341,16 +348,15 @@ fn stalled_upload() -> Request<Body> {
         .unwrap()
 }
 
-#[tokio::test]
-async fn overload_is_shed_with_503_and_retry_after_and_uploads_never_take_read_slots() {
-    let dir = tempfile::tempdir().unwrap();
+async fn overload_is_shed_with_503_and_retry_after_and_uploads_never_take_read_slots(kind: Store) {
+    let store = Backing::new(kind);
     let pipeline = Pipeline {
         max_concurrency: 1,
         max_uploads: 1,
         queue_wait: std::time::Duration::from_millis(20),
         timeout: std::time::Duration::from_secs(30),
     };
-    let router = start(state(dir.path(), Settings::default()), pipeline).await;
+    let router = start(store.state(Settings::default()), pipeline).await;
     let addr = router.addr;
     let busy = tokio::spawn(async move {
         let mut req = stalled_upload();
@@ -389,25 +395,23 @@ async fn overload_is_shed_with_503_and_retry_after_and_uploads_never_take_read_s
     busy.abort();
 }
 
-#[tokio::test]
-async fn slow_requests_time_out_with_408() {
-    let dir = tempfile::tempdir().unwrap();
+async fn slow_requests_time_out_with_408(kind: Store) {
+    let store = Backing::new(kind);
     let pipeline = Pipeline {
         max_concurrency: 4,
         timeout: std::time::Duration::from_millis(200),
         ..Pipeline::default()
     };
-    let router = start(state(dir.path(), Settings::default()), pipeline).await;
+    let router = start(store.state(Settings::default()), pipeline).await;
     let (status, _, body) = send(&router, stalled_upload()).await;
     assert_eq!(status, StatusCode::REQUEST_TIMEOUT);
     let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
     assert_eq!(v["error"]["code"], "timeout");
 }
 
-#[tokio::test]
-async fn responses_are_compressed_when_asked() {
-    let dir = tempfile::tempdir().unwrap();
-    let router = start(state(dir.path(), Settings::default()), Pipeline::default()).await;
+async fn responses_are_compressed_when_asked(kind: Store) {
+    let store = Backing::new(kind);
+    let router = start(store.state(Settings::default()), Pipeline::default()).await;
     let (status, _, _) = send(
         &router,
         put(

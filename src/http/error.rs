@@ -28,6 +28,9 @@ pub enum AppError {
     Timeout,
     /// 503: shed under overload; retry after the given seconds.
     Overloaded(u64),
+    /// 503: a store the server depends on is down; retry after the given
+    /// seconds.
+    Unavailable(String, u64),
     /// 500: logged in full, reported briefly.
     Internal(String),
 }
@@ -56,6 +59,11 @@ impl AppError {
                 "overloaded",
                 "the server is at capacity; retry shortly".into(),
             ),
+            Self::Unavailable(m, _) => (
+                StatusCode::SERVICE_UNAVAILABLE,
+                "store_unavailable",
+                format!("the view store did not answer; retry shortly ({m})"),
+            ),
             Self::Internal(_) => (StatusCode::INTERNAL_SERVER_ERROR, "internal", "internal error".into()),
         }
     }
@@ -63,13 +71,15 @@ impl AppError {
 
 impl IntoResponse for AppError {
     fn into_response(self) -> Response {
-        if let Self::Internal(detail) = &self {
-            eprintln!("internal error: {detail}");
+        match &self {
+            Self::Internal(detail) => eprintln!("internal error: {detail}"),
+            Self::Unavailable(detail, _) => eprintln!("store unavailable: {detail}"),
+            _ => {}
         }
         let (status, code, message) = self.parts();
         let body = serde_json::to_vec(&ErrorBody::new(code, message)).unwrap_or_default();
         let mut response = (status, [(header::CONTENT_TYPE, "application/json")], body).into_response();
-        if let Self::Overloaded(secs) = self {
+        if let Self::Overloaded(secs) | Self::Unavailable(_, secs) = self {
             if let Ok(v) = HeaderValue::from_str(&secs.to_string()) {
                 response.headers_mut().insert(header::RETRY_AFTER, v);
             }
@@ -94,6 +104,7 @@ impl From<StoreError> for AppError {
     fn from(e: StoreError) -> Self {
         match e {
             StoreError::BadId(m) => Self::BadRequest(m),
+            StoreError::Unavailable(m) => Self::Unavailable(m, 1),
             other => Self::Internal(other.to_string()),
         }
     }

@@ -1,13 +1,22 @@
 //! Shared state: the store, a memory-bounded cache of built hierarchies, limits.
+//!
+//! Over a store only this process writes (the file store) the cache is
+//! exact: every change goes through [`AppState`], which updates it. Over a
+//! shared store (replicas on one object store) a cached view or scene
+//! listing older than [`Settings::revalidate`] is checked against the
+//! store's version before it is served (one HEAD for a view, one LIST for a
+//! scene), so a replica serves another's replaced view for at most that
+//! long after the replace was acknowledged (0, the default: never).
 
 use std::collections::HashMap;
 use std::hash::{Hash, Hasher};
 use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
 
 use crate::camera::Camera;
 use crate::image::{sniff, DepthImage, Format, Limits};
 use crate::mesh::DepthMesh;
-use crate::store::{StoredView, ViewStore};
+use crate::store::{StoredView, Version, ViewStore};
 
 use super::error::AppError;
 use super::metrics::Metrics;
@@ -23,8 +32,13 @@ pub struct Loaded {
     pub color: Vec<u8>,
     /// `image/png` or `image/jpeg`.
     pub color_type: &'static str,
-    /// Strong validator of the stored view (depth, camera, segmentation, colour).
+    /// The store's version of the view this was built from.
+    pub version: Version,
+    /// Strong validator of the stored view (depth, camera, segmentation,
+    /// colour) and its version.
     pub etag: String,
+    /// Hash of the stored content.
+    content: u64,
     /// Valid depth samples.
     pub valid_samples: u64,
     /// The integer grid of the uploaded depth, for lossless residual coding.
@@ -37,8 +51,8 @@ impl Loaded {
         self.hierarchy.heap_bytes() + self.color.len()
     }
 
-    /// Builds from a stored view.
-    pub fn from_stored(v: &StoredView) -> Result<Self, AppError> {
+    /// Builds from a stored view at `version`.
+    pub fn from_stored(v: &StoredView, version: Version) -> Result<Self, AppError> {
         let camera = Camera::try_from(&v.camera)?;
         let depth = DepthImage::from_z(camera.width, camera.height, v.z.clone())?;
         let hierarchy = DepthMesh::build(&depth, &camera, &v.segmentation.to_engine())?;
@@ -56,14 +70,27 @@ impl Loaded {
         serde_json::to_string(&v.segmentation).unwrap_or_default().hash(&mut h);
         serde_json::to_string(&v.raw_grid).unwrap_or_default().hash(&mut h);
         Ok(Self {
+            version: Version::new(),
+            content: h.finish(),
             valid_samples: depth.valid_count() as u64,
             raw_grid: v.raw_grid,
             hierarchy,
             camera,
             color: v.color.clone(),
             color_type,
-            etag: format!("\"{:016x}\"", h.finish()),
-        })
+            etag: String::new(),
+        }
+        .at_version(version))
+    }
+
+    /// The same view as stored at `version`: its ETag names both the
+    /// content and the version.
+    pub fn at_version(mut self, version: Version) -> Self {
+        let mut h = std::collections::hash_map::DefaultHasher::new();
+        version.hash(&mut h);
+        self.etag = format!("\"{:016x}.{:08x}\"", self.content, h.finish() as u32);
+        self.version = version;
+        self
     }
 }
 
@@ -76,6 +103,9 @@ pub struct Settings {
     pub limits: Limits,
     /// Bytes of hierarchies kept in memory.
     pub cache_bytes: usize,
+    /// Over a shared store, the longest a cached view or scene listing is
+    /// served without checking its version.
+    pub revalidate: Duration,
 }
 
 impl Default for Settings {
@@ -84,13 +114,21 @@ impl Default for Settings {
             max_upload_bytes: 256 << 20,
             limits: Limits::default(),
             cache_bytes: 1 << 30,
+            revalidate: Duration::ZERO,
         }
     }
 }
 
+/// A cached view: the view, its last use (LRU clock), its last check.
+struct Entry {
+    loaded: Arc<Loaded>,
+    used: u64,
+    checked: Instant,
+}
+
 #[derive(Default)]
 struct Cache {
-    entries: HashMap<(String, String), (Arc<Loaded>, u64)>,
+    entries: HashMap<(String, String), Entry>,
     bytes: usize,
     clock: u64,
 }
@@ -106,7 +144,7 @@ pub struct AppState {
     cache: Mutex<Cache>,
     /// Per scene, its views' names and cameras, read from the store's
     /// metadata alone (view selection needs no hierarchy).
-    cameras: Mutex<HashMap<String, SceneCameras>>,
+    cameras: Mutex<HashMap<String, (SceneCameras, Instant)>>,
     /// Bumped by every store change, so a listing or a view read before a
     /// change is not cached after it.
     changes: std::sync::atomic::AtomicU64,
@@ -115,8 +153,19 @@ pub struct AppState {
     commit: Mutex<()>,
 }
 
+/// A view of a scene as selection sees it.
+#[derive(Clone, Debug)]
+pub struct Listed {
+    /// The view id.
+    pub name: String,
+    /// Its camera.
+    pub camera: Camera,
+    /// The store's version the camera was read at.
+    pub version: Version,
+}
+
 /// The views of a scene and their cameras, in view-id order.
-pub type SceneCameras = Arc<Vec<(String, Camera)>>;
+pub type SceneCameras = Arc<Vec<Listed>>;
 
 impl AppState {
     /// State over `store`.
@@ -132,30 +181,50 @@ impl AppState {
         }
     }
 
+    /// True when a cached entry checked at `checked` must be checked again.
+    fn stale(&self, checked: Instant) -> bool {
+        self.store.shared() && checked.elapsed() > self.settings.revalidate
+    }
+
     /// The views of `scene` with their cameras (blocking: call off the async
-    /// workers). Cached until the scene changes.
+    /// workers). Cached until the scene changes; over a shared store,
+    /// revalidated by one listing, and only changed cameras are read again.
     pub fn scene_cameras(&self, scene: &str) -> Result<SceneCameras, AppError> {
         use std::sync::atomic::Ordering;
         let lock = || self.cameras.lock().unwrap_or_else(|p| p.into_inner());
-        if let Some(hit) = lock().get(scene) {
-            return Ok(hit.clone());
+        let held = lock().get(scene).cloned();
+        if let Some((hit, checked)) = &held {
+            if !self.stale(*checked) {
+                return Ok(hit.clone());
+            }
         }
         let before = self.changes.load(Ordering::SeqCst);
-        let names = self
+        let now = Instant::now();
+        let listing = self
             .store
-            .views(scene)?
+            .listing(scene)?
             .ok_or_else(|| AppError::NotFound(format!("no scene {scene:?}")))?;
-        let mut list = Vec::with_capacity(names.len());
-        for name in names {
-            // A view deleted since the listing is simply left out.
-            if let Some(c) = self.store.camera(scene, &name)? {
-                list.push((name, Camera::try_from(&c)?));
+        let known = |name: &str, version: &str| {
+            held.as_ref()
+                .and_then(|(h, _)| h.iter().find(|l| l.name == name && l.version == version).cloned())
+        };
+        let mut list = Vec::with_capacity(listing.len());
+        for (name, version) in listing {
+            if let Some(same) = known(&name, &version) {
+                list.push(same);
+            } else if let Some((c, version)) = self.store.camera(scene, &name)? {
+                // A view deleted since the listing is simply left out.
+                list.push(Listed {
+                    name,
+                    camera: Camera::try_from(&c)?,
+                    version,
+                });
             }
         }
         let list = Arc::new(list);
         let mut map = lock();
         if self.changes.load(Ordering::SeqCst) == before {
-            map.insert(scene.to_string(), list.clone());
+            map.insert(scene.to_string(), (list.clone(), now));
         }
         Ok(list)
     }
@@ -179,41 +248,47 @@ impl AppState {
 
     fn insert(&self, c: &mut Cache, scene: &str, view: &str, loaded: Arc<Loaded>) {
         c.clock += 1;
-        let clock = c.clock;
-        if let Some((old, _)) = c.entries.insert((scene.into(), view.into()), (loaded.clone(), clock)) {
-            c.bytes -= old.bytes();
+        let entry = Entry {
+            loaded: loaded.clone(),
+            used: c.clock,
+            checked: Instant::now(),
+        };
+        if let Some(old) = c.entries.insert((scene.into(), view.into()), entry) {
+            c.bytes -= old.loaded.bytes();
         }
         c.bytes += loaded.bytes();
         while c.bytes > self.settings.cache_bytes && c.entries.len() > 1 {
-            let Some(oldest) = c.entries.iter().min_by_key(|(_, (_, t))| *t).map(|(k, _)| k.clone()) else {
+            let Some(oldest) = c.entries.iter().min_by_key(|(_, e)| e.used).map(|(k, _)| k.clone()) else {
                 break;
             };
-            if let Some((gone, _)) = c.entries.remove(&oldest) {
-                c.bytes -= gone.bytes();
+            if let Some(gone) = c.entries.remove(&oldest) {
+                c.bytes -= gone.loaded.bytes();
             }
         }
         self.metrics.set_views_loaded(c.entries.len());
     }
 
-    /// Stores an uploaded view and caches it, as one step against other
-    /// changes (blocking: call off the async workers). A reader that loaded
-    /// the old version from the store meanwhile does not cache it after this.
+    /// Stores an uploaded view and caches it (built from `stored`), as one
+    /// step against other changes (blocking: call off the async workers). A
+    /// reader that loaded the old version from the store meanwhile does not
+    /// cache it after this.
     pub fn store_view(
         &self,
         scene: &str,
         view: &str,
         stored: &StoredView,
-        loaded: Arc<Loaded>,
-    ) -> Result<(), AppError> {
+        loaded: Loaded,
+    ) -> Result<Arc<Loaded>, AppError> {
         let _commit = self.commit.lock().unwrap_or_else(|p| p.into_inner());
-        self.store.put(scene, view, stored)?;
+        let version = self.store.put(scene, view, stored)?;
+        let loaded = Arc::new(loaded.at_version(version));
         {
             let mut c = self.cache();
             self.changes.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
-            self.insert(&mut c, scene, view, loaded);
+            self.insert(&mut c, scene, view, loaded.clone());
         }
         self.scene_changed(scene);
-        Ok(())
+        Ok(loaded)
     }
 
     /// Deletes a view (or, with `view` `None`, a scene) from the store and
@@ -239,31 +314,77 @@ impl AppState {
             .cloned()
             .collect();
         for k in keys {
-            if let Some((gone, _)) = c.entries.remove(&k) {
-                c.bytes -= gone.bytes();
+            if let Some(gone) = c.entries.remove(&k) {
+                c.bytes -= gone.loaded.bytes();
             }
         }
         self.metrics.set_views_loaded(c.entries.len());
     }
 
-    /// The loaded view, from the cache or rebuilt from the store (blocking: call off the async workers).
-    pub fn load(&self, scene: &str, view: &str) -> Result<Arc<Loaded>, AppError> {
-        {
-            let mut c = self.cache();
-            c.clock += 1;
-            let clock = c.clock;
-            if let Some((hit, t)) = c.entries.get_mut(&(scene.to_string(), view.to_string())) {
-                *t = clock;
-                return Ok(hit.clone());
+    /// The cached view and whether it needs a check, bumping its LRU clock.
+    fn cached(&self, scene: &str, view: &str) -> Option<(Arc<Loaded>, bool)> {
+        let mut c = self.cache();
+        c.clock += 1;
+        let clock = c.clock;
+        let e = c.entries.get_mut(&(scene.to_string(), view.to_string()))?;
+        e.used = clock;
+        Some((e.loaded.clone(), self.stale(e.checked)))
+    }
+
+    /// Marks a cached view as checked now, if it is still `version`.
+    fn checked(&self, scene: &str, view: &str, version: &str) {
+        let mut c = self.cache();
+        if let Some(e) = c.entries.get_mut(&(scene.to_string(), view.to_string())) {
+            if e.loaded.version == version {
+                e.checked = Instant::now();
             }
         }
+    }
+
+    /// The loaded view, from the cache or rebuilt from the store (blocking:
+    /// call off the async workers). Over a shared store a cached view not
+    /// checked within [`Settings::revalidate`] is checked first.
+    pub fn load(&self, scene: &str, view: &str) -> Result<Arc<Loaded>, AppError> {
+        if let Some((hit, stale)) = self.cached(scene, view) {
+            if !stale {
+                return Ok(hit);
+            }
+            match self.store.version(scene, view)? {
+                Some(v) if v == hit.version => {
+                    self.checked(scene, view, &v);
+                    return Ok(hit);
+                }
+                Some(_) => {}
+                None => {
+                    self.forget(scene, Some(view));
+                    return Err(AppError::NotFound(format!("scene {scene:?} has no view {view:?}")));
+                }
+            }
+        }
+        self.fetch(scene, view)
+    }
+
+    /// The loaded view at `version` (just listed by [`Self::scene_cameras`]),
+    /// from the cache when it holds that version.
+    pub fn load_listed(&self, scene: &str, listed: &Listed) -> Result<Arc<Loaded>, AppError> {
+        if let Some((hit, stale)) = self.cached(scene, &listed.name) {
+            if !stale || hit.version == listed.version {
+                self.checked(scene, &listed.name, &listed.version);
+                return Ok(hit);
+            }
+        }
+        self.fetch(scene, &listed.name)
+    }
+
+    /// Reads and builds a view from the store, and caches it.
+    fn fetch(&self, scene: &str, view: &str) -> Result<Arc<Loaded>, AppError> {
         let before = self.changes.load(std::sync::atomic::Ordering::SeqCst);
-        let stored = self
+        let (stored, version) = self
             .store
             .get(scene, view)?
             .ok_or_else(|| AppError::NotFound(format!("scene {scene:?} has no view {view:?}")))?;
-        let loaded = Arc::new(Loaded::from_stored(&stored)?);
-        // Cached only when nothing changed since the store was read: a
+        let loaded = Arc::new(Loaded::from_stored(&stored, version)?);
+        // Cached only when nothing changed here since the store was read: a
         // replace meanwhile may already have cached the newer view.
         let mut c = self.cache();
         if self.changes.load(std::sync::atomic::Ordering::SeqCst) == before {

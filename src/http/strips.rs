@@ -302,15 +302,16 @@ pub async fn render(
     let response = tokio::task::spawn_blocking(move || -> Result<RenderResponse, AppError> {
         // Select from the cameras alone; only the selected views are loaded.
         let candidates = st.scene_cameras(&scene)?;
-        let cameras: Vec<Camera> = candidates.iter().map(|(_, c)| *c).collect();
+        let cameras: Vec<Camera> = candidates.iter().map(|l| l.camera).collect();
         let selected = select_views(&novel, &cameras, rule, max_views)?;
         let select_ms = start.elapsed().as_secs_f64() * 1e3;
         let t = Instant::now();
         let views = selected
             .iter()
             .map(|w| {
-                let name = &candidates[w.index].0;
-                let loaded = st.load(&scene, name)?;
+                let listed = &candidates[w.index];
+                let name = &listed.name;
+                let loaded = st.load_listed(&scene, listed)?;
                 Ok(RenderedView {
                     weight: w.weight,
                     strips: extract(&st, &scene, name, &loaded, &ask.share(w.weight))?,

@@ -156,9 +156,8 @@ pub async fn put_view(
             color: color_bytes.to_vec(),
         };
         // Build before storing: a view that cannot be meshed is not kept.
-        let loaded = Arc::new(Loaded::from_stored(&stored)?);
-        st.store_view(&sc, &vw, &stored, loaded.clone())?;
-        Ok(loaded)
+        let loaded = Loaded::from_stored(&stored, String::new())?;
+        st.store_view(&sc, &vw, &stored, loaded)
     })
     .await??;
     let mut response = encode(&headers, &summary(&scene, &view, &loaded))?;

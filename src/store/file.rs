@@ -6,23 +6,18 @@
 //! crash, and a reader never sees a half-written view. Leftover temporary
 //! files from a crash are removed when the store opens.
 //!
-//! A `.dmv` file: the magic `DMV1`; a little-endian `u64` length and the JSON
-//! metadata (`camera`, `segmentation`); a `u64` sample count and the depths as
-//! little-endian `f32`; a `u64` length and the colour image bytes.
+//! A file holds the view in the [`dmv`](super::dmv) encoding. Only this
+//! process writes the directory, so its own cache needs no revalidation
+//! ([`ViewStore::shared`] is false).
 
 use std::fs::{self, File};
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use serde::{Deserialize, Serialize};
+use super::{dmv, validate_id, StoreError, StoredView, Version, ViewStore};
 
-use super::{validate_id, SegmentationSpec, StoreError, StoredView, ViewStore};
-
-const MAGIC: &[u8; 4] = b"DMV1";
 const SUFFIX: &str = ".dmv";
-/// Metadata (camera, segmentation) is a few hundred bytes of JSON.
-const MAX_META_BYTES: u64 = 1 << 20;
 
 /// Views as files under a data directory.
 #[derive(Debug)]
@@ -31,34 +26,17 @@ pub struct FileStore {
     counter: AtomicU64,
 }
 
-#[derive(Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct Meta {
-    camera: dmesh_proto::Camera,
-    segmentation: SegmentationSpec,
-    /// Absent in files written before residual coding.
-    #[serde(default)]
-    raw_grid: Option<dmesh_proto::RawGrid>,
-}
-
-/// A bounds-checked cursor over a `.dmv` file.
-struct Reader<'a> {
-    bytes: &'a [u8],
-    at: usize,
-}
-
-impl<'a> Reader<'a> {
-    fn take(&mut self, n: usize) -> Option<&'a [u8]> {
-        let end = self.at.checked_add(n).filter(|&e| e <= self.bytes.len())?;
-        let s = &self.bytes[self.at..end];
-        self.at = end;
-        Some(s)
-    }
-
-    fn len(&mut self) -> Option<usize> {
-        let b: [u8; 8] = self.take(8)?.try_into().ok()?;
-        usize::try_from(u64::from_le_bytes(b)).ok()
-    }
+/// A file's version: inode, modification time and length change whenever
+/// the view is replaced (a replace renames a new file over the old).
+fn version_of(meta: &fs::Metadata) -> Version {
+    use std::os::unix::fs::MetadataExt;
+    format!(
+        "{:x}-{:x}.{:x}-{:x}",
+        meta.ino(),
+        meta.mtime(),
+        meta.mtime_nsec(),
+        meta.len()
+    )
 }
 
 fn sync_dir(path: &Path) -> std::io::Result<()> {
@@ -92,58 +70,6 @@ impl FileStore {
         Ok(self.scene_dir(scene)?.join(format!("{view}{SUFFIX}")))
     }
 
-    fn encode(v: &StoredView) -> Result<Vec<u8>, StoreError> {
-        let meta = serde_json::to_vec(&Meta {
-            camera: v.camera.clone(),
-            segmentation: v.segmentation,
-            raw_grid: v.raw_grid,
-        })
-        .map_err(|e| StoreError::Io(std::io::Error::other(e)))?;
-        let mut out = Vec::with_capacity(4 + 24 + meta.len() + v.z.len() * 4 + v.color.len());
-        out.extend_from_slice(MAGIC);
-        out.extend_from_slice(&(meta.len() as u64).to_le_bytes());
-        out.extend_from_slice(&meta);
-        out.extend_from_slice(&(v.z.len() as u64).to_le_bytes());
-        for z in &v.z {
-            out.extend_from_slice(&z.to_le_bytes());
-        }
-        out.extend_from_slice(&(v.color.len() as u64).to_le_bytes());
-        out.extend_from_slice(&v.color);
-        Ok(out)
-    }
-
-    fn decode(name: &str, bytes: &[u8]) -> Result<StoredView, StoreError> {
-        let damaged = |why: &str| StoreError::Damaged(name.to_string(), why.to_string());
-        let mut r = Reader { bytes, at: 0 };
-        if r.take(4).ok_or_else(|| damaged("truncated"))? != MAGIC {
-            return Err(damaged("bad magic"));
-        }
-        let n = r.len().ok_or_else(|| damaged("truncated"))?;
-        let meta: Meta = serde_json::from_slice(r.take(n).ok_or_else(|| damaged("truncated"))?)
-            .map_err(|e| damaged(&e.to_string()))?;
-        let count = r.len().ok_or_else(|| damaged("truncated"))?;
-        let raw = count
-            .checked_mul(4)
-            .and_then(|n| r.take(n))
-            .ok_or_else(|| damaged("truncated"))?;
-        let z = raw
-            .chunks_exact(4)
-            .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-            .collect();
-        let n = r.len().ok_or_else(|| damaged("truncated"))?;
-        let color = r.take(n).ok_or_else(|| damaged("truncated"))?.to_vec();
-        if r.at != bytes.len() {
-            return Err(damaged("trailing bytes"));
-        }
-        Ok(StoredView {
-            camera: meta.camera,
-            segmentation: meta.segmentation,
-            raw_grid: meta.raw_grid,
-            z,
-            color,
-        })
-    }
-
     fn list(dir: &Path, want_dirs: bool) -> Result<Vec<String>, StoreError> {
         let mut out = Vec::new();
         for entry in fs::read_dir(dir)? {
@@ -165,73 +91,88 @@ impl FileStore {
 }
 
 impl ViewStore for FileStore {
-    fn put(&self, scene: &str, view: &str, v: &StoredView) -> Result<(), StoreError> {
+    fn put(&self, scene: &str, view: &str, v: &StoredView) -> Result<Version, StoreError> {
         let target = self.view_path(scene, view)?;
         let scene_dir = self.scene_dir(scene)?;
         if !scene_dir.exists() {
             fs::create_dir_all(&scene_dir)?;
             sync_dir(&self.root.join("scenes"))?;
         }
-        let bytes = Self::encode(v)?;
+        let bytes = dmv::encode(v)?;
         let n = self.counter.fetch_add(1, Ordering::Relaxed);
         let tmp = self.root.join("tmp").join(format!("{}-{n}", std::process::id()));
         let written = (|| {
             let mut f = File::create(&tmp)?;
             f.write_all(&bytes)?;
             f.sync_all()?;
+            let version = version_of(&f.metadata()?);
             fs::rename(&tmp, &target)?;
-            sync_dir(&scene_dir)
+            sync_dir(&scene_dir)?;
+            Ok(version)
         })();
         if written.is_err() {
             let _ = fs::remove_file(&tmp);
         }
-        Ok(written?)
+        written
     }
 
-    fn get(&self, scene: &str, view: &str) -> Result<Option<StoredView>, StoreError> {
+    fn get(&self, scene: &str, view: &str) -> Result<Option<(StoredView, Version)>, StoreError> {
         let path = self.view_path(scene, view)?;
-        match fs::read(&path) {
-            Ok(bytes) => Self::decode(&format!("{scene}/{view}"), &bytes).map(Some),
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
-            Err(e) => Err(e.into()),
-        }
-    }
-
-    fn camera(&self, scene: &str, view: &str) -> Result<Option<dmesh_proto::Camera>, StoreError> {
-        let path = self.view_path(scene, view)?;
-        let name = format!("{scene}/{view}");
-        let damaged = |why: &str| StoreError::Damaged(name.clone(), why.to_string());
         let mut file = match File::open(&path) {
             Ok(f) => f,
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
             Err(e) => return Err(e.into()),
         };
+        // The version of the file read, not of whatever the path names later.
+        let version = version_of(&file.metadata()?);
+        let mut bytes = Vec::new();
+        file.read_to_end(&mut bytes)?;
+        Ok(Some((dmv::decode(&format!("{scene}/{view}"), &bytes)?, version)))
+    }
+
+    fn camera(&self, scene: &str, view: &str) -> Result<Option<(dmesh_proto::Camera, Version)>, StoreError> {
+        let path = self.view_path(scene, view)?;
+        let name = format!("{scene}/{view}");
+        let truncated = || StoreError::Damaged(name.clone(), "truncated".into());
+        let mut file = match File::open(&path) {
+            Ok(f) => f,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+            Err(e) => return Err(e.into()),
+        };
+        let version = version_of(&file.metadata()?);
         // Magic and metadata length, then the metadata alone.
-        let mut head = [0u8; 12];
-        file.read_exact(&mut head).map_err(|_| damaged("truncated"))?;
-        if &head[..4] != MAGIC {
-            return Err(damaged("bad magic"));
+        let mut head = [0u8; dmv::HEAD_BYTES];
+        file.read_exact(&mut head).map_err(|_| truncated())?;
+        let mut meta = vec![0u8; dmv::meta_len(&name, &head)?];
+        file.read_exact(&mut meta).map_err(|_| truncated())?;
+        Ok(Some((dmv::decode_meta(&name, &meta)?.camera, version)))
+    }
+
+    fn version(&self, scene: &str, view: &str) -> Result<Option<Version>, StoreError> {
+        match fs::metadata(self.view_path(scene, view)?) {
+            Ok(m) => Ok(Some(version_of(&m))),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+            Err(e) => Err(e.into()),
         }
-        let n = u64::from_le_bytes(head[4..].try_into().map_err(|_| damaged("truncated"))?);
-        if n > MAX_META_BYTES {
-            return Err(damaged("metadata too long"));
-        }
-        let mut meta = vec![0u8; n as usize];
-        file.read_exact(&mut meta).map_err(|_| damaged("truncated"))?;
-        let meta: Meta = serde_json::from_slice(&meta).map_err(|e| damaged(&e.to_string()))?;
-        Ok(Some(meta.camera))
     }
 
     fn scenes(&self) -> Result<Vec<String>, StoreError> {
         Self::list(&self.root.join("scenes"), true)
     }
 
-    fn views(&self, scene: &str) -> Result<Option<Vec<String>>, StoreError> {
+    fn listing(&self, scene: &str) -> Result<Option<Vec<(String, Version)>>, StoreError> {
         let dir = self.scene_dir(scene)?;
         if !dir.is_dir() {
             return Ok(None);
         }
-        Self::list(&dir, false).map(Some)
+        let mut out = Vec::new();
+        for view in Self::list(&dir, false)? {
+            // A view deleted since the directory was read is left out.
+            if let Some(v) = self.version(scene, &view)? {
+                out.push((view, v));
+            }
+        }
+        Ok(Some(out))
     }
 
     fn delete_view(&self, scene: &str, view: &str) -> Result<bool, StoreError> {
@@ -302,9 +243,15 @@ mod tests {
         let store = FileStore::open(dir.path()).unwrap();
         store.put("s", "a", &view(1.0)).unwrap();
         store.put("s", "b", &view(2.0)).unwrap();
-        store.put("s", "a", &view(3.0)).unwrap();
-        assert_eq!(store.get("s", "a").unwrap().unwrap(), view(3.0));
-        assert_eq!(store.camera("s", "a").unwrap(), Some(view(3.0).camera));
+        let first = store.version("s", "a").unwrap().unwrap();
+        let version = store.put("s", "a", &view(3.0)).unwrap();
+        assert_ne!(version, first, "a replace changes the version");
+        assert_eq!(store.get("s", "a").unwrap().unwrap(), (view(3.0), version.clone()));
+        assert_eq!(
+            store.camera("s", "a").unwrap(),
+            Some((view(3.0).camera, version.clone()))
+        );
+        assert_eq!(store.version("s", "a").unwrap(), Some(version));
         assert_eq!(store.camera("s", "nope").unwrap(), None);
         assert_eq!(store.views("s").unwrap().unwrap(), vec!["a", "b"]);
         assert!(store.views("t").unwrap().is_none());

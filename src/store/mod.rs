@@ -2,15 +2,22 @@
 //!
 //! The service keeps what users uploaded (camera, depth as `z`, colour bytes,
 //! segmentation settings) behind [`ViewStore`]; hierarchies are rebuilt from
-//! it on demand. [`file::FileStore`] is the embedded default. An
-//! S3-compatible object store (the `object_store` crate) can implement the
-//! same trait for stateless replicas.
+//! it on demand. [`file::FileStore`] is the embedded default;
+//! [`object::ObjectViewStore`] keeps views in an S3-compatible object store
+//! for stateless replicas. Both encode a view the same way ([`dmv`]).
+//!
+//! Every read returns the view's [`Version`]: an opaque string that changes
+//! whenever the view is replaced. A store that other processes write too
+//! ([`ViewStore::shared`]) is revalidated against it by the server's cache.
 
+pub mod dmv;
 pub mod file;
 mod ids;
+pub mod object;
 
 pub use file::FileStore;
 pub use ids::validate_id;
+pub use object::ObjectViewStore;
 
 use serde::{Deserialize, Serialize};
 
@@ -121,28 +128,52 @@ pub enum StoreError {
     /// The file system failed.
     #[error("storage: {0}")]
     Io(#[from] std::io::Error),
+    /// A store the server depends on did not answer, or answered with an
+    /// error: worth retrying shortly (the server answers 503).
+    #[error("object store unavailable: {0}")]
+    Unavailable(String),
 }
+
+/// A view's version: opaque, equal for equal versions of one view, changed
+/// by every replace.
+pub type Version = String;
 
 /// Where views live. Implementations must make `put` durable and atomic:
 /// once it returns, the view survives a crash, and a reader sees either the
-/// previous version or the new one, never a mix.
+/// previous version or the new one, never a mix. A failed `put` leaves the
+/// previous version. Every method blocks: call them off the async workers.
 pub trait ViewStore: Send + Sync {
-    /// Stores (or atomically replaces) a view.
-    fn put(&self, scene: &str, view: &str, v: &StoredView) -> Result<(), StoreError>;
-    /// Reads a view, `None` when absent.
-    fn get(&self, scene: &str, view: &str) -> Result<Option<StoredView>, StoreError>;
-    /// Reads only a view's camera (no depth, no colour), `None` when absent.
-    fn camera(&self, scene: &str, view: &str) -> Result<Option<dmesh_proto::Camera>, StoreError>;
+    /// Stores (or atomically replaces) a view; returns its new version.
+    fn put(&self, scene: &str, view: &str, v: &StoredView) -> Result<Version, StoreError>;
+    /// Reads a view and its version, `None` when absent.
+    fn get(&self, scene: &str, view: &str) -> Result<Option<(StoredView, Version)>, StoreError>;
+    /// Reads only a view's camera (no depth, no colour) and its version,
+    /// `None` when absent.
+    fn camera(&self, scene: &str, view: &str) -> Result<Option<(dmesh_proto::Camera, Version)>, StoreError>;
+    /// A view's current version, `None` when absent: the cheap check a
+    /// cache makes before serving what it holds.
+    fn version(&self, scene: &str, view: &str) -> Result<Option<Version>, StoreError>;
     /// Scene ids, sorted.
     fn scenes(&self) -> Result<Vec<String>, StoreError>;
+    /// View ids of a scene with their versions, sorted by id; `None` when
+    /// the scene does not exist.
+    fn listing(&self, scene: &str) -> Result<Option<Vec<(String, Version)>>, StoreError>;
     /// View ids of a scene, sorted; `None` when the scene does not exist.
-    fn views(&self, scene: &str) -> Result<Option<Vec<String>>, StoreError>;
+    fn views(&self, scene: &str) -> Result<Option<Vec<String>>, StoreError> {
+        Ok(self.listing(scene)?.map(|l| l.into_iter().map(|(v, _)| v).collect()))
+    }
     /// Deletes a view; false when it did not exist.
     fn delete_view(&self, scene: &str, view: &str) -> Result<bool, StoreError>;
     /// Deletes a scene and its views; false when it did not exist.
     fn delete_scene(&self, scene: &str) -> Result<bool, StoreError>;
     /// Bytes held.
     fn bytes_stored(&self) -> Result<u64, StoreError>;
+    /// True when other processes may change the store (replicas sharing an
+    /// object store): a cache must then revalidate what it holds against
+    /// [`ViewStore::version`] before serving it.
+    fn shared(&self) -> bool {
+        false
+    }
 }
 
 #[cfg(test)]

@@ -14,6 +14,8 @@ use hyper_util::rt::TokioExecutor;
 
 use crate::common;
 
+pub mod s3;
+
 pub const W: u32 = 48;
 pub const H: u32 = 32;
 
@@ -76,6 +78,59 @@ pub fn put(uri: &str, body: Vec<u8>) -> Request<Body> {
 
 pub fn state(dir: &std::path::Path, settings: Settings) -> Arc<AppState> {
     Arc::new(AppState::new(Arc::new(FileStore::open(dir).unwrap()), settings))
+}
+
+/// Which store a test runs against.
+#[derive(Clone, Copy, Debug)]
+pub enum Store {
+    /// The embedded file store in a temporary directory.
+    File,
+    /// An object store on a real S3 API server (`moto_server`).
+    S3,
+}
+
+/// A store that outlives the servers a test starts over it (a restart is a
+/// new server over the same store).
+pub enum Backing {
+    File(tempfile::TempDir),
+    S3(s3::S3Server),
+}
+
+impl Backing {
+    pub fn new(kind: Store) -> Self {
+        match kind {
+            Store::File => Self::File(tempfile::tempdir().unwrap()),
+            Store::S3 => Self::S3(s3::S3Server::start(s3::Kind::Moto)),
+        }
+    }
+
+    /// A fresh server state over this store.
+    pub fn state(&self, settings: Settings) -> Arc<AppState> {
+        match self {
+            Self::File(dir) => state(dir.path(), settings),
+            Self::S3(server) => Arc::new(AppState::new(Arc::new(server.store("views")), settings)),
+        }
+    }
+}
+
+/// Runs a store-independent test against both stores: `name_file` and
+/// `name_s3` call `name(Store::File)` and `name(Store::S3)`.
+#[macro_export]
+macro_rules! on_both_stores {
+    ($($name:ident),* $(,)?) => {
+        $(
+            mod $name {
+                #[tokio::test]
+                async fn file() {
+                    super::$name($crate::server_support::Store::File).await
+                }
+                #[tokio::test]
+                async fn s3() {
+                    super::$name($crate::server_support::Store::S3).await
+                }
+            }
+        )*
+    };
 }
 
 /// A running server: its address and the task serving it.

@@ -1,0 +1,129 @@
+//! The `.dmv` encoding of one stored view, shared by every store.
+//!
+//! The magic `DMV1`; a little-endian `u64` length and the JSON metadata
+//! (`camera`, `segmentation`, `raw_grid`); a `u64` sample count and the
+//! depths as little-endian `f32`; a `u64` length and the colour image bytes.
+//! Decoding checks every length against the bytes present, so damaged or
+//! truncated bytes are an error, never a panic.
+
+use serde::{Deserialize, Serialize};
+
+use super::{SegmentationSpec, StoreError, StoredView};
+
+/// The first four bytes of every `.dmv`.
+pub const MAGIC: &[u8; 4] = b"DMV1";
+/// Metadata (camera, segmentation) is a few hundred bytes of JSON.
+pub const MAX_META_BYTES: u64 = 1 << 20;
+/// Bytes before the metadata: the magic and the metadata length.
+pub const HEAD_BYTES: usize = 12;
+
+/// A view's metadata: everything but the samples and the colour.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Meta {
+    /// The reference camera, wire form.
+    pub camera: dmesh_proto::Camera,
+    /// Segmentation settings.
+    pub segmentation: SegmentationSpec,
+    /// Absent in files written before residual coding.
+    #[serde(default)]
+    pub raw_grid: Option<dmesh_proto::RawGrid>,
+}
+
+impl Meta {
+    /// The metadata of `v`.
+    pub fn of(v: &StoredView) -> Self {
+        Self {
+            camera: v.camera.clone(),
+            segmentation: v.segmentation,
+            raw_grid: v.raw_grid,
+        }
+    }
+}
+
+/// A bounds-checked cursor.
+struct Reader<'a> {
+    bytes: &'a [u8],
+    at: usize,
+}
+
+impl<'a> Reader<'a> {
+    fn take(&mut self, n: usize) -> Option<&'a [u8]> {
+        let end = self.at.checked_add(n).filter(|&e| e <= self.bytes.len())?;
+        let s = &self.bytes[self.at..end];
+        self.at = end;
+        Some(s)
+    }
+
+    fn len(&mut self) -> Option<usize> {
+        let b: [u8; 8] = self.take(8)?.try_into().ok()?;
+        usize::try_from(u64::from_le_bytes(b)).ok()
+    }
+}
+
+fn damaged(name: &str, why: &str) -> StoreError {
+    StoreError::Damaged(name.to_string(), why.to_string())
+}
+
+/// Encodes a view.
+pub fn encode(v: &StoredView) -> Result<Vec<u8>, StoreError> {
+    let meta = serde_json::to_vec(&Meta::of(v)).map_err(|e| StoreError::Io(std::io::Error::other(e)))?;
+    let mut out = Vec::with_capacity(HEAD_BYTES + 16 + meta.len() + v.z.len() * 4 + v.color.len());
+    out.extend_from_slice(MAGIC);
+    out.extend_from_slice(&(meta.len() as u64).to_le_bytes());
+    out.extend_from_slice(&meta);
+    out.extend_from_slice(&(v.z.len() as u64).to_le_bytes());
+    for z in &v.z {
+        out.extend_from_slice(&z.to_le_bytes());
+    }
+    out.extend_from_slice(&(v.color.len() as u64).to_le_bytes());
+    out.extend_from_slice(&v.color);
+    Ok(out)
+}
+
+/// The metadata length from the first [`HEAD_BYTES`] bytes, checked
+/// against [`MAX_META_BYTES`]; `name` names the view in errors.
+pub fn meta_len(name: &str, head: &[u8]) -> Result<usize, StoreError> {
+    if head.len() < HEAD_BYTES {
+        return Err(damaged(name, "truncated"));
+    }
+    if &head[..4] != MAGIC {
+        return Err(damaged(name, "bad magic"));
+    }
+    let n = u64::from_le_bytes(head[4..HEAD_BYTES].try_into().map_err(|_| damaged(name, "truncated"))?);
+    if n > MAX_META_BYTES {
+        return Err(damaged(name, "metadata too long"));
+    }
+    Ok(n as usize)
+}
+
+/// Parses metadata bytes.
+pub fn decode_meta(name: &str, bytes: &[u8]) -> Result<Meta, StoreError> {
+    serde_json::from_slice(bytes).map_err(|e| damaged(name, &e.to_string()))
+}
+
+/// Decodes a whole view.
+pub fn decode(name: &str, bytes: &[u8]) -> Result<StoredView, StoreError> {
+    let truncated = || damaged(name, "truncated");
+    let n = meta_len(name, bytes)?;
+    let mut r = Reader { bytes, at: HEAD_BYTES };
+    let meta = decode_meta(name, r.take(n).ok_or_else(truncated)?)?;
+    let count = r.len().ok_or_else(truncated)?;
+    let raw = count.checked_mul(4).and_then(|n| r.take(n)).ok_or_else(truncated)?;
+    let z = raw
+        .chunks_exact(4)
+        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect();
+    let n = r.len().ok_or_else(truncated)?;
+    let color = r.take(n).ok_or_else(truncated)?.to_vec();
+    if r.at != bytes.len() {
+        return Err(damaged(name, "trailing bytes"));
+    }
+    Ok(StoredView {
+        camera: meta.camera,
+        segmentation: meta.segmentation,
+        raw_grid: meta.raw_grid,
+        z,
+        color,
+    })
+}

@@ -1,0 +1,498 @@
+//! Views in an S3-compatible object store, for stateless replicas
+//! (DESIGN.md, "Scale"), through the `object_store` crate.
+//!
+//! Layout under the prefix:
+//!
+//! - `scenes/{scene}`: an empty marker, so a scene exists with no views
+//!   (as a directory does in the file store);
+//! - `data/{scene}/{view}/{id}.dmv`: one version of a view in the
+//!   [`dmv`](super::dmv) encoding, written once under a fresh id and never
+//!   changed;
+//! - `manifests/{scene}/{view}`: a few hundred bytes of JSON naming the
+//!   current data object and holding the camera, written last.
+//!
+//! A `put` writes the data object, then the manifest; the manifest's PUT is
+//! the commit. S3 replaces a whole object atomically and reads after a write
+//! see it (strong read-after-write, honoured by AWS, moto and s3s-fs), so a
+//! reader sees the old manifest or the new one, and each names complete,
+//! immutable data: never one version's depth with another's colour. A
+//! failed data PUT leaves the old manifest; nothing relies on conditional
+//! (`If-None-Match`) PUTs, which some servers ignore. The version of a view
+//! is its manifest's ETag, so a cache revalidates with one HEAD (a view) or
+//! one LIST (a scene).
+//!
+//! The replaced data object is deleted after the commit, and so is any
+//! other data object of the view older than [`GRACE`] (left by an upload
+//! that failed or lost a race). A reader that read the old manifest just
+//! before the delete re-reads the manifest. Errors other than "not found"
+//! are [`StoreError::Unavailable`]: requests are retried briefly
+//! ([`RETRIES`], [`RETRY_TIMEOUT`]), then the server answers 503.
+
+use std::future::Future;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
+
+use futures_util::StreamExt;
+use object_store::path::Path;
+use object_store::{ObjectStore, ObjectStoreExt, PutPayload};
+use serde::{Deserialize, Serialize};
+
+use super::{dmv, validate_id, StoreError, StoredView, Version, ViewStore};
+
+/// Data objects of a view other than the current one are deleted once this
+/// much older than the newest (an upload in flight is far younger).
+pub const GRACE: Duration = Duration::from_secs(300);
+/// Retries of a failed request before the store is reported unavailable.
+pub const RETRIES: usize = 2;
+/// Longest time spent retrying one request.
+pub const RETRY_TIMEOUT: Duration = Duration::from_secs(2);
+/// Longest one request to the object store may take (a view of a few
+/// megabytes on a local network takes well under a second).
+pub const REQUEST_TIMEOUT: Duration = Duration::from_secs(20);
+
+/// What a manifest holds.
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Manifest {
+    /// The data object's id under `data/{scene}/{view}/`.
+    data: String,
+    /// The view's metadata (the camera, for selection without the data).
+    meta: dmv::Meta,
+    /// Bytes of the data object.
+    bytes: u64,
+}
+
+/// Views in an object store.
+pub struct ObjectViewStore {
+    store: Arc<dyn ObjectStore>,
+    prefix: String,
+    /// The store's requests run here: the trait is blocking, and callers
+    /// (the server's blocking pool, the command line) are not async.
+    runtime: Option<tokio::runtime::Runtime>,
+    counter: AtomicU64,
+    name: String,
+}
+
+impl std::fmt::Debug for ObjectViewStore {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ObjectViewStore").field("at", &self.name).finish()
+    }
+}
+
+impl Drop for ObjectViewStore {
+    fn drop(&mut self) {
+        // Dropping a runtime may block, which an async caller must not.
+        if let Some(rt) = self.runtime.take() {
+            rt.shutdown_background();
+        }
+    }
+}
+
+fn unavailable(e: object_store::Error) -> StoreError {
+    StoreError::Unavailable(e.to_string())
+}
+
+/// `Ok(None)` for "not found", the value otherwise.
+fn found<T>(r: object_store::Result<T>) -> Result<Option<T>, StoreError> {
+    match r {
+        Ok(v) => Ok(Some(v)),
+        Err(object_store::Error::NotFound { .. }) => Ok(None),
+        Err(e) => Err(unavailable(e)),
+    }
+}
+
+/// The version named by an object's metadata.
+fn version_of(meta: &object_store::ObjectMeta) -> Version {
+    meta.e_tag
+        .clone()
+        .unwrap_or_else(|| format!("{}-{}", meta.last_modified.timestamp_micros(), meta.size))
+}
+
+/// The last segment of an object path.
+fn file_name(p: &Path) -> Option<String> {
+    p.filename().map(str::to_string)
+}
+
+impl ObjectViewStore {
+    /// Opens `s3://BUCKET/PREFIX` with the endpoint, region and credentials
+    /// of the standard AWS environment variables (`AWS_ENDPOINT_URL`,
+    /// `AWS_REGION`, `AWS_ACCESS_KEY_ID`, `AWS_SECRET_ACCESS_KEY`,
+    /// `AWS_ALLOW_HTTP=true` for a plain-HTTP endpoint), path-style
+    /// requests unless `AWS_VIRTUAL_HOSTED_STYLE_REQUEST` says otherwise.
+    /// Checks that the bucket answers.
+    pub fn from_url(url: &str) -> Result<Self, StoreError> {
+        Self::open(url, std::env::vars())
+    }
+
+    /// As [`Self::from_url`], with `AWS_*` settings from `vars` instead of
+    /// the environment (tests run several servers in one process).
+    pub fn open(url: &str, vars: impl IntoIterator<Item = (String, String)>) -> Result<Self, StoreError> {
+        let rest = url.strip_prefix("s3://").ok_or_else(|| {
+            StoreError::BadId(format!(
+                "store {url:?} is not accepted; use s3://BUCKET or s3://BUCKET/PREFIX"
+            ))
+        })?;
+        let (bucket, prefix) = rest.split_once('/').unwrap_or((rest, ""));
+        if bucket.is_empty() {
+            return Err(StoreError::BadId(format!("store {url:?} names no bucket")));
+        }
+        let retry = object_store::RetryConfig {
+            backoff: object_store::BackoffConfig {
+                init_backoff: Duration::from_millis(50),
+                max_backoff: Duration::from_millis(500),
+                base: 2.0,
+            },
+            max_retries: RETRIES,
+            retry_timeout: RETRY_TIMEOUT,
+        };
+        let options = object_store::ClientOptions::new()
+            .with_timeout(REQUEST_TIMEOUT)
+            .with_connect_timeout(Duration::from_secs(1));
+        // Options first: the AWS_* settings (AWS_ALLOW_HTTP among them)
+        // refine them.
+        let mut builder = object_store::aws::AmazonS3Builder::new()
+            .with_retry(retry)
+            .with_client_options(options);
+        for (key, value) in vars {
+            if key.starts_with("AWS_") {
+                if let Ok(k) = key.to_ascii_lowercase().parse() {
+                    builder = builder.with_config(k, value);
+                }
+            }
+        }
+        let s3 = builder
+            .with_bucket_name(bucket)
+            .build()
+            .map_err(|e| StoreError::BadId(format!("store {url:?}: {e}")))?;
+        let store = Self::new(Arc::new(s3), prefix, url)?;
+        store.scenes().map_err(|e| match e {
+            StoreError::Unavailable(m) => StoreError::Unavailable(format!("{url}: {m}")),
+            other => other,
+        })?;
+        Ok(store)
+    }
+
+    /// Views under `prefix` of `store`; `name` names it in messages.
+    pub fn new(store: Arc<dyn ObjectStore>, prefix: &str, name: &str) -> Result<Self, StoreError> {
+        let runtime = tokio::runtime::Builder::new_multi_thread()
+            .worker_threads(1)
+            .thread_name("dmesh-object-store")
+            .enable_all()
+            .build()?;
+        let prefix = prefix.trim_matches('/');
+        Ok(Self {
+            store,
+            prefix: if prefix.is_empty() {
+                String::new()
+            } else {
+                format!("{prefix}/")
+            },
+            runtime: Some(runtime),
+            counter: AtomicU64::new(0),
+            name: name.to_string(),
+        })
+    }
+
+    /// Runs `f` on the store's runtime. A thread inside another runtime
+    /// (the server's blocking pool, an async test) may not block on a
+    /// runtime itself, so there it runs on a short-lived scoped thread.
+    fn block_on<F>(&self, f: F) -> F::Output
+    where
+        F: Future + Send,
+        F::Output: Send,
+    {
+        let Some(rt) = &self.runtime else {
+            unreachable!("the runtime lives until drop")
+        };
+        if tokio::runtime::Handle::try_current().is_err() {
+            return rt.block_on(f);
+        }
+        std::thread::scope(|s| {
+            s.spawn(|| rt.block_on(f))
+                .join()
+                .unwrap_or_else(|p| std::panic::resume_unwind(p))
+        })
+    }
+
+    fn path(&self, rest: &str) -> Path {
+        Path::from(format!("{}{rest}", self.prefix))
+    }
+
+    fn marker(&self, scene: &str) -> Result<Path, StoreError> {
+        validate_id("scene", scene)?;
+        Ok(self.path(&format!("scenes/{scene}")))
+    }
+
+    fn manifest_path(&self, scene: &str, view: &str) -> Result<Path, StoreError> {
+        validate_id("scene", scene)?;
+        validate_id("view", view)?;
+        Ok(self.path(&format!("manifests/{scene}/{view}")))
+    }
+
+    fn data_dir(&self, scene: &str, view: Option<&str>) -> Path {
+        match view {
+            Some(v) => self.path(&format!("data/{scene}/{v}")),
+            None => self.path(&format!("data/{scene}")),
+        }
+    }
+
+    fn data_path(&self, scene: &str, view: &str, id: &str) -> Path {
+        self.path(&format!("data/{scene}/{view}/{id}.dmv"))
+    }
+
+    /// A fresh data id: time, process and a counter, hashed with a random key.
+    fn fresh_id(&self) -> String {
+        use std::hash::{BuildHasher, Hasher};
+        let now = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .unwrap_or_default();
+        let mut h = std::collections::hash_map::RandomState::new().build_hasher();
+        h.write_u128(now.as_nanos());
+        h.write_u32(std::process::id());
+        h.write_u64(self.counter.fetch_add(1, Ordering::Relaxed));
+        format!("{:012x}-{:016x}", now.as_millis(), h.finish())
+    }
+
+    async fn read_manifest(&self, path: &Path) -> Result<Option<(Manifest, Version)>, StoreError> {
+        let Some(got) = found(self.store.get(path).await)? else {
+            return Ok(None);
+        };
+        let version = version_of(&got.meta);
+        let bytes = found(got.bytes().await)?.ok_or_else(|| StoreError::Unavailable("manifest vanished".into()))?;
+        let m: Manifest = serde_json::from_slice(&bytes)
+            .map_err(|e| StoreError::Damaged(path.to_string(), format!("manifest: {e}")))?;
+        Ok(Some((m, version)))
+    }
+
+    /// Objects under `dir`, recursively.
+    async fn list_all(&self, dir: &Path) -> Result<Vec<object_store::ObjectMeta>, StoreError> {
+        let mut stream = self.store.list(Some(dir));
+        let mut out = Vec::new();
+        while let Some(m) = stream.next().await {
+            out.push(m.map_err(unavailable)?);
+        }
+        Ok(out)
+    }
+
+    /// Deletes `path`; "not found" is success.
+    async fn remove(&self, path: &Path) -> Result<(), StoreError> {
+        found(self.store.delete(path).await).map(drop)
+    }
+
+    /// Deletes the data objects of a view other than `keep` that are older
+    /// than [`GRACE`] or are `replaced`. Best effort: what fails stays as
+    /// garbage for the next put.
+    async fn sweep(&self, scene: &str, view: &str, keep: &str, replaced: Option<&str>) {
+        let Ok(objects) = self.list_all(&self.data_dir(scene, Some(view))).await else {
+            return;
+        };
+        let keep_path = self.data_path(scene, view, keep);
+        let newest = objects.iter().map(|m| m.last_modified).max();
+        let replaced = replaced.map(|r| self.data_path(scene, view, r));
+        for m in &objects {
+            let old = newest.is_some_and(|n| (n - m.last_modified).num_seconds() > GRACE.as_secs() as i64);
+            if m.location != keep_path && (old || replaced.as_ref() == Some(&m.location)) {
+                let _ = self.remove(&m.location).await;
+            }
+        }
+    }
+}
+
+impl ViewStore for ObjectViewStore {
+    fn put(&self, scene: &str, view: &str, v: &StoredView) -> Result<Version, StoreError> {
+        let manifest_path = self.manifest_path(scene, view)?;
+        let marker = self.marker(scene)?;
+        let bytes = dmv::encode(v)?;
+        self.block_on(async {
+            if found(self.store.head(&marker).await)?.is_none() {
+                self.store.put(&marker, PutPayload::new()).await.map_err(unavailable)?;
+            }
+            let previous = self.read_manifest(&manifest_path).await.ok().flatten();
+            let id = self.fresh_id();
+            let data = self.data_path(scene, view, &id);
+            let manifest = Manifest {
+                data: id.clone(),
+                meta: dmv::Meta::of(v),
+                bytes: bytes.len() as u64,
+            };
+            let manifest = serde_json::to_vec(&manifest).map_err(|e| StoreError::Io(std::io::Error::other(e)))?;
+            self.store
+                .put(&data, PutPayload::from(bytes))
+                .await
+                .map_err(unavailable)?;
+            let committed = match self.store.put(&manifest_path, PutPayload::from(manifest)).await {
+                Ok(r) => r,
+                Err(e) => {
+                    // The old manifest stands; the new data is garbage.
+                    let _ = self.remove(&data).await;
+                    return Err(unavailable(e));
+                }
+            };
+            let version = match committed.e_tag {
+                Some(t) => t,
+                None => version_of(&self.store.head(&manifest_path).await.map_err(unavailable)?),
+            };
+            let replaced = previous.map(|(m, _)| m.data);
+            self.sweep(scene, view, &id, replaced.as_deref()).await;
+            Ok(version)
+        })
+    }
+
+    fn get(&self, scene: &str, view: &str) -> Result<Option<(StoredView, Version)>, StoreError> {
+        let manifest_path = self.manifest_path(scene, view)?;
+        let name = format!("{scene}/{view}");
+        self.block_on(async {
+            // A replace between reading the manifest and its data deletes
+            // the data read for: read the manifest again.
+            for _ in 0..3 {
+                let Some((m, version)) = self.read_manifest(&manifest_path).await? else {
+                    return Ok(None);
+                };
+                let data = self.data_path(scene, view, &m.data);
+                let Some(got) = found(self.store.get(&data).await)? else {
+                    continue;
+                };
+                let Some(bytes) = found(got.bytes().await)? else {
+                    continue;
+                };
+                return Ok(Some((dmv::decode(&name, &bytes)?, version)));
+            }
+            Err(StoreError::Unavailable(format!(
+                "view {name} changed three times while being read"
+            )))
+        })
+    }
+
+    fn camera(&self, scene: &str, view: &str) -> Result<Option<(dmesh_proto::Camera, Version)>, StoreError> {
+        let path = self.manifest_path(scene, view)?;
+        Ok(self
+            .block_on(self.read_manifest(&path))?
+            .map(|(m, version)| (m.meta.camera, version)))
+    }
+
+    fn version(&self, scene: &str, view: &str) -> Result<Option<Version>, StoreError> {
+        let path = self.manifest_path(scene, view)?;
+        Ok(found(self.block_on(self.store.head(&path)))?.map(|m| version_of(&m)))
+    }
+
+    fn scenes(&self) -> Result<Vec<String>, StoreError> {
+        let dir = self.path("scenes");
+        let listed = self
+            .block_on(self.store.list_with_delimiter(Some(&dir)))
+            .map_err(unavailable)?;
+        let mut out: Vec<String> = listed
+            .objects
+            .iter()
+            .filter_map(|m| file_name(&m.location))
+            .filter(|s| validate_id("scene", s).is_ok())
+            .collect();
+        out.sort();
+        Ok(out)
+    }
+
+    fn listing(&self, scene: &str) -> Result<Option<Vec<(String, Version)>>, StoreError> {
+        let marker = self.marker(scene)?;
+        let dir = self.path(&format!("manifests/{scene}"));
+        self.block_on(async {
+            let listed = self.store.list_with_delimiter(Some(&dir)).await.map_err(unavailable)?;
+            let mut out: Vec<(String, Version)> = listed
+                .objects
+                .iter()
+                .filter_map(|m| Some((file_name(&m.location)?, version_of(m))))
+                .filter(|(v, _)| validate_id("view", v).is_ok())
+                .collect();
+            // No views: the marker says whether the scene exists.
+            if out.is_empty() && found(self.store.head(&marker).await)?.is_none() {
+                return Ok(None);
+            }
+            out.sort();
+            Ok(Some(out))
+        })
+    }
+
+    fn delete_view(&self, scene: &str, view: &str) -> Result<bool, StoreError> {
+        let path = self.manifest_path(scene, view)?;
+        self.block_on(async {
+            if found(self.store.head(&path).await)?.is_none() {
+                return Ok(false);
+            }
+            // The manifest first: the view is gone at once; then its data.
+            self.remove(&path).await?;
+            for m in self.list_all(&self.data_dir(scene, Some(view))).await? {
+                self.remove(&m.location).await?;
+            }
+            Ok(true)
+        })
+    }
+
+    fn delete_scene(&self, scene: &str) -> Result<bool, StoreError> {
+        let marker = self.marker(scene)?;
+        let manifests = self.path(&format!("manifests/{scene}"));
+        self.block_on(async {
+            let views = self.list_all(&manifests).await?;
+            let existed = !views.is_empty() || found(self.store.head(&marker).await)?.is_some();
+            for m in &views {
+                self.remove(&m.location).await?;
+            }
+            self.remove(&marker).await?;
+            for m in self.list_all(&self.data_dir(scene, None)).await? {
+                self.remove(&m.location).await?;
+            }
+            Ok(existed)
+        })
+    }
+
+    fn bytes_stored(&self) -> Result<u64, StoreError> {
+        let root = self.path("");
+        let all = self.block_on(async {
+            if self.prefix.is_empty() {
+                let mut stream = self.store.list(None);
+                let mut out = Vec::new();
+                while let Some(m) = stream.next().await {
+                    out.push(m.map_err(unavailable)?);
+                }
+                Ok(out)
+            } else {
+                self.list_all(&root).await
+            }
+        })?;
+        Ok(all.iter().map(|m| m.size).sum())
+    }
+
+    fn shared(&self) -> bool {
+        true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn urls_name_a_bucket() {
+        for bad in ["file:///tmp", "s3://", "s3:///prefix", "bucket/prefix"] {
+            assert!(
+                matches!(ObjectViewStore::from_url(bad), Err(StoreError::BadId(_))),
+                "{bad}"
+            );
+        }
+    }
+
+    #[test]
+    fn an_unreachable_endpoint_is_unavailable_not_a_panic() {
+        // Port 9 (discard) on loopback: nothing listens.
+        let vars = [
+            ("AWS_ENDPOINT_URL", "http://127.0.0.1:9"),
+            ("AWS_ALLOW_HTTP", "true"),
+            ("AWS_REGION", "us-east-1"),
+            ("AWS_ACCESS_KEY_ID", "test"),
+            ("AWS_SECRET_ACCESS_KEY", "test"),
+        ]
+        .map(|(k, v)| (k.to_string(), v.to_string()));
+        let started = std::time::Instant::now();
+        let e = ObjectViewStore::open("s3://bucket/p", vars).unwrap_err();
+        assert!(matches!(e, StoreError::Unavailable(_)), "{e}");
+        assert!(started.elapsed() < RETRY_TIMEOUT * 3, "{:?}", started.elapsed());
+    }
+}
