@@ -19,7 +19,8 @@
 //! failed data PUT leaves the old manifest; nothing relies on conditional
 //! (`If-None-Match`) PUTs, which some servers ignore. The version of a view
 //! is its manifest's ETag, so a cache revalidates with one HEAD (a view) or
-//! one LIST (a scene).
+//! one LIST (a scene; on a server whose listings carry no ETags, s3s-fs
+//! among them, one HEAD per view as well).
 //!
 //! The replaced data object is deleted after the commit, and so is any
 //! other data object of the view older than [`GRACE`] (left by an upload
@@ -396,12 +397,18 @@ impl ViewStore for ObjectViewStore {
         let dir = self.path(&format!("manifests/{scene}"));
         self.block_on(async {
             let listed = self.store.list_with_delimiter(Some(&dir)).await.map_err(unavailable)?;
-            let mut out: Vec<(String, Version)> = listed
-                .objects
-                .iter()
-                .filter_map(|m| Some((file_name(&m.location)?, version_of(m))))
-                .filter(|(v, _)| validate_id("view", v).is_ok())
-                .collect();
+            let mut out = Vec::with_capacity(listed.objects.len());
+            for m in &listed.objects {
+                let Some(name) = file_name(&m.location).filter(|v| validate_id("view", v).is_ok()) else {
+                    continue;
+                };
+                if m.e_tag.is_some() {
+                    out.push((name, version_of(m)));
+                } else if let Some(head) = found(self.store.head(&m.location).await)? {
+                    // Some servers (s3s-fs) list no ETags: ask each manifest.
+                    out.push((name, version_of(&head)));
+                }
+            }
             // No views: the marker says whether the scene exists.
             if out.is_empty() && found(self.store.head(&marker).await)?.is_none() {
                 return Ok(None);
