@@ -5,7 +5,7 @@
 # `dmesh serve`, the API contract (schemathesis over proto/openapi.yaml
 # against the real server) and the fuzz targets for a few seconds each.
 # Installs Chromium (apt), the npm packages (package-lock), schemathesis
-# (pip) and cargo-fuzz (cargo) when they are missing. Ends with one line:
+# and moto_server (pip), s3s-fs and cargo-fuzz (cargo) when they are missing. Ends with one line:
 # `tests: N passed, M failed`.
 set -uo pipefail
 cd "$(dirname "$0")/.."
@@ -27,6 +27,16 @@ if [ ! -x "$CHROMIUM" ]; then
   [ -x "$CHROMIUM" ] || die "$CHROMIUM is still missing after apt-get install chromium"
 fi
 export CHROMIUM
+# Real S3 API servers for the object-store tests: moto (in memory) and
+# s3s-fs (file-backed, for restarts).
+if ! moto_server --help >/dev/null 2>&1; then
+  echo "installing moto_server (pip install 'moto[server]')"
+  pip install -q 'moto[server]' || die "could not install moto[server]: the object-store tests need it"
+fi
+if ! command -v s3s-fs >/dev/null 2>&1; then
+  echo "installing s3s-fs (cargo install s3s-fs 0.14.1)"
+  cargo install -q s3s-fs --version 0.14.1 --features binary --locked || die "could not install s3s-fs"
+fi
 web=clients/web
 if [ ! -d "$web/node_modules" ] || ! cmp -s "$web/package-lock.json" "$web/node_modules/.package-lock.json"; then
   echo "installing the viewer's npm packages (npm ci)"

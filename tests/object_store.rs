@@ -109,7 +109,10 @@ fn only_the_current_version_of_a_view_is_kept() {
     let bytes = store.bytes_stored().unwrap();
     // Data of the current version, its manifest and the scene marker.
     let data = dmesh::store::dmv::encode(&view(4)).unwrap().len() as u64;
-    assert!(bytes >= data && bytes < data + 4096, "{bytes} bytes held for one view of {data}");
+    assert!(
+        bytes >= data && bytes < data + 4096,
+        "{bytes} bytes held for one view of {data}"
+    );
 }
 
 #[test]
@@ -175,12 +178,22 @@ fn a_store_killed_during_uploads_loses_no_acknowledged_view_and_tears_none() {
     let started = std::time::Instant::now();
     let down = store.get("s", "v1");
     assert!(matches!(down, Err(StoreError::Unavailable(_))), "{down:?}");
-    assert!(started.elapsed() < std::time::Duration::from_secs(8), "{:?}", started.elapsed());
+    assert!(
+        started.elapsed() < std::time::Duration::from_secs(8),
+        "{:?}",
+        started.elapsed()
+    );
     std::thread::sleep(std::time::Duration::from_millis(1000));
     server.restart();
     let (acked, failures) = writer.join().unwrap();
-    assert!(!failures.is_empty(), "the outage failed no upload: the test did not test");
-    assert!(failures.iter().all(|e| matches!(e, StoreError::Unavailable(_))), "{failures:?}");
+    assert!(
+        !failures.is_empty(),
+        "the outage failed no upload: the test did not test"
+    );
+    assert!(
+        failures.iter().all(|e| matches!(e, StoreError::Unavailable(_))),
+        "{failures:?}"
+    );
     assert!(acked.len() == 7, "{acked:?}");
     // A store opened afresh (a new replica) holds every acknowledged view,
     // whole, at its last acknowledged version or a later attempted one.
@@ -211,7 +224,8 @@ fn create_only_puts_as_each_server_honours_them() {
             mode: PutMode::Create,
             ..Default::default()
         };
-        rt.block_on(s3.put_opts(&path, b"one".to_vec().into(), create())).unwrap();
+        rt.block_on(s3.put_opts(&path, b"one".to_vec().into(), create()))
+            .unwrap();
         let second = rt.block_on(s3.put_opts(&path, b"two".to_vec().into(), create()));
         let kept = rt.block_on(async { s3.get(&path).await.unwrap().bytes().await.unwrap() });
         assert_eq!(

@@ -212,6 +212,7 @@ impl ViewStore for FileStore {
 
 #[cfg(test)]
 mod tests {
+    use super::super::SegmentationSpec;
     use super::*;
 
     fn view(seed: f32) -> StoredView {
