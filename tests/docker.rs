@@ -34,11 +34,19 @@ fn dockerfile_matches_the_server_defaults() {
         "HEALTHCHECK must probe /healthz"
     );
     assert!(d.contains("USER dmesh"), "the runtime must not run as root");
+    // Compose: replicas on the default port over the object store, nginx
+    // publishing that port and balancing over every replica.
     let compose = read("docker/compose.yaml");
     assert!(
-        compose.contains(&format!(":{volume}")) && compose.contains(&format!(":{port}\"")),
+        compose.contains(&format!("\"0.0.0.0:{port}\", \"--store\"")) && compose.contains(&format!(":{port}:{port}\"")),
         "{compose}"
     );
+    let nginx = read("docker/nginx.conf");
+    assert!(nginx.contains(&format!("listen {port};")) && nginx.contains("hash $scene consistent;"));
+    for r in ["dmesh-1", "dmesh-2", "dmesh-3"] {
+        assert!(compose.contains(&format!("{r}:")), "compose lacks {r}");
+        assert!(nginx.contains(&format!("server {r}:{port} ")), "nginx.conf lacks {r}");
+    }
 }
 
 #[test]
