@@ -365,10 +365,11 @@ impl AppState {
     }
 
     /// The loaded view at `version` (just listed by [`Self::scene_cameras`]),
-    /// from the cache when it holds that version.
+    /// from the cache when it holds that version (over a store only this
+    /// process writes, the cache is exact).
     pub fn load_listed(&self, scene: &str, listed: &Listed) -> Result<Arc<Loaded>, AppError> {
-        if let Some((hit, stale)) = self.cached(scene, &listed.name) {
-            if !stale || hit.version == listed.version {
+        if let Some((hit, _)) = self.cached(scene, &listed.name) {
+            if !self.store.shared() || hit.version == listed.version {
                 self.checked(scene, &listed.name, &listed.version);
                 return Ok(hit);
             }

@@ -266,9 +266,9 @@ impl ObjectViewStore {
         Ok(Some((m, version)))
     }
 
-    /// Objects under `dir`, recursively.
-    async fn list_all(&self, dir: &Path) -> Result<Vec<object_store::ObjectMeta>, StoreError> {
-        let mut stream = self.store.list(Some(dir));
+    /// Objects under `dir` (everything with `None`), recursively.
+    async fn list_all(&self, dir: Option<&Path>) -> Result<Vec<object_store::ObjectMeta>, StoreError> {
+        let mut stream = self.store.list(dir);
         let mut out = Vec::new();
         while let Some(m) = stream.next().await {
             out.push(m.map_err(unavailable)?);
@@ -285,7 +285,7 @@ impl ObjectViewStore {
     /// than [`GRACE`] or are `replaced`. Best effort: what fails stays as
     /// garbage for the next put.
     async fn sweep(&self, scene: &str, view: &str, keep: &str, replaced: Option<&str>) {
-        let Ok(objects) = self.list_all(&self.data_dir(scene, Some(view))).await else {
+        let Ok(objects) = self.list_all(Some(&self.data_dir(scene, Some(view)))).await else {
             return;
         };
         let keep_path = self.data_path(scene, view, keep);
@@ -306,10 +306,12 @@ impl ViewStore for ObjectViewStore {
         let marker = self.marker(scene)?;
         let bytes = dmv::encode(v)?;
         self.block_on(async {
-            if found(self.store.head(&marker).await)?.is_none() {
+            let previous = self.read_manifest(&manifest_path).await.ok().flatten();
+            // A replace finds the scene's marker in place; a first upload
+            // makes sure of it.
+            if previous.is_none() && found(self.store.head(&marker).await)?.is_none() {
                 self.store.put(&marker, PutPayload::new()).await.map_err(unavailable)?;
             }
-            let previous = self.read_manifest(&manifest_path).await.ok().flatten();
             let id = self.fresh_id();
             let data = self.data_path(scene, view, &id);
             let manifest = Manifest {
@@ -426,7 +428,7 @@ impl ViewStore for ObjectViewStore {
             }
             // The manifest first: the view is gone at once; then its data.
             self.remove(&path).await?;
-            for m in self.list_all(&self.data_dir(scene, Some(view))).await? {
+            for m in self.list_all(Some(&self.data_dir(scene, Some(view)))).await? {
                 self.remove(&m.location).await?;
             }
             Ok(true)
@@ -437,13 +439,13 @@ impl ViewStore for ObjectViewStore {
         let marker = self.marker(scene)?;
         let manifests = self.path(&format!("manifests/{scene}"));
         self.block_on(async {
-            let views = self.list_all(&manifests).await?;
+            let views = self.list_all(Some(&manifests)).await?;
             let existed = !views.is_empty() || found(self.store.head(&marker).await)?.is_some();
             for m in &views {
                 self.remove(&m.location).await?;
             }
             self.remove(&marker).await?;
-            for m in self.list_all(&self.data_dir(scene, None)).await? {
+            for m in self.list_all(Some(&self.data_dir(scene, None))).await? {
                 self.remove(&m.location).await?;
             }
             Ok(existed)
@@ -451,19 +453,8 @@ impl ViewStore for ObjectViewStore {
     }
 
     fn bytes_stored(&self) -> Result<u64, StoreError> {
-        let root = self.path("");
-        let all = self.block_on(async {
-            if self.prefix.is_empty() {
-                let mut stream = self.store.list(None);
-                let mut out = Vec::new();
-                while let Some(m) = stream.next().await {
-                    out.push(m.map_err(unavailable)?);
-                }
-                Ok(out)
-            } else {
-                self.list_all(&root).await
-            }
-        })?;
+        let root = (!self.prefix.is_empty()).then(|| self.path(""));
+        let all = self.block_on(self.list_all(root.as_ref()))?;
         Ok(all.iter().map(|m| m.size).sum())
     }
 
