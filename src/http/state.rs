@@ -147,10 +147,63 @@ pub struct AppState {
     cameras: Mutex<HashMap<String, (SceneCameras, Instant)>>,
     /// Bumped by every store change, so a listing or a view read before a
     /// change is not cached after it.
-    changes: std::sync::atomic::AtomicU64,
+    changes: Changes,
     /// Held while a change reaches the store and the cache, so two uploads
     /// of one view leave the cache holding what the store holds.
     commit: Mutex<()>,
+}
+
+/// Change counters, so that what was read from the store before a change
+/// is not cached after it. Counted per scene and per view, in 64 buckets
+/// each: a change to one view does not stop another from being cached (with
+/// one global counter, an uploader busy on one scene left every other view
+/// it fetched uncached, rebuilt on each request), and two keys sharing a
+/// bucket only cost a skipped cache insert.
+struct Changes {
+    scenes: [std::sync::atomic::AtomicU64; 64],
+    views: [std::sync::atomic::AtomicU64; 64],
+}
+
+impl Default for Changes {
+    fn default() -> Self {
+        Self {
+            scenes: std::array::from_fn(|_| Default::default()),
+            views: std::array::from_fn(|_| Default::default()),
+        }
+    }
+}
+
+impl Changes {
+    fn bucket(parts: &[&str]) -> usize {
+        use std::hash::{Hash, Hasher};
+        let mut h = std::collections::hash_map::DefaultHasher::new();
+        parts.hash(&mut h);
+        (h.finish() % 64) as usize
+    }
+
+    fn scene(&self, scene: &str) -> u64 {
+        self.scenes[Self::bucket(&[scene])].load(std::sync::atomic::Ordering::SeqCst)
+    }
+
+    fn view(&self, scene: &str, view: &str) -> u64 {
+        self.views[Self::bucket(&[scene, view])].load(std::sync::atomic::Ordering::SeqCst)
+    }
+
+    /// A change to `view` of `scene`, or to all its views when `None`.
+    fn bump(&self, scene: &str, view: Option<&str>) {
+        use std::sync::atomic::Ordering::SeqCst;
+        self.scenes[Self::bucket(&[scene])].fetch_add(1, SeqCst);
+        match view {
+            Some(v) => {
+                self.views[Self::bucket(&[scene, v])].fetch_add(1, SeqCst);
+            }
+            None => {
+                for c in &self.views {
+                    c.fetch_add(1, SeqCst);
+                }
+            }
+        }
+    }
 }
 
 /// A view of a scene as selection sees it.
@@ -176,7 +229,7 @@ impl AppState {
             metrics: Metrics::default(),
             cache: Mutex::new(Cache::default()),
             cameras: Mutex::new(HashMap::new()),
-            changes: std::sync::atomic::AtomicU64::new(0),
+            changes: Changes::default(),
             commit: Mutex::new(()),
         }
     }
@@ -190,7 +243,6 @@ impl AppState {
     /// workers). Cached until the scene changes; over a shared store,
     /// revalidated by one listing, and only changed cameras are read again.
     pub fn scene_cameras(&self, scene: &str) -> Result<SceneCameras, AppError> {
-        use std::sync::atomic::Ordering;
         let lock = || self.cameras.lock().unwrap_or_else(|p| p.into_inner());
         let held = lock().get(scene).cloned();
         if let Some((hit, checked)) = &held {
@@ -198,7 +250,7 @@ impl AppState {
                 return Ok(hit.clone());
             }
         }
-        let before = self.changes.load(Ordering::SeqCst);
+        let before = self.changes.scene(scene);
         let now = Instant::now();
         let listing = self
             .store
@@ -223,15 +275,16 @@ impl AppState {
         }
         let list = Arc::new(list);
         let mut map = lock();
-        if self.changes.load(Ordering::SeqCst) == before {
+        if self.changes.scene(scene) == before {
             map.insert(scene.to_string(), (list.clone(), now));
         }
         Ok(list)
     }
 
-    /// Forgets what is cached about `scene`'s list of views (after a put or a delete).
-    pub fn scene_changed(&self, scene: &str) {
-        self.changes.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+    /// Forgets what is cached about `scene`'s list of views (after a put or
+    /// a delete of `view`, or of every view when `None`).
+    fn scene_changed(&self, scene: &str, view: Option<&str>) {
+        self.changes.bump(scene, view);
         self.cameras.lock().unwrap_or_else(|p| p.into_inner()).remove(scene);
     }
 
@@ -284,10 +337,10 @@ impl AppState {
         let loaded = Arc::new(loaded.at_version(version));
         {
             let mut c = self.cache();
-            self.changes.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+            self.changes.bump(scene, Some(view));
             self.insert(&mut c, scene, view, loaded.clone());
         }
-        self.scene_changed(scene);
+        self.cameras.lock().unwrap_or_else(|p| p.into_inner()).remove(scene);
         Ok(loaded)
     }
 
@@ -305,7 +358,7 @@ impl AppState {
 
     /// Drops a view (or, with `view` `None`, every view of the scene) from the cache.
     pub fn forget(&self, scene: &str, view: Option<&str>) {
-        self.scene_changed(scene);
+        self.scene_changed(scene, view);
         let mut c = self.cache();
         let keys: Vec<_> = c
             .entries
@@ -379,7 +432,7 @@ impl AppState {
 
     /// Reads and builds a view from the store, and caches it.
     fn fetch(&self, scene: &str, view: &str) -> Result<Arc<Loaded>, AppError> {
-        let before = self.changes.load(std::sync::atomic::Ordering::SeqCst);
+        let before = self.changes.view(scene, view);
         let (stored, version) = self
             .store
             .get(scene, view)?
@@ -388,7 +441,7 @@ impl AppState {
         // Cached only when nothing changed here since the store was read: a
         // replace meanwhile may already have cached the newer view.
         let mut c = self.cache();
-        if self.changes.load(std::sync::atomic::Ordering::SeqCst) == before {
+        if self.changes.view(scene, view) == before {
             self.insert(&mut c, scene, view, loaded.clone());
         }
         Ok(loaded)
