@@ -88,6 +88,22 @@ pub struct Report {
     pub server_extract_p50_ms: f64,
     /// Response bytes received in all.
     pub bytes: u64,
+    /// One entry per second of the run, by when each request ended: what an
+    /// outage and its recovery look like over time.
+    pub seconds: Vec<Second>,
+}
+
+/// The requests that ended within one second of a run.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct Second {
+    /// Seconds since the run started (this window is `[at, at + 1)`).
+    pub at: u64,
+    /// Requests that ended in it.
+    pub requests: u64,
+    /// Of which failed.
+    pub errors: u64,
+    /// 99th percentile latency of its served requests (0 when none).
+    pub p99_ms: f64,
 }
 
 /// Refuses a server that is not on the loopback interface unless `allow_remote`.
@@ -163,12 +179,15 @@ pub async fn run(
         extract: Histogram<u64>,
         report: Report,
         issued: u64,
+        /// Per second: requests, errors, latencies of the served ones.
+        seconds: Vec<(u64, u64, Histogram<u64>)>,
     }
     let shared = Arc::new(Mutex::new(Shared {
         latency: Histogram::new_with_bounds(1, 600_000_000, 3)?,
         extract: Histogram::new_with_bounds(1, 600_000_000, 3)?,
         report: Report::default(),
         issued: 0,
+        seconds: Vec::new(),
     }));
     let started = Instant::now();
     let cameras: Arc<Vec<dmesh_proto::Camera>> = Arc::new(cameras.iter().map(dmesh_proto::Camera::from).collect());
@@ -203,7 +222,13 @@ pub async fn run(
                 let t = Instant::now();
                 let result = server.render_timed(&scene, &request).await;
                 let micros = (t.elapsed().as_micros() as u64).max(1);
+                let at = started.elapsed().as_secs() as usize;
                 let mut s = shared.lock().await;
+                while s.seconds.len() <= at {
+                    let h = Histogram::new_with_bounds(1, 600_000_000, 2).expect("valid bounds");
+                    s.seconds.push((0, 0, h));
+                }
+                s.seconds[at].0 += 1;
                 s.report.requests += 1;
                 if s.report.requests % 100 == 0 {
                     eprint!("\r{} requests", s.report.requests);
@@ -215,10 +240,12 @@ pub async fn run(
                 match result {
                     Ok((bytes, extract_ms)) => {
                         let _ = s.latency.record(micros);
+                        let _ = s.seconds[at].2.record(micros);
                         let _ = s.extract.record(((extract_ms * 1e3) as u64).max(1));
                         s.report.bytes += bytes;
                     }
                     Err(status) => {
+                        s.seconds[at].1 += 1;
                         s.report.errors += 1;
                         *s.report.errors_by_status.entry(status).or_default() += 1;
                     }
@@ -250,6 +277,14 @@ pub async fn run(
         s.latency.max() as f64 / 1e3
     };
     report.server_extract_p50_ms = ms(&s.extract, 0.5);
+    report.seconds = (s.seconds.iter().enumerate())
+        .map(|(at, (requests, errors, h))| Second {
+            at: at as u64,
+            requests: *requests,
+            errors: *errors,
+            p99_ms: ms(h, 0.99),
+        })
+        .collect();
     Ok(report)
 }
 

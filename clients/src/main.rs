@@ -103,7 +103,7 @@ enum Command {
         /// Allow a target that is not on this machine's loopback interface.
         #[arg(long)]
         allow_remote: bool,
-        /// Print JSON: requests, errors, throughput_rps, p50_ms, p90_ms, p99_ms, max_ms, bytes.
+        /// Print JSON: requests, errors, throughput_rps, p50_ms, p90_ms, p99_ms, max_ms, bytes, seconds (per second: at, requests, errors, p99_ms).
         #[arg(long)]
         json: bool,
     },
