@@ -1,41 +1,13 @@
-//! dmesh: multiresolution depth-meshes from depth images (Pajarola, Sainz and
-//! Meng, "DMesh: fast depth-image meshing and warping", 2003).
+//! dmesh: the service around the engine (`dmesh-engine`, re-exported here
+//! so that `dmesh::mesh` and friends keep their paths): the HTTP service and
+//! the durable store of uploaded views.
 //!
-//! The engine (`camera`, `image`, `mesh`, `scene`) is pure: no HTTP, no async,
-//! no file system; `store` and `http` are the service around it.
-//! - [`camera`]: intrinsics, pose, projection and back-projection;
-//! - [`cli`]: one-line errors for the command-line binaries;
 //! - [`http`]: the axum service;
-//! - [`image`]: decoding depth (EXR, PNG, PFM) and colour, conversion to `z`;
-//! - [`mesh`]: the hierarchy, its error metric, segmentation and extraction;
-//! - [`ply`]: binary PLY output of an extracted mesh;
-//! - [`scene`]: reference-view selection and weights for a novel camera;
-//! - [`sim`]: the scene simulator with ground truth;
 //! - [`store`]: durable storage of uploaded views (the only module here that does I/O);
-//! - [`synthetic`]: built-in synthetic depth maps;
-//! - [`wire`]: extracted meshes as `dmesh-proto` strip responses.
-//!
-//! ```
-//! use dmesh::{camera::Camera, image::DepthImage, mesh::{DepthMesh, Lod, Segmentation}};
-//! let camera = Camera::perspective(64, 48, 60.0, 60.0, 31.5, 23.5)?;
-//! let depth = DepthImage::from_z(64, 48, vec![2.0; 64 * 48])?;
-//! let hierarchy = DepthMesh::build(&depth, &camera, &Segmentation::default())?;
-//! let mesh = hierarchy.extract(Lod::Epsilon(0.001))?;
-//! assert!(mesh.triangles.len() >= 2);
-//! # Ok::<(), dmesh::Error>(())
-//! ```
+//! - [`camera`], [`image`], [`mesh`], [`ply`], [`scene`], [`sim`],
+//!   [`synthetic`], [`wire`]: the engine's modules.
 
-pub mod camera;
-pub mod cli;
-mod error;
 pub mod http;
-pub mod image;
-pub mod mesh;
-pub mod ply;
-pub mod scene;
-pub mod sim;
 pub mod store;
-pub mod synthetic;
-pub mod wire;
 
-pub use error::{Error, Result};
+pub use dmesh_engine::{camera, image, mesh, ply, scene, sim, synthetic, wire, Error, Result};

@@ -1,4 +1,4 @@
-//! The reach of a view-dependent mesh (`src/mesh/reach.rs`): every sample a
+//! The reach of a view-dependent mesh (`engine/src/mesh/reach.rs`): every sample a
 //! mesh does not cover lies in one of its culled spheres, and a camera moved
 //! by less than the clearance, at the tolerance times the stated error
 //! factor, selects no vertex outside those spheres that the mesh lacks.

@@ -15,8 +15,8 @@
 //! coordinates, as everywhere in dmesh; coverage follows the top-left rule so
 //! a pixel on a shared edge is drawn once.
 
-use dmesh::camera::Camera;
-use dmesh::mesh::{decode_strips, normals::oct_decode};
+use dmesh_engine::camera::Camera;
+use dmesh_engine::mesh::{decode_strips, normals::oct_decode};
 use dmesh_proto::StripResponse;
 use glam::{DVec2, DVec3};
 
@@ -404,7 +404,7 @@ mod tests {
         let novel = Camera::new(
             16,
             16,
-            dmesh::camera::Projection::Perspective {
+            dmesh_engine::camera::Projection::Perspective {
                 fx: 16.0,
                 fy: 16.0,
                 cx: 7.5,

@@ -146,11 +146,11 @@ impl Server {
     }
 
     /// The reference cameras of a scene's views.
-    pub async fn cameras(&self, scene: &str) -> anyhow::Result<Vec<dmesh::camera::Camera>> {
+    pub async fn cameras(&self, scene: &str) -> anyhow::Result<Vec<dmesh_engine::camera::Camera>> {
         self.views(scene)
             .await?
             .iter()
-            .map(|v| Ok(dmesh::camera::Camera::try_from(&v.camera)?))
+            .map(|v| Ok(dmesh_engine::camera::Camera::try_from(&v.camera)?))
             .collect()
     }
 

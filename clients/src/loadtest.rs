@@ -12,7 +12,7 @@ use std::net::{IpAddr, ToSocketAddrs};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use dmesh::camera::Camera;
+use dmesh_engine::camera::Camera;
 use glam::{DMat3, DVec3};
 use hdrhistogram::Histogram;
 use serde::Serialize;
@@ -155,7 +155,7 @@ pub fn orbit(references: &[Camera], count: usize) -> anyhow::Result<Vec<Camera>>
                 .max(radius * radius * 0.25)
                 .sqrt();
             let eye = DVec3::new(target.x + flat * t.sin(), height, target.z + flat * t.cos());
-            let rotation = dmesh::sim::rig::look_at(eye, target);
+            let rotation = dmesh_engine::sim::rig::look_at(eye, target);
             Ok(Camera::new(first.width, first.height, first.projection, rotation, eye)?)
         })
         .collect()
@@ -303,7 +303,7 @@ mod tests {
 
     #[test]
     fn the_orbit_circles_the_meeting_point_of_the_reference_axes() {
-        let refs = dmesh::sim::SceneSpec::demo().rig.cameras(64, 48, 60.0).unwrap();
+        let refs = dmesh_engine::sim::SceneSpec::demo().rig.cameras(64, 48, 60.0).unwrap();
         let cams = orbit(&refs, 8).unwrap();
         assert_eq!(cams.len(), 8);
         let target = DVec3::new(0.0, 0.4, 0.0);

@@ -7,6 +7,10 @@
 //!
 //! Every failure exits non-zero with one line naming the problem.
 
+// The command-line glue both binaries share, kept out of the libraries.
+#[path = "../../src/cli.rs"]
+mod cli;
+
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -224,15 +228,16 @@ fn png(width: u32, height: u32, rgb: &[u8]) -> Result<Vec<u8>> {
 }
 
 fn read_pfm(path: &Path) -> Result<(u32, u32, Vec<f32>)> {
-    dmesh::image::decode_pfm(&read(path)?, &Default::default()).with_context(|| format!("depth {}", path.display()))
+    dmesh_engine::image::decode_pfm(&read(path)?, &Default::default())
+        .with_context(|| format!("depth {}", path.display()))
 }
 
 /// A scene file, or `demo` for the built-in box scene.
-fn scene_spec(name: &str) -> Result<dmesh::sim::SceneSpec> {
+fn scene_spec(name: &str) -> Result<dmesh_engine::sim::SceneSpec> {
     Ok(if name == "demo" {
-        dmesh::sim::SceneSpec::demo()
+        dmesh_engine::sim::SceneSpec::demo()
     } else {
-        dmesh::sim::SceneSpec::from_json(&String::from_utf8(read(Path::new(name))?)?)?
+        dmesh_engine::sim::SceneSpec::from_json(&String::from_utf8(read(Path::new(name))?)?)?
     })
 }
 
@@ -245,7 +250,7 @@ async fn ingest(server: &str, scene: &str, simulate: Option<&str>, dir: Option<&
             .enumerate()
             .map(|(k, v)| {
                 let cam = serde_json::to_string(&dmesh_proto::Camera::from(&v.camera))?;
-                let depth = dmesh::image::encode_pfm(v.depth.width, v.depth.height, &v.depth.z);
+                let depth = dmesh_engine::image::encode_pfm(v.depth.width, v.depth.height, &v.depth.z);
                 Ok((
                     format!("v{k:02}"),
                     cam,
@@ -408,7 +413,7 @@ fn run(cli: Cli) -> Result<()> {
             std::fs::write(&out, png(b.width, b.height, &b.rgb)?)
                 .with_context(|| format!("cannot write {}", out.display()))?;
             if let Some(p) = depth_out {
-                std::fs::write(&p, dmesh::image::encode_pfm(b.width, b.height, &b.depth))?;
+                std::fs::write(&p, dmesh_engine::image::encode_pfm(b.width, b.height, &b.depth))?;
             }
             if let Some(p) = coverage_out {
                 std::fs::write(&p, coverage_png(&b)?)?;
@@ -626,8 +631,8 @@ fn run(cli: Cli) -> Result<()> {
 }
 
 fn main() -> ExitCode {
-    match dmesh::cli::parse::<Cli>() {
-        Ok(cli) => dmesh::cli::finish(run(cli)),
+    match cli::parse::<Cli>() {
+        Ok(cli) => cli::finish(run(cli)),
         Err(code) => code,
     }
 }

@@ -2,7 +2,7 @@
 //! textures (through the ETag cache), blend.
 
 use anyhow::{bail, Context};
-use dmesh::camera::Camera;
+use dmesh_engine::camera::Camera;
 use dmesh_proto::RenderRequest;
 
 use crate::blend::{blend, BlendOptions, Blended, Texture, ViewInput};

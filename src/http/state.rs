@@ -447,3 +447,29 @@ impl AppState {
         Ok(loaded)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::Changes;
+
+    #[test]
+    fn a_change_counts_against_its_own_view_and_scene_only() {
+        let c = Changes::default();
+        // Two keys in different buckets (the buckets are deterministic).
+        let other = (0..64)
+            .map(|k| format!("b{k}"))
+            .find(|s| {
+                Changes::bucket(&[s]) != Changes::bucket(&["a"])
+                    && Changes::bucket(&[s, "w"]) != Changes::bucket(&["a", "v"])
+            })
+            .unwrap();
+        let (scene, view) = (c.scene(&other), c.view(&other, "w"));
+        let (own_scene, own_view) = (c.scene("a"), c.view("a", "v"));
+        c.bump("a", Some("v"));
+        assert_eq!((c.scene(&other), c.view(&other, "w")), (scene, view));
+        assert!(c.scene("a") > own_scene && c.view("a", "v") > own_view);
+        // A whole scene's change reaches every view.
+        c.bump("a", None);
+        assert!(c.view(&other, "w") > view);
+    }
+}

@@ -4,9 +4,9 @@
 use std::path::Path;
 
 use anyhow::Context;
-use dmesh::camera::Camera;
-use dmesh::image::{decode_depth, DepthImage, DepthKind, DepthOptions, Limits};
-use dmesh::sim::SceneSpec;
+use dmesh_engine::camera::Camera;
+use dmesh_engine::image::{decode_depth, DepthImage, DepthKind, DepthOptions, Limits};
+use dmesh_engine::sim::SceneSpec;
 use dmesh_proto::RawGrid;
 use glam::DVec3;
 
@@ -52,7 +52,7 @@ pub fn simulated(name: &str, noisy: bool, novels: usize) -> anyhow::Result<Case>
     let mut spec = SceneSpec::demo();
     if noisy {
         spec.effects.noise = Some(0.003);
-        spec.effects.quantize_disparity = Some(dmesh::sim::effects::Quantize {
+        spec.effects.quantize_disparity = Some(dmesh_engine::sim::effects::Quantize {
             focal_baseline: 40.0,
             steps_per_pixel: 4.0,
         });
@@ -77,7 +77,7 @@ pub fn simulated(name: &str, noisy: bool, novels: usize) -> anyhow::Result<Case>
             let angle = std::f64::consts::TAU * (k as f64 + 0.37) / novels as f64;
             let height = 1.2 + 0.7 * (k % 3) as f64;
             let eye = DVec3::new(4.0 * angle.sin(), height, 4.0 * angle.cos());
-            let camera = dmesh::sim::rig::camera(spec.width, spec.height, spec.fov_deg, eye, target)?;
+            let camera = dmesh_engine::sim::rig::camera(spec.width, spec.height, spec.fov_deg, eye, target)?;
             let truth = spec.ground_truth(&camera)?;
             Ok(Novel {
                 camera,
@@ -107,7 +107,7 @@ pub fn middlebury(data: &Path, scene: &str) -> anyhow::Result<Case> {
         Camera::new(
             450,
             375,
-            dmesh::camera::Projection::Perspective {
+            dmesh_engine::camera::Projection::Perspective {
                 fx: MIDDLEBURY_FOCAL,
                 fy: MIDDLEBURY_FOCAL,
                 cx: 224.5,

@@ -14,9 +14,9 @@ pub mod plot;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use dmesh::mesh::{DepthMesh, Lod, Segmentation};
-use dmesh::scene::{select_views, SelectionRule};
-use dmesh::wire::{strip_response, DepthCoding};
+use dmesh_engine::mesh::{DepthMesh, Lod, Segmentation};
+use dmesh_engine::scene::{select_views, SelectionRule};
+use dmesh_engine::wire::{strip_response, DepthCoding};
 use serde::Serialize;
 
 use crate::blend::{blend, BlendOptions, ViewInput};
@@ -196,7 +196,14 @@ pub fn sweep(case: &Case, options: &Options) -> anyhow::Result<Vec<Row>> {
                         root_side: h.grid().side(),
                         raw_grid: r.raw_grid,
                     };
-                    let wire = strip_response(&mesh, &case.name, "v", dmesh::wire::wire_lod(&lod), &r.camera, coding)?;
+                    let wire = strip_response(
+                        &mesh,
+                        &case.name,
+                        "v",
+                        dmesh_engine::wire::wire_lod(&lod),
+                        &r.camera,
+                        coding,
+                    )?;
                     let bytes = dmesh_proto::to_bincode(&wire)?;
                     acc.bytes += bytes.len() as f64;
                     acc.triangles += f64::from(wire.triangles);

@@ -22,9 +22,9 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::Context;
-use dmesh::camera::{Camera, Projection};
-use dmesh::scene::{select_views, SelectionRule};
-use dmesh::sim::SceneSpec;
+use dmesh_engine::camera::{Camera, Projection};
+use dmesh_engine::scene::{select_views, SelectionRule};
+use dmesh_engine::sim::SceneSpec;
 use dmesh_proto::{StripRequest, StripResponse};
 use serde::Serialize;
 
@@ -265,7 +265,7 @@ pub async fn run(
                 dmesh_proto::Lod::Tau(tau) => tau,
                 dmesh_proto::Lod::Epsilon(_) => policy.tau,
             };
-            let reach = mesh.reach.as_ref().map(dmesh::wire::engine_reach).transpose()?;
+            let reach = mesh.reach.as_ref().map(dmesh_engine::wire::engine_reach).transpose()?;
             frame.server_ms += mesh.extract_ms;
             frame.bytes += bytes as u64;
             frame.fetched_triangles += u64::from(mesh.triangles);

@@ -11,7 +11,7 @@
 //! ```
 
 use anyhow::{bail, Context};
-use dmesh::camera::Camera;
+use dmesh_engine::camera::Camera;
 use glam::DVec3;
 use serde::Deserialize;
 
@@ -115,7 +115,7 @@ impl Path {
     /// The camera of frame `t` (`0..frames`).
     pub fn camera(&self, t: u32) -> anyhow::Result<Camera> {
         let (eye, target) = self.pose(t);
-        Ok(dmesh::sim::rig::camera(
+        Ok(dmesh_engine::sim::rig::camera(
             self.width,
             self.height,
             self.fov_deg,

@@ -10,7 +10,7 @@
 //! (the offset buffer's role); what goes stale is its level of detail and its
 //! frustum. A frame's *holes* are the views it selects that are not held, and
 //! held meshes that no longer serve the camera (their stated
-//! [`Reach`](dmesh::mesh::Reach): the error bound exceeds the tolerance by more
+//! [`Reach`](dmesh_engine::mesh::Reach): the error bound exceeds the tolerance by more
 //! than `stale_factor`, or the frustum sees something they culled). Holes are
 //! fetched whatever they cost, as Qu's holes are always ray cast. The
 //! *refresh* then re-requests held meshes oldest first while the planned
@@ -26,8 +26,8 @@
 //!   held meshes drawn in between with holes fetched (Qu Fig. 1);
 //! - [`Strategy::Balanced`]: holes, then the budgeted oldest-first refresh.
 
-use dmesh::camera::Camera;
-use dmesh::mesh::Reach;
+use dmesh_engine::camera::Camera;
+use dmesh_engine::mesh::Reach;
 
 /// How a walkthrough chooses what to fetch.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -265,7 +265,7 @@ mod tests {
     use glam::{DQuat, DVec3};
 
     fn camera_at(eye: DVec3) -> Camera {
-        dmesh::sim::rig::camera(64, 48, 60.0, eye, eye + DVec3::Z).unwrap()
+        dmesh_engine::sim::rig::camera(64, 48, 60.0, eye, eye + DVec3::Z).unwrap()
     }
 
     fn held(age: u32, triangles: f64, clearance: Option<f64>, culled: Vec<[f64; 4]>) -> Held {

@@ -1,7 +1,7 @@
 // Walking through a scene with stable frame costs in the browser: the
 // policy of clients/src/walkthrough/policy.rs (Qu, Wan, Qin and Kaufman,
 // "Image based rendering with stable frame rates", Sec. 3.1-3.4), with the
-// view selection of the server (DMesh Sec. 6.2, src/scene/selection.rs).
+// view selection of the server (DMesh Sec. 6.2, engine/src/scene/selection.rs).
 // Held meshes are drawn every animation frame; a frame fetches its holes
 // (views selected and not held, held meshes whose stated reach no longer
 // serves the camera: PROTOCOL.md, "Reach") and then refreshes the oldest held
@@ -64,7 +64,7 @@ export function errorFactor(reach, cam) {
 }
 
 /** The camera's frustum planes in the world, `[nx, ny, nz, d]`: inside when n . p + d >= 0
- * (the server's planes, src/mesh/select.rs). @param {CameraJson} cam */
+ * (the server's planes, engine/src/mesh/select.rs). @param {CameraJson} cam */
 export function frustumPlanes(cam) {
   const { width: w, height: h } = cam;
   /** @type {number[][]} */

@@ -1,0 +1,35 @@
+//! The dmesh engine: multiresolution depth-meshes from depth images
+//! (Pajarola, Sainz and Meng, "DMesh: fast depth-image meshing and
+//! warping", 2003), with no HTTP, no async and no store. The server
+//! (`dmesh`) and the clients (`dmesh-client`, third parties) build on it.
+//!
+//! - [`camera`]: intrinsics, pose, projection and back-projection;
+//! - [`image`]: decoding depth (EXR, PNG, PFM) and colour, conversion to `z`;
+//! - [`mesh`]: the hierarchy, its error metric, segmentation and extraction;
+//! - [`ply`]: binary PLY output of an extracted mesh;
+//! - [`scene`]: reference-view selection and weights for a novel camera;
+//! - [`sim`]: the scene simulator with ground truth;
+//! - [`synthetic`]: built-in synthetic depth maps;
+//! - [`wire`]: extracted meshes as `dmesh-proto` strip responses.
+//!
+//! ```
+//! use dmesh_engine::{camera::Camera, image::DepthImage, mesh::{DepthMesh, Lod, Segmentation}};
+//! let camera = Camera::perspective(64, 48, 60.0, 60.0, 31.5, 23.5)?;
+//! let depth = DepthImage::from_z(64, 48, vec![2.0; 64 * 48])?;
+//! let hierarchy = DepthMesh::build(&depth, &camera, &Segmentation::default())?;
+//! let mesh = hierarchy.extract(Lod::Epsilon(0.001))?;
+//! assert!(mesh.triangles.len() >= 2);
+//! # Ok::<(), dmesh_engine::Error>(())
+//! ```
+
+pub mod camera;
+mod error;
+pub mod image;
+pub mod mesh;
+pub mod ply;
+pub mod scene;
+pub mod sim;
+pub mod synthetic;
+pub mod wire;
+
+pub use error::{Error, Result};

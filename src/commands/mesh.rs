@@ -1,0 +1,255 @@
+//! `dmesh mesh`: one depth image meshed for a camera; a summary, JSON figures
+//! and optionally a binary PLY.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{anyhow, bail, Context, Result};
+use clap::{ArgGroup, ValueEnum};
+use dmesh::camera::{camera_from_json, Camera};
+use dmesh::image::{decode_color, decode_depth, decode_mask, ColorImage, DepthKind, DepthOptions, Limits};
+use dmesh::mesh::{DepthMesh, Lod, Mesh, Method, Segmentation, StripOrder, Threads};
+
+#[derive(Clone, Copy, ValueEnum)]
+enum KindArg {
+    Z,
+    Range,
+    Disparity,
+    #[value(alias = "inverse_depth")]
+    Inverse,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum StripsArg {
+    Traversal,
+    Greedy,
+    Tunnelled,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum SegmentArg {
+    Orthogonality,
+    Disparity,
+    Connectedness,
+    None,
+}
+
+#[derive(clap::Args)]
+#[command(group(ArgGroup::new("lod").required(true).args(["epsilon", "tau", "max_triangles"])))]
+pub struct MeshArgs {
+    /// Depth image: OpenEXR (float), PNG (8/16-bit grey) or PFM.
+    #[arg(long)]
+    depth: PathBuf,
+    /// What the depth samples measure.
+    #[arg(long, value_enum, default_value = "z")]
+    depth_kind: KindArg,
+    /// Multiplies every raw sample.
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
+    scale: f64,
+    /// Added to every sample after scaling (Middlebury: dmin times the scale).
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    offset: f64,
+    /// Focal length in pixels times baseline, for --depth-kind disparity.
+    #[arg(long, allow_negative_numbers = true)]
+    focal_baseline: Option<f64>,
+    /// EXR channel to read (default: the first float channel).
+    #[arg(long)]
+    channel: Option<String>,
+    /// Reference camera JSON.
+    #[arg(long)]
+    camera: PathBuf,
+    /// Validity mask (PNG of the same size, non-zero = valid).
+    #[arg(long)]
+    mask: Option<PathBuf>,
+    /// Colour image (PNG or JPEG) of the same size; adds vertex colours to the PLY.
+    #[arg(long)]
+    color: Option<PathBuf>,
+    /// Static object-space tolerance in metres (0: full resolution).
+    #[arg(long, allow_negative_numbers = true)]
+    epsilon: Option<f64>,
+    /// View-dependent tolerance in pixels of --view (0: full resolution).
+    #[arg(long, requires = "view", allow_negative_numbers = true)]
+    tau: Option<f64>,
+    /// Requesting camera JSON for --tau (or --max-triangles, view-dependent).
+    #[arg(long)]
+    view: Option<PathBuf>,
+    /// At most this many triangles: the finest tolerance that provably meets
+    /// it (view-dependent with --view, else static) is chosen and printed.
+    #[arg(long)]
+    max_triangles: Option<u64>,
+    /// Rubber-sheet test.
+    #[arg(long, value_enum, default_value = "orthogonality")]
+    segment: SegmentArg,
+    /// Orthogonality angle in degrees.
+    #[arg(long, default_value_t = 5.0, allow_negative_numbers = true)]
+    omega: f64,
+    /// Disparity threshold (Eq. 9).
+    #[arg(long, default_value_t = 0.05, allow_negative_numbers = true)]
+    sigma: f64,
+    /// Connectedness threshold (Eq. 6).
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
+    kappa: f64,
+    /// Depth-range gate dz / z (Eq. 11).
+    #[arg(long, default_value_t = 0.02, allow_negative_numbers = true)]
+    lambda: f64,
+    /// Strip order: the traversal's (fastest), greedy (fewer indices) or
+    /// tunnelled (fewest indices, slowest).
+    #[arg(long, value_enum, default_value = "traversal")]
+    strips: StripsArg,
+    /// Largest accepted image, in pixels.
+    #[arg(long, default_value_t = 64 << 20)]
+    max_pixels: u64,
+    /// Build threads: 2 (where the machine has them) computes deviations and
+    /// normals beside the error pass; the result is the same.
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=2))]
+    threads: u8,
+    /// Write the mesh as binary little-endian PLY.
+    #[arg(long)]
+    ply: Option<PathBuf>,
+    /// Print one JSON object of figures instead of the summary.
+    #[arg(long)]
+    json: bool,
+}
+
+fn read(path: &Path, what: &str) -> Result<Vec<u8>> {
+    std::fs::read(path).with_context(|| format!("cannot read {what} file {}", path.display()))
+}
+
+fn read_camera(path: &Path, what: &str) -> Result<Camera> {
+    let bytes = read(path, what)?;
+    let text = String::from_utf8(bytes).map_err(|_| anyhow!("{what} file {} is not UTF-8 text", path.display()))?;
+    camera_from_json(&text).with_context(|| format!("{what} file {}", path.display()))
+}
+
+/// Peak resident set size of this process, from /proc (Linux); 0 elsewhere.
+pub fn peak_rss_bytes() -> u64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find_map(|l| l.strip_prefix("VmHWM:"))
+                .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<u64>().ok())
+        })
+        .map_or(0, |kb| kb * 1024)
+}
+
+pub fn write_ply(path: &Path, mesh: &Mesh, camera: &Camera, color: Option<&ColorImage>) -> Result<()> {
+    std::fs::write(path, dmesh::ply::encode_ply(mesh, camera, color))
+        .with_context(|| format!("cannot write PLY file {}", path.display()))
+}
+
+pub fn run(a: &MeshArgs) -> Result<()> {
+    let camera = read_camera(&a.camera, "camera")?;
+    let limits = Limits {
+        max_pixels: a.max_pixels,
+    };
+    let options = DepthOptions {
+        kind: match a.depth_kind {
+            KindArg::Z => DepthKind::Z,
+            KindArg::Range => DepthKind::Range,
+            KindArg::Disparity => DepthKind::Disparity,
+            KindArg::Inverse => DepthKind::InverseDepth,
+        },
+        scale: a.scale,
+        offset: a.offset,
+        focal_baseline: a.focal_baseline,
+        channel: a.channel.clone(),
+    };
+    let mut depth = decode_depth(&read(&a.depth, "depth")?, &options, &camera, &limits)
+        .with_context(|| format!("depth file {}", a.depth.display()))?;
+    if let Some(p) = &a.mask {
+        let mask = decode_mask(&read(p, "mask")?, depth.width, depth.height, &limits)
+            .with_context(|| format!("mask file {}", p.display()))?;
+        depth.apply_mask(&mask)?;
+    }
+    let color = match &a.color {
+        Some(p) => {
+            let c =
+                decode_color(&read(p, "colour")?, &limits).with_context(|| format!("colour file {}", p.display()))?;
+            if (c.width, c.height) != (depth.width, depth.height) {
+                bail!(
+                    "colour image is {}x{} but the depth image is {}x{}; they must match",
+                    c.width,
+                    c.height,
+                    depth.width,
+                    depth.height
+                );
+            }
+            Some(c)
+        }
+        None => None,
+    };
+    let seg = Segmentation {
+        method: match a.segment {
+            SegmentArg::Orthogonality => Method::Orthogonality { omega_deg: a.omega },
+            SegmentArg::Disparity => Method::Disparity { sigma: a.sigma },
+            SegmentArg::Connectedness => Method::Connectedness { kappa: a.kappa },
+            SegmentArg::None => Method::None,
+        },
+        lambda: a.lambda,
+    };
+    let threads = if a.threads == 1 {
+        Threads::Single
+    } else {
+        Threads::available()
+    };
+    let hierarchy = DepthMesh::build_with(&depth, &camera, &seg, threads)?;
+    let view = a.view.as_deref().map(|p| read_camera(p, "view camera")).transpose()?;
+    let lod = match (a.epsilon, a.tau, a.max_triangles, &view) {
+        (Some(e), None, None, _) => Lod::Epsilon(e),
+        (None, Some(t), None, Some(v)) => Lod::Tau { tau: t, view: v },
+        (None, None, Some(m), v) => hierarchy
+            .lod_for_triangles(m, v.as_ref())?
+            .lod(v.as_ref().unwrap_or(&camera)),
+        _ => bail!("give one of --epsilon E, --tau T with --view VIEWCAM.json, or --max-triangles N"),
+    };
+    let (lod_name, lod_value) = match lod {
+        Lod::Epsilon(e) => ("epsilon", e),
+        Lod::Tau { tau, .. } => ("tau", tau),
+    };
+    let order = match a.strips {
+        StripsArg::Traversal => StripOrder::Traversal,
+        StripsArg::Greedy => StripOrder::Greedy,
+        StripsArg::Tunnelled => StripOrder::Tunnelled,
+    };
+    let mesh = hierarchy.extract_with(lod, order)?;
+    if let Some(p) = &a.ply {
+        write_ply(p, &mesh, &camera, color.as_ref())?;
+    }
+    let stats = hierarchy.stats();
+    if a.json {
+        let figures = serde_json::json!({
+            "width": depth.width,
+            "height": depth.height,
+            "grid_vertices": stats.grid_vertices,
+            "vertices": mesh.vertices.len(),
+            "triangles": mesh.triangles.len(),
+            "strips": mesh.strip_count(),
+            "indices": mesh.strips.len(),
+            "segmented_triangles": stats.segmented_triangles,
+            "build_ms": stats.build_ms,
+            "extract_ms": mesh.extract_ms,
+            "peak_bytes": stats.build_peak_bytes,
+            "peak_rss_bytes": peak_rss_bytes(),
+            lod_name: lod_value,
+        });
+        println!("{figures}");
+    } else {
+        println!(
+            "{}x{} depth image, {} grid vertices, {} segmented full-resolution triangles, built in {:.2} ms",
+            depth.width, depth.height, stats.grid_vertices, stats.segmented_triangles, stats.build_ms
+        );
+        println!(
+            "{lod_name} {lod_value}: {} vertices, {} triangles in {} strips ({} indices, {:.3} per triangle), extracted in {:.2} ms",
+            mesh.vertices.len(),
+            mesh.triangles.len(),
+            mesh.strip_count(),
+            mesh.strips.len(),
+            mesh.strips.len() as f64 / mesh.triangles.len().max(1) as f64,
+            mesh.extract_ms
+        );
+        if let Some(p) = &a.ply {
+            println!("wrote {}", p.display());
+        }
+    }
+    Ok(())
+}

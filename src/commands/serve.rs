@@ -1,0 +1,120 @@
+//! `dmesh serve`: the HTTP service over the embedded store or an object store.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use dmesh::image::Limits;
+
+#[derive(clap::Args)]
+pub struct ServeArgs {
+    /// Address to listen on.
+    #[arg(long, default_value_t = std::net::SocketAddr::from(([127, 0, 0, 1], dmesh::http::DEFAULT_PORT)))]
+    listen: std::net::SocketAddr,
+    /// Data directory of the embedded store.
+    #[arg(long, default_value = dmesh::http::DEFAULT_DATA_DIR, conflicts_with = "store")]
+    data: PathBuf,
+    /// Keep views in an S3-compatible object store instead, `s3://BUCKET/PREFIX`,
+    /// so that replicas can share them. Endpoint, region and credentials come
+    /// from AWS_ENDPOINT_URL, AWS_REGION, AWS_ACCESS_KEY_ID and
+    /// AWS_SECRET_ACCESS_KEY; AWS_ALLOW_HTTP=true for a plain-HTTP endpoint.
+    #[arg(long, value_name = "URL")]
+    store: Option<String>,
+    /// With --store: the longest a cached view or scene listing is served
+    /// without checking its version in the store (how long another
+    /// replica's replace may go unseen).
+    #[arg(long, default_value_t = 0)]
+    revalidate_ms: u64,
+    /// Bytes of built hierarchies kept in memory.
+    #[arg(long, default_value_t = 1 << 30)]
+    cache_bytes: usize,
+    /// Largest request body, bytes.
+    #[arg(long, default_value_t = 256 << 20)]
+    max_upload_bytes: usize,
+    /// Largest decoded image, pixels.
+    #[arg(long, default_value_t = 64 << 20)]
+    max_pixels: u64,
+    /// Reads (renders, strips, summaries) served at once; more wait up to
+    /// --queue-wait-ms for a slot, then are answered 503 with Retry-After
+    /// [default: the number of cores].
+    #[arg(long)]
+    max_concurrency: Option<usize>,
+    /// Uploads served at once, apart from reads [default: half the cores, at least 1].
+    #[arg(long)]
+    max_uploads: Option<usize>,
+    /// Milliseconds a request may wait for a free slot before it is shed.
+    #[arg(long, default_value_t = 5)]
+    queue_wait_ms: u64,
+    /// Request timeout, seconds.
+    #[arg(long, default_value_t = 30)]
+    timeout_secs: u64,
+    /// Ingest the simulated demo scene (scene id `demo`) when it is not stored yet.
+    #[arg(long)]
+    demo: bool,
+}
+
+/// Stores the simulated demo scene's reference views as scene `demo`, unless present.
+fn ingest_demo(store: &dyn dmesh::store::ViewStore) -> Result<()> {
+    use dmesh::store::{SegmentationSpec, StoredView};
+    let scene = dmesh::sim::SceneSpec::demo();
+    let existing = store.views("demo")?.unwrap_or_default();
+    let views = scene.reference_views()?;
+    for (k, v) in views.iter().enumerate() {
+        let name = format!("v{k:02}");
+        if existing.contains(&name) {
+            continue;
+        }
+        let img =
+            image::RgbImage::from_raw(v.color.width, v.color.height, v.color.rgb.clone()).context("demo colour")?;
+        let mut color = Vec::new();
+        image::DynamicImage::ImageRgb8(img).write_to(&mut std::io::Cursor::new(&mut color), image::ImageFormat::Png)?;
+        let stored = StoredView {
+            camera: (&v.camera).into(),
+            segmentation: SegmentationSpec::default(),
+            z: v.depth.z.clone(),
+            raw_grid: None,
+            color,
+        };
+        store.put("demo", &name, &stored)?;
+    }
+    eprintln!("demo scene: {} simulated views in scene \"demo\"", views.len());
+    eprintln!(
+        "render a novel view: cargo run --release -p dmesh-client -- render --scene demo \\\n  --camera examples/cameras/demo-novel.json --out novel.png --coverage-out coverage.png"
+    );
+    Ok(())
+}
+
+pub fn run(a: &ServeArgs) -> Result<()> {
+    use dmesh::http::{serve, AppState, Pipeline, Settings};
+    use dmesh::store::{FileStore, ObjectViewStore, ViewStore};
+    let store: std::sync::Arc<dyn ViewStore> = match &a.store {
+        Some(url) => {
+            std::sync::Arc::new(ObjectViewStore::from_url(url).with_context(|| format!("object store {url}"))?)
+        }
+        None => std::sync::Arc::new(
+            FileStore::open(&a.data).with_context(|| format!("data directory {}", a.data.display()))?,
+        ),
+    };
+    let settings = Settings {
+        max_upload_bytes: a.max_upload_bytes,
+        limits: Limits {
+            max_pixels: a.max_pixels,
+        },
+        cache_bytes: a.cache_bytes,
+        revalidate: std::time::Duration::from_millis(a.revalidate_ms),
+    };
+    if a.demo {
+        ingest_demo(store.as_ref())?;
+    }
+    let state = std::sync::Arc::new(AppState::new(store, settings));
+    let defaults = Pipeline::default();
+    let pipeline = Pipeline {
+        max_concurrency: a.max_concurrency.unwrap_or(defaults.max_concurrency),
+        max_uploads: a.max_uploads.unwrap_or(defaults.max_uploads),
+        queue_wait: std::time::Duration::from_millis(a.queue_wait_ms),
+        timeout: std::time::Duration::from_secs(a.timeout_secs),
+    };
+    let runtime = tokio::runtime::Runtime::new().context("starting the async runtime")?;
+    runtime
+        .block_on(serve(a.listen, state, pipeline))
+        .with_context(|| format!("serving on {}", a.listen))
+}
