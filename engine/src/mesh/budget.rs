@@ -33,9 +33,8 @@
 //! pass over the frontier and two over 4,096 buckets.
 
 use super::border::FORCED;
-use super::extract::Lod;
-use super::grid::Pt;
-use super::hierarchy::DepthMesh;
+use super::grid::{Grid, Pt};
+use super::lod::Budgeted;
 use crate::camera::{Camera, Projection};
 use crate::error::{Error, Result};
 
@@ -88,36 +87,16 @@ fn suffix(mut counts: Vec<u32>) -> Vec<u32> {
     counts
 }
 
-/// The level of detail a budget resolved to.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Budgeted {
-    /// Static tolerance in metres.
-    Epsilon(f64),
-    /// View-dependent tolerance in pixels of the requesting camera.
-    Tau(f64),
-}
-
-impl Budgeted {
-    /// The level of detail to extract: `view` is the requesting camera the
-    /// budget was resolved for (unused for a static answer).
-    pub fn lod(self, view: &Camera) -> Lod<'_> {
-        match self {
-            Self::Epsilon(e) => Lod::Epsilon(e),
-            Self::Tau(tau) => Lod::Tau { tau, view },
-        }
-    }
-}
-
 impl ErrorStats {
-    /// Gathers the statistics of a built hierarchy: one pass over the errors.
-    pub(crate) fn gather(mesh: &DepthMesh) -> Self {
-        let grid = mesh.grid;
+    /// Gathers the statistics of a built hierarchy from its saturated
+    /// squared errors: one pass over them.
+    pub(crate) fn gather(grid: Grid, err2: &[f32]) -> Self {
         let s = grid.side();
         let mut all = vec![0u32; BUCKETS];
         // Vertices along a padded border are always selected (`border.rs`):
         // they belong to the base, not to any threshold's count.
         let mut forced = 0u64;
-        for &e in &mesh.err2 {
+        for &e in err2 {
             if e == FORCED {
                 forced += 1;
             } else {
@@ -127,7 +106,7 @@ impl ErrorStats {
         // Root corners are no split vertices.
         for y in (0..grid.gh()).step_by(s as usize) {
             for x in (0..grid.gw()).step_by(s as usize) {
-                all[bucket(mesh.err2[grid.index((x, y))])] -= 1;
+                all[bucket(err2[grid.index((x, y))])] -= 1;
             }
         }
         // Frontiers: centres of half-side h, from the root quads' down to
@@ -147,7 +126,7 @@ impl ErrorStats {
                     if is_root || odd_x != odd_y {
                         continue;
                     }
-                    let e = mesh.err2[grid.index((x, y))];
+                    let e = err2[grid.index((x, y))];
                     // A forced vertex is counted in the base already (but
                     // stays a frontier centre: the spheres below nest in it).
                     if e != FORCED {
@@ -209,18 +188,26 @@ impl ErrorStats {
 /// cannot select a vertex the bound did not count.
 const MARGIN: f64 = 1e-9;
 
-impl DepthMesh {
+impl ErrorStats {
     /// Triangles of the coarsest mesh before segmentation: two per root quad,
     /// the smallest budget any request can be given.
-    pub fn coarsest_triangles(&self) -> u64 {
-        self.stats.base
+    pub(crate) fn coarsest_triangles(&self) -> u64 {
+        self.base
     }
 
     /// The finest level of detail whose mesh has at most `max_triangles`
     /// triangles, for the requesting camera `view` (view-dependent) or none
-    /// (static). Fails when even the coarsest mesh has more.
-    pub fn lod_for_triangles(&self, max_triangles: u64, view: Option<&Camera>) -> Result<Budgeted> {
-        let st = &self.stats;
+    /// (static). `eye` is the view's eye in the reference camera's frame,
+    /// `sphere` a vertex's position and nested radius there. Fails when
+    /// even the coarsest mesh has more.
+    pub(crate) fn lod_for_triangles(
+        &self,
+        max_triangles: u64,
+        view: Option<&Camera>,
+        eye: impl Fn(&Camera) -> glam::DVec3,
+        sphere: impl Fn(Pt) -> (glam::DVec3, f32),
+    ) -> Result<Budgeted> {
+        let st = self;
         let coarsest = || {
             Error::unattainable(format!(
                 "max_triangles is {max_triangles}; the coarsest mesh of this view may have up to {} triangles",
@@ -237,7 +224,7 @@ impl DepthMesh {
         };
         match (view.focal_pixels(), view.projection) {
             (Some(f), _) => {
-                let eye = self.camera.to_camera(view.translation);
+                let eye = eye(view);
                 let finest = st
                     .frontiers
                     .iter()
@@ -245,7 +232,10 @@ impl DepthMesh {
                         let d = fr
                             .centres
                             .iter()
-                            .map(|&p| (self.position(p) - eye).length() - f64::from(self.radius(p)))
+                            .map(|&p| {
+                                let (position, radius) = sphere(p);
+                                (position - eye).length() - f64::from(radius)
+                            })
                             .fold(f64::INFINITY, f64::min);
                         if !(d > 0.0 && d.is_finite()) {
                             return None;

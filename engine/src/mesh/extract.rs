@@ -25,28 +25,13 @@ use glam::DVec3;
 
 use super::error_metric::norm_bound;
 use super::grid::{cell_half, half_of, Pt};
-use super::hierarchy::{and_bit, cell_bit, or_bit, DepthMesh};
+use super::hierarchy::DepthMesh;
+use super::lod::Lod;
 use super::reach::{merge_spheres, Reach, MAX_CULLED};
 use super::select::{PlaneMask, Select, Static, ViewDependent, ALL_PLANES};
 use super::strips::{stripify, stripify_greedy, stripify_tunnelled, StripOrder, BREAK};
 use crate::camera::Camera;
 use crate::error::{Error, Result};
-
-/// Level of detail of an extraction.
-#[derive(Clone, Copy, Debug)]
-pub enum Lod<'a> {
-    /// Static: object-space tolerance `epsilon` in metres (Eq. 3); 0 is full resolution.
-    Epsilon(f64),
-    /// View-dependent: `tau` pixels in the requesting camera `view` (Eq. 4), whose
-    /// pose is in the same world as the reference camera's; 0 is full
-    /// resolution inside the view.
-    Tau {
-        /// Tolerance in pixels of `view`.
-        tau: f64,
-        /// The requesting camera.
-        view: &'a Camera,
-    },
-}
 
 /// One vertex of an extracted mesh, as it goes on the wire.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -145,7 +130,7 @@ impl<S: Select> Walk<'_, S> {
         let g = self.mesh.grid;
         if l.0.abs_diff(r.0) == 1 && l.1.abs_diff(r.1) == 1 {
             let cell = (l.0.min(r.0), l.1.min(r.1));
-            if self.mesh.flags[g.index(cell)] & cell_bit(cell_half(cell, a)) != 0 {
+            if self.mesh.flags[g.index(cell)].cell(cell_half(cell, a)) {
                 self.dropped += 1;
                 self.skip();
             } else if mask != 0 && {
@@ -165,9 +150,8 @@ impl<S: Select> Walk<'_, S> {
         }
         let m = ((l.0 + r.0) / 2, (l.1 + r.1) / 2);
         let mi = g.index(m);
-        let flags = self.mesh.flags[mi];
-        let half = half_of(m, a);
-        if flags & and_bit(half) != 0 {
+        let flags = self.mesh.flags[mi].half(half_of(m, a));
+        if flags.all {
             self.dropped += 1;
             self.skip();
             return;
@@ -199,7 +183,7 @@ impl<S: Select> Walk<'_, S> {
         if err2 > 0.0 {
             self.clearance = self.clearance.min(self.sel.left_out(pm, radius));
         }
-        if flags & or_bit(half) != 0 {
+        if flags.any {
             self.dropped += 1;
             self.skip();
         } else {

@@ -42,28 +42,15 @@ use glam::DVec3;
 
 use super::backproject::BackProject;
 use super::budget::ErrorStats;
+use super::flags::Flags;
 use super::grid::{Grid, Pt};
 use super::levels::{coarse_deviations, Levels};
+use super::lod::Budgeted;
 use super::normals::normals_and_quality;
 use super::segmentation::{leaf_flags, Method, Samples, Segmentation};
 use crate::camera::Camera;
 use crate::error::{Error, Result};
 use crate::image::DepthImage;
-
-/// Bit of half `h` in [`DepthMesh::flags`]: some full-resolution triangle inside is segmented.
-pub(crate) const fn or_bit(h: usize) -> u8 {
-    1 << h
-}
-
-/// Bit of half `h`: every full-resolution triangle inside is segmented (or the half does not exist).
-pub(crate) const fn and_bit(h: usize) -> u8 {
-    4 << h
-}
-
-/// Bit of half `h` of the unit cell whose min corner is this vertex.
-pub(crate) const fn cell_bit(h: usize) -> u8 {
-    16 << h
-}
 
 /// The multiresolution hierarchy of one reference view. 16 bytes per grid
 /// vertex (see [`DepthMesh::heap_bytes`]); immutable once built, so many
@@ -83,8 +70,8 @@ pub struct DepthMesh {
     pub(crate) normal: Vec<[u8; 2]>,
     /// Sampling quality rho in 1/255.
     pub(crate) rho: Vec<u8>,
-    /// Segmentation flags, see [`or_bit`], [`and_bit`], [`cell_bit`].
-    pub(crate) flags: Vec<u8>,
+    /// Segmentation flags (`flags.rs`).
+    pub(crate) flags: Vec<Flags>,
     /// Error statistics for budgeted requests.
     pub(crate) stats: ErrorStats,
     segmented: usize,
@@ -139,7 +126,7 @@ fn grid_depths(depth: &DepthImage, grid: &Grid) -> Vec<f32> {
 struct Passes {
     normal: Vec<[u8; 2]>,
     rho: Vec<u8>,
-    flags: Vec<u8>,
+    flags: Vec<Flags>,
     err2: Vec<f32>,
     radius: Vec<f32>,
     /// Full-resolution triangles of the image that are segmented.
@@ -194,7 +181,7 @@ impl Passes {
                         .sum::<usize>()
                 })
                 .sum();
-            let mut flags: Vec<u8> = cells.into_iter().map(|c| (c & 3) << 4).collect();
+            let mut flags: Vec<Flags> = cells.into_iter().map(Flags::of_cell).collect();
             let mut levels = Levels {
                 grid,
                 camera,
@@ -304,7 +291,7 @@ impl DepthMesh {
         // after).
         mesh.build_peak_bytes = mesh.heap_bytes() + p.scratch_bytes;
         super::border::force_border(&mesh.grid, &mut mesh.err2);
-        mesh.stats = ErrorStats::gather(&mesh);
+        mesh.stats = ErrorStats::gather(mesh.grid, &mesh.err2);
         mesh.build_ms = start.elapsed().as_secs_f64() * 1e3;
         Ok(mesh)
     }
@@ -344,10 +331,29 @@ impl DepthMesh {
         self.point(p)
     }
 
+    /// Triangles of the coarsest mesh before segmentation: two per root quad,
+    /// the smallest budget any request can be given.
+    pub fn coarsest_triangles(&self) -> u64 {
+        self.stats.coarsest_triangles()
+    }
+
+    /// The finest level of detail whose mesh has at most `max_triangles`
+    /// triangles, for the requesting camera `view` (view-dependent) or none
+    /// (static), from the error statistics gathered at build time
+    /// (`budget.rs`). Fails when even the coarsest mesh has more.
+    pub fn lod_for_triangles(&self, max_triangles: u64, view: Option<&Camera>) -> Result<Budgeted> {
+        self.stats.lod_for_triangles(
+            max_triangles,
+            view,
+            |v| self.camera.to_camera(v.translation),
+            |p| (self.position(p), self.radius(p)),
+        )
+    }
+
     /// True when the full-resolution triangle half `h` of the unit cell with
     /// min corner `cell` is segmented.
     pub fn cell_segmented(&self, cell: Pt, h: usize) -> bool {
-        self.flags[self.grid.index(cell)] & cell_bit(h) != 0
+        self.flags[self.grid.index(cell)].cell(h)
     }
 
     /// Heap bytes the hierarchy keeps: 16 per grid vertex plus the per-row

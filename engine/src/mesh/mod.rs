@@ -8,13 +8,16 @@
 //! - `deviation`: the exact depth deviation of a hierarchy triangle;
 //! - [`normals`]: per-vertex normals and quality rho (Sec. 4.2);
 //! - [`segmentation`]: orthogonality, disparity, connectedness, gated by lambda (Sec. 5.2);
+//! - `flags`: segmentation flags and their OR/AND propagation (Sec. 5.3);
 //! - [`hierarchy`]: the build, on one thread or two (Sec. 4.2, 5.3);
 //! - `levels`: its bottom-up pass: saturated errors, nested radii and
 //!   propagated segmentation flags (Sec. 4.2, 5.3);
+//! - [`lod`]: the level of detail of an extraction, and what a budget resolves to;
 //! - `select`: static (Eq. 3) and view-dependent (Eq. 4) selection;
 //! - [`extract`]: the top-down traversal emitting a conforming mesh (Sec. 4.3-4.4);
-//! - [`strips`]: generalised strips with primitive restart (Fig. 13);
-//! - `tunnel`: joining greedy strips by tunnelling, weighed by their index count.
+//! - [`strips`]: generalised strips with primitive restart (Fig. 13): the
+//!   traversal's order, greedy strips over the adjacency, and tunnels
+//!   joining them weighed by their index count.
 
 mod backproject;
 pub mod border;
@@ -22,20 +25,21 @@ pub mod budget;
 mod deviation;
 pub mod error_metric;
 pub mod extract;
+mod flags;
 pub mod grid;
 pub mod hierarchy;
 mod levels;
+pub mod lod;
 pub mod normals;
 pub mod reach;
 pub mod segmentation;
 mod select;
 pub mod strips;
-mod tunnel;
 
-pub use budget::Budgeted;
-pub use extract::{Lod, Mesh, MeshVertex};
+pub use extract::{Mesh, MeshVertex};
 pub use grid::Grid;
 pub use hierarchy::{BuildStats, DepthMesh, Threads};
+pub use lod::{Budgeted, Lod};
 pub use reach::{Reach, MAX_CULLED};
 pub use segmentation::{Method, Segmentation};
 pub use strips::{decode_strips, StripOrder, RESTART};

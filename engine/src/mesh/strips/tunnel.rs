@@ -23,7 +23,28 @@
 //! tunnel step by step, depth first, adding up those changes, and keeps
 //! the first tunnel that saves indices and closes no cycle.
 
-use super::strips::NONE;
+use super::adjacency::{adjacency, in_order, NONE};
+use super::greedy::greedy_paths;
+use super::traversal::stripify;
+
+/// Strips that walk around right-angle corners, joined by tunnels
+/// (below). `tris` must have their right-angle corner last, as the
+/// extraction emits them.
+///
+/// Why fans: on a uniform 4-8 mesh every triangle has its right angle at a
+/// vertex with four such triangles around it. A strip that enters such a
+/// fan across one hypotenuse, walks all four triangles and leaves across
+/// the hypotenuse next to it writes the corner twice and needs one swap per
+/// fan; the fans then chain into strips along the grid rows, for
+/// 1.25 indices per triangle, which is the per-vertex lower bound of such a
+/// mesh (a corner of `k` triangles is written at least `ceil(k / 3)` times).
+/// The greedy's swap-avoiding steps instead strand triangles.
+pub(crate) fn stripify_tunnelled(tris: &[[u32; 3]], vertex_count: usize) -> Vec<u32> {
+    let nb = adjacency(tris, vertex_count);
+    let mut links = greedy_paths(tris, &nb, vertex_count, true);
+    join(tris, &nb, &mut links);
+    stripify(&in_order(tris, &links))
+}
 
 /// Alternations (link removals) in one tunnel at most: the search from a
 /// strip end grows by at most four ways per alternation.
@@ -209,8 +230,8 @@ pub(crate) fn join(tris: &[[u32; 3]], nb: &[[u32; 3]], links: &mut [[u32; 2]]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::mesh::strips::stripify_greedy;
     use crate::mesh::strips::tests::assert_exact;
-    use crate::mesh::strips::{adjacency, in_order, stripify, stripify_greedy, stripify_tunnelled};
 
     /// An `n` x `n` 4-8 mesh of unit cells, diagonals alternating so that
     /// they meet at every other vertex, each triangle's right angle last;

@@ -1,0 +1,133 @@
+//! Segmentation flags of the hierarchy and their propagation up it (DMesh
+//! Sec. 5.3, Fig. 11-12).
+//!
+//! A hierarchy triangle is *segmented* when any full-resolution triangle
+//! inside it is (it must not be drawn whole), and *fully* segmented when all
+//! of them are (nothing of it is drawn). Both propagate bottom-up: a half of
+//! a split vertex's diamond is the union of its two children, so its "any"
+//! is the OR of theirs and its "all" the AND ([`Half::join`]). DMesh's eight
+//! flags of a quadtree node are the half flags of the four edge midpoints
+//! and the centre of that node.
+//!
+//! One byte per grid vertex ([`Flags`]): the two halves of the diamond the
+//! vertex splits, and the two finest triangles of the unit cell whose min
+//! corner it is (the leaves, from `segmentation.rs`).
+
+/// The flags of one grid vertex.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[repr(transparent)]
+pub(crate) struct Flags(u8);
+
+/// What the flags say of one hierarchy triangle (a half of a diamond).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Half {
+    /// Some full-resolution triangle inside is segmented.
+    pub any: bool,
+    /// Every full-resolution triangle inside is segmented.
+    pub all: bool,
+}
+
+impl Half {
+    /// A half off the grid: nothing in it to draw, so it counts as fully
+    /// segmented.
+    pub const ABSENT: Self = Self { any: true, all: true };
+
+    /// A full-resolution triangle, segmented or not.
+    pub const fn leaf(segmented: bool) -> Self {
+        Self {
+            any: segmented,
+            all: segmented,
+        }
+    }
+
+    /// The union of two triangles: OR of "any", AND of "all".
+    pub const fn join(self, other: Self) -> Self {
+        Self {
+            any: self.any || other.any,
+            all: self.all && other.all,
+        }
+    }
+
+    /// Nothing inside is segmented: its errors are the geometric ones.
+    pub const fn unflagged(self) -> bool {
+        !self.any
+    }
+
+    /// Segmented, but not fully: dropping it would drop valid samples, so its
+    /// footprint counts as error.
+    pub const fn partial(self) -> bool {
+        self.any && !self.all
+    }
+}
+
+impl Flags {
+    const fn any_bit(h: usize) -> u8 {
+        1 << h
+    }
+
+    const fn all_bit(h: usize) -> u8 {
+        4 << h
+    }
+
+    const fn cell_bit(h: usize) -> u8 {
+        16 << h
+    }
+
+    /// The flags of a vertex before the pass: its unit cell's two finest
+    /// triangles, bit `h` of `cell` for half `h`.
+    pub const fn of_cell(cell: u8) -> Self {
+        Self((cell & 3) << 4)
+    }
+
+    /// The same with no half flags, to be set by [`Self::set_half`].
+    pub const fn cell_only(self) -> Self {
+        Self(self.0 & 0xf0)
+    }
+
+    /// True when the full-resolution triangle `h` of the vertex's unit cell is segmented.
+    pub const fn cell(self, h: usize) -> bool {
+        self.0 & Self::cell_bit(h) != 0
+    }
+
+    /// Half `h` of the diamond the vertex splits.
+    pub const fn half(self, h: usize) -> Half {
+        Half {
+            any: self.0 & Self::any_bit(h) != 0,
+            all: self.0 & Self::all_bit(h) != 0,
+        }
+    }
+
+    /// Sets half `h`'s flags (on flags whose half `h` is clear).
+    pub fn set_half(&mut self, h: usize, half: Half) {
+        debug_assert_eq!(self.0 & (Self::any_bit(h) | Self::all_bit(h)), 0, "half {h} set twice");
+        if half.any {
+            self.0 |= Self::any_bit(h);
+        }
+        if half.all {
+            self.0 |= Self::all_bit(h);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn halves_propagate_or_and_and_and_keep_the_cell_bits() {
+        let (seg, free) = (Half::leaf(true), Half::leaf(false));
+        assert_eq!(seg.join(free), Half { any: true, all: false });
+        assert!(seg.join(free).partial() && !seg.join(seg).partial());
+        assert!(free.join(free).unflagged() && !Half::ABSENT.unflagged());
+        let mut f = Flags::of_cell(0b10).cell_only();
+        assert!(!f.cell(0) && f.cell(1));
+        f.set_half(0, seg.join(free));
+        f.set_half(1, Half::ABSENT);
+        assert_eq!(f.half(0), Half { any: true, all: false });
+        assert_eq!(f.half(1), Half::ABSENT);
+        assert!(f.cell(1) && !f.cell(0));
+        // The byte layout the hierarchy has always had (16 bytes per vertex).
+        assert_eq!(f.0, 0b10_1011);
+        assert_eq!(std::mem::size_of::<Flags>(), 1);
+    }
+}
