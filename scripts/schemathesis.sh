@@ -22,7 +22,7 @@ server=$!
 trap 'kill $server 2>/dev/null; wait $server 2>/dev/null; rm -rf "$data" "$log"' EXIT
 url=
 for _ in $(seq 1 600); do
-  url=$(sed -n 's/^dmesh listening on \(http:[^ ]*\)$/\1/p' "$log")
+  url=$(sed -n 's/.*dmesh listening on \(http:[^ ]*\)$/\1/p' "$log")
   [ -n "$url" ] && break
   kill -0 $server 2>/dev/null || { cat "$log" >&2; echo "scripts/schemathesis.sh: dmesh serve exited" >&2; exit 1; }
   sleep 0.2

@@ -39,3 +39,18 @@ pub fn finish(result: anyhow::Result<()>) -> ExitCode {
         }
     }
 }
+
+/// Logs to stderr at the level `DMESH_LOG` names (`error`, `warn`, `info`,
+/// the default, `debug` or `trace`): `debug` adds a line per request
+/// (route, status, ms) and per build and extraction.
+pub fn init_logging() {
+    let level = std::env::var("DMESH_LOG")
+        .ok()
+        .and_then(|l| l.trim().parse::<tracing_subscriber::filter::LevelFilter>().ok())
+        .unwrap_or(tracing_subscriber::filter::LevelFilter::INFO);
+    let _ = tracing_subscriber::fmt()
+        .with_max_level(level)
+        .with_writer(std::io::stderr)
+        .with_target(false)
+        .try_init();
+}

@@ -54,6 +54,7 @@ fn main() -> ExitCode {
         Ok(cli) => cli,
         Err(code) => return code,
     };
+    cli::init_logging();
     cli::finish(match &cli.command {
         Command::Mesh(a) => commands::mesh::run(a),
         Command::Demo { size, ply } => commands::demo::run(*size, ply.as_deref()),

@@ -632,7 +632,10 @@ fn run(cli: Cli) -> Result<()> {
 
 fn main() -> ExitCode {
     match cli::parse::<Cli>() {
-        Ok(cli) => cli::finish(run(cli)),
+        Ok(cli) => {
+            cli::init_logging();
+            cli::finish(run(cli))
+        }
         Err(code) => code,
     }
 }

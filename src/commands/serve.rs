@@ -76,9 +76,10 @@ fn ingest_demo(store: &dyn dmesh::store::ViewStore) -> Result<()> {
         };
         store.put("demo", &name, &stored)?;
     }
-    eprintln!("demo scene: {} simulated views in scene \"demo\"", views.len());
-    eprintln!(
-        "render a novel view: cargo run --release -p dmesh-client -- render --scene demo \\\n  --camera examples/cameras/demo-novel.json --out novel.png --coverage-out coverage.png"
+    tracing::info!("demo scene: {} simulated views in scene \"demo\"", views.len());
+    tracing::info!(
+        "render a novel view: cargo run --release -p dmesh-client -- render --scene demo \
+         --camera examples/cameras/demo-novel.json --out novel.png --coverage-out coverage.png"
     );
     Ok(())
 }

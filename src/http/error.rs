@@ -72,8 +72,8 @@ impl AppError {
 impl IntoResponse for AppError {
     fn into_response(self) -> Response {
         match &self {
-            Self::Internal(detail) => eprintln!("internal error: {detail}"),
-            Self::Unavailable(detail, _) => eprintln!("store unavailable: {detail}"),
+            Self::Internal(detail) => tracing::error!("internal error: {detail}"),
+            Self::Unavailable(detail, _) => tracing::warn!("store unavailable: {detail}"),
             _ => {}
         }
         let (status, code, message) = self.parts();

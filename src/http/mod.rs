@@ -121,10 +121,17 @@ async fn record(State(state): State<Arc<AppState>>, request: Request, next: Next
         .get::<MatchedPath>()
         .map_or_else(|| "unmatched".to_string(), |p| p.as_str().to_string());
     let start = Instant::now();
-    let response = next.run(request).await;
-    state
-        .metrics
-        .request(&route, response.status().as_u16(), start.elapsed().as_secs_f64() * 1e3);
+    let span = tracing::debug_span!("request", method = %request.method(), route = %route);
+    let response = tracing::Instrument::instrument(next.run(request), span.clone()).await;
+    let (status, ms) = (response.status().as_u16(), start.elapsed().as_secs_f64() * 1e3);
+    span.in_scope(|| {
+        if status >= 500 {
+            tracing::warn!(status, ms, "answered");
+        } else {
+            tracing::debug!(status, ms, "answered");
+        }
+    });
+    state.metrics.request(&route, status, ms);
     response
 }
 
@@ -186,8 +193,8 @@ pub fn app(state: Arc<AppState>, pipeline: Pipeline) -> Router {
 pub async fn serve(addr: SocketAddr, state: Arc<AppState>, pipeline: Pipeline) -> std::io::Result<()> {
     let listener = tokio::net::TcpListener::bind(addr).await?;
     let local = listener.local_addr()?;
-    eprintln!("dmesh listening on http://{local}");
-    eprintln!("viewer: open http://{local}/ in a browser");
+    tracing::info!("dmesh listening on http://{local}");
+    tracing::info!("viewer: open http://{local}/ in a browser");
     serve_on(listener, state, pipeline).await
 }
 

@@ -249,6 +249,7 @@ impl DepthMesh {
 
     /// Extracts the mesh at level of detail `lod` with strips built in `strips` order.
     pub fn extract_with(&self, lod: Lod<'_>, strips: StripOrder) -> Result<Mesh> {
+        let _span = tracing::debug_span!("extract", lod = %lod.kind(), strips = ?strips).entered();
         let start = Instant::now();
         let tris = match lod {
             Lod::Epsilon(eps) => {
@@ -278,6 +279,7 @@ impl DepthMesh {
         };
         let mut mesh = tris;
         mesh.extract_ms = start.elapsed().as_secs_f64() * 1e3;
+        tracing::debug!(triangles = mesh.triangles.len(), ms = mesh.extract_ms, "extracted");
         Ok(mesh)
     }
 

@@ -250,6 +250,7 @@ impl DepthMesh {
 
     /// [`Self::build`] with a choice of threads; the result is the same.
     pub fn build_with(depth: &DepthImage, camera: &Camera, seg: &Segmentation, threads: Threads) -> Result<Self> {
+        let _span = tracing::debug_span!("build", width = depth.width, height = depth.height, ?threads).entered();
         let start = Instant::now();
         if depth.width != camera.width || depth.height != camera.height {
             return Err(Error::invalid(format!(
@@ -293,6 +294,7 @@ impl DepthMesh {
         super::border::force_border(&mesh.grid, &mut mesh.err2);
         mesh.stats = ErrorStats::gather(mesh.grid, &mesh.err2);
         mesh.build_ms = start.elapsed().as_secs_f64() * 1e3;
+        tracing::debug!(ms = mesh.build_ms, segmented = mesh.segmented, "built");
         Ok(mesh)
     }
 

@@ -20,6 +20,16 @@ pub enum Lod<'a> {
     },
 }
 
+impl Lod<'_> {
+    /// Its kind and tolerance, for logs: `epsilon=E` or `tau=T`.
+    pub fn kind(&self) -> String {
+        match self {
+            Self::Epsilon(e) => format!("epsilon={e}"),
+            Self::Tau { tau, .. } => format!("tau={tau}"),
+        }
+    }
+}
+
 /// The level of detail a budget resolved to.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Budgeted {
