@@ -5,7 +5,7 @@
 use std::time::Instant;
 
 use dmesh::mesh::{DepthMesh, Lod, Segmentation};
-use dmesh::wire::{strip_response, wire_lod, DepthCoding};
+use dmesh::wire::{strip_response, DepthCoding};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (depth, camera) = dmesh::synthetic::terrain_with_boxes(513, 513);
@@ -25,7 +25,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let mesh = h.extract(lod)?;
         te += t.elapsed().as_secs_f64();
         let t = Instant::now();
-        let r = strip_response(&mesh, "s", "v", wire_lod(&lod), &camera, DepthCoding::default())?;
+        let r = strip_response(&mesh, "s", "v", &camera, DepthCoding::default())?;
         ts += t.elapsed().as_secs_f64();
         let t = Instant::now();
         bytes = dmesh_proto::to_bincode(&r)?.len();

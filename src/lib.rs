@@ -4,10 +4,10 @@
 //!
 //! - [`http`]: the axum service;
 //! - [`store`]: durable storage of uploaded views (the only module here that does I/O);
-//! - [`camera`], [`image`], [`mesh`], [`ply`], [`scene`], [`sim`],
+//! - [`camera`], [`image`], [`mesh`], [`ply`], [`render_plan`], [`scene`], [`sim`],
 //!   [`synthetic`], [`wire`]: the engine's modules.
 
 pub mod http;
 pub mod store;
 
-pub use dmesh_engine::{camera, image, mesh, ply, scene, sim, synthetic, wire, Error, Result};
+pub use dmesh_engine::{camera, image, mesh, ply, render_plan, scene, sim, synthetic, wire, Error, Result};

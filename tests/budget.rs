@@ -7,20 +7,21 @@ mod common;
 use common::*;
 use dmesh::camera::Camera;
 use dmesh::image::DepthImage;
-use dmesh::mesh::{Budgeted, DepthMesh, Lod, Segmentation};
+use dmesh::mesh::{DepthMesh, Lod, Segmentation};
+use dmesh_proto::Lod as Chosen;
 use glam::{DQuat, DVec3};
 use proptest::prelude::*;
 
-fn extract_budgeted(h: &DepthMesh, max: u64, view: Option<&Camera>) -> (Budgeted, usize) {
-    let chosen = h.lod_for_triangles(max, view).unwrap();
-    let lod = match (chosen, view) {
-        (Budgeted::Epsilon(e), _) => Lod::Epsilon(e),
-        (Budgeted::Tau(tau), Some(view)) => Lod::Tau { tau, view },
-        (Budgeted::Tau(_), None) => panic!("a static budget answered with tau"),
-    };
-    let mesh = h.extract(lod).unwrap();
+/// The budget resolved by the extraction itself; the tolerance it states.
+fn extract_budgeted(h: &DepthMesh, max: u64, view: Option<&Camera>) -> (Chosen, usize) {
+    let mesh = h.extract(Lod::Triangles { max, view }).unwrap();
     assert_conforming(&mesh);
-    (chosen, mesh.triangles.len())
+    assert!(
+        view.is_some() || matches!(mesh.lod, Chosen::Epsilon(_)),
+        "a static budget answered with {:?}",
+        mesh.lod
+    );
+    (mesh.lod, mesh.triangles.len())
 }
 
 #[test]
@@ -37,7 +38,7 @@ fn static_budgets_are_met_and_nearly_used() {
             assert!(got as u64 * 3 >= max, "max {max}: only {got} triangles with {chosen:?}");
         }
     }
-    assert_eq!(extract_budgeted(&h, 10 * full, None).0, Budgeted::Epsilon(0.0));
+    assert_eq!(extract_budgeted(&h, 10 * full, None).0, Chosen::Epsilon(0.0));
 }
 
 #[test]
@@ -55,7 +56,7 @@ fn view_dependent_budgets_choose_tau_from_afar_and_epsilon_from_inside() {
     let h = DepthMesh::build(&depth, &cam, &Segmentation::default()).unwrap();
     let far = Camera::new(128, 128, cam.projection, DQuat::IDENTITY, DVec3::new(0.2, 0.1, -3.0)).unwrap();
     let (chosen, got) = extract_budgeted(&h, 4000, Some(&far));
-    assert!(matches!(chosen, Budgeted::Tau(t) if t > 0.0), "{chosen:?}");
+    assert!(matches!(chosen, Chosen::Tau(t) if t > 0.0), "{chosen:?}");
     assert!(got <= 4000);
     // An eye on the surface: no distance bound, so the static bound answers.
     let p = depth.z[64 * 129 + 64];
@@ -68,7 +69,7 @@ fn view_dependent_budgets_choose_tau_from_afar_and_epsilon_from_inside() {
     )
     .unwrap();
     let (chosen, got) = extract_budgeted(&h, 4000, Some(&on));
-    assert!(matches!(chosen, Budgeted::Epsilon(_)), "{chosen:?}");
+    assert!(matches!(chosen, Chosen::Epsilon(_)), "{chosen:?}");
     assert!(got <= 4000);
 }
 

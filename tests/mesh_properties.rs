@@ -403,7 +403,7 @@ proptest! {
         // A budget that the coarsest mesh meets is met.
         let coarsest = hier.coarsest_triangles();
         let budgeted = hier.lod_for_triangles(coarsest, None).unwrap();
-        let mesh = hier.extract(budgeted.lod(&cam)).unwrap();
+        let mesh = hier.extract(budgeted).unwrap();
         prop_assert!(mesh.triangles.len() as u64 <= coarsest);
         assert_covers_image(&mesh, w, h);
     }

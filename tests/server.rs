@@ -84,7 +84,7 @@ async fn upload_list_strips_render_restart_delete(kind: Store) {
     let req = Request::post("/v1/scenes/demo/render")
         .header(header::CONTENT_TYPE, "application/json")
         .body(Body::from(format!(
-            r#"{{"camera": {}, "tau": 1.0}}"#,
+            r#"{{"camera": {}, "lod": {{"tau": 1.0}}}}"#,
             camera_json(0.15, 0.05)
         )))
         .unwrap();

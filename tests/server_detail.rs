@@ -146,7 +146,7 @@ async fn render_loads_only_the_selected_views_and_sees_store_changes() {
     let router = start(state(dir.path(), Settings::default()), Pipeline::default()).await;
     let render = |max_views: u32| {
         let body = format!(
-            r#"{{"camera": {}, "tau": 1, "max_views": {max_views}}}"#,
+            r#"{{"camera": {}, "lod": {{"tau": 1}}, "max_views": {max_views}}}"#,
             camera_json(0.1, 0.0)
         );
         Request::post("/v1/scenes/s/render")

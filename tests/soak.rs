@@ -308,7 +308,7 @@ fn mixed_traffic_with_a_sigkill_in_the_middle() {
                 } else {
                     let eye = 0.1 * f64::from(k % 7);
                     let body = format!(
-                        r#"{{"tau": 1, "camera": {{"width": 96, "height": 64, "projection": {{"perspective": {{"fx": 80, "fy": 80, "cx": 47.5, "cy": 31.5}}}}, "pose": {{"rotation": [0, 0, 0, 1], "translation": [{eye}, 0, -0.2]}}}}}}"#
+                        r#"{{"lod": {{"tau": 1}}, "camera": {{"width": 96, "height": 64, "projection": {{"perspective": {{"fx": 80, "fy": 80, "cx": 47.5, "cy": 31.5}}}}, "pose": {{"rotation": [0, 0, 0, 1], "translation": [{eye}, 0, -0.2]}}}}}}"#
                     );
                     let t = Instant::now();
                     match http(addr, "POST", "/v1/scenes/soak/render", Some("application/json"), body.as_bytes()) {

@@ -96,7 +96,7 @@ fn main() -> anyhow::Result<()> {
                     .await?;
             }
             let detail = Detail {
-                tau: Some(1.0),
+                lod: dmesh_proto::Lod::Tau(1.0),
                 ..Default::default()
             };
             run(&server, "ring", &novel, detail, 4, Stop::Requests(100)).await?;

@@ -140,14 +140,14 @@ fn main() -> anyhow::Result<()> {
             .put_view("bench", "v", &serde_json::to_string(&wire)?, &pfm, &png)
             .await?;
         let detail = Detail {
-            tau: Some(1.0),
+            lod: dmesh_proto::Lod::Tau(1.0),
             max_views: Some(1),
             ..Default::default()
         };
         // Warm-up, then the two loads.
         run(&server, "bench", &cams, detail, 8, Stop::Requests(200)).await?;
         let budget = Detail {
-            budget_ms: Some(0.5),
+            lod: dmesh_proto::Lod::BudgetMs(0.5),
             max_views: Some(1),
             ..Default::default()
         };

@@ -89,7 +89,7 @@ async fn main() -> anyhow::Result<()> {
         };
         for tau in [0.0, 0.5, 1.0, 2.0] {
             let request = dmesh_client::loadtest::Detail {
-                tau: Some(tau),
+                lod: dmesh_proto::Lod::Tau(tau),
                 max_views: Some(1),
                 ..Default::default()
             }

@@ -29,34 +29,34 @@ pub enum Stop {
     Duration(Duration),
 }
 
-/// The level of detail every request of a run asks for; with none of
-/// `epsilon`, `max_triangles` or `budget_ms`, `tau` (default 1 pixel).
-#[derive(Clone, Copy, Debug, Default)]
+/// The level of detail every request of a run asks for (default: tau 1
+/// pixel), its depth coding and how many views.
+#[derive(Clone, Copy, Debug)]
 pub struct Detail {
-    /// View-dependent tolerance in pixels.
-    pub tau: Option<f64>,
-    /// Static tolerance in metres.
-    pub epsilon: Option<f64>,
-    /// Triangle budget over the answer's views.
-    pub max_triangles: Option<u32>,
-    /// Extraction time budget over the answer's views, milliseconds.
-    pub budget_ms: Option<f64>,
+    /// The level of detail.
+    pub lod: dmesh_proto::Lod,
     /// Residual bit-depth.
     pub bits: Option<u8>,
     /// Most views per answer (server default when absent).
     pub max_views: Option<u32>,
 }
 
+impl Default for Detail {
+    fn default() -> Self {
+        Self {
+            lod: dmesh_proto::Lod::Tau(1.0),
+            bits: None,
+            max_views: None,
+        }
+    }
+}
+
 impl Detail {
     /// The render request for `camera`.
     pub fn request(&self, camera: dmesh_proto::Camera) -> dmesh_proto::RenderRequest {
-        let other = self.epsilon.is_some() || self.max_triangles.is_some() || self.budget_ms.is_some();
         dmesh_proto::RenderRequest {
             camera,
-            tau: if other { None } else { Some(self.tau.unwrap_or(1.0)) },
-            epsilon: self.epsilon,
-            max_triangles: self.max_triangles,
-            budget_ms: self.budget_ms,
+            lod: self.lod,
             bits: self.bits,
             max_views: self.max_views,
             max_angle_deg: None,

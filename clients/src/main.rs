@@ -340,11 +340,14 @@ struct DetailArgs {
 
 impl DetailArgs {
     fn detail(&self) -> Detail {
+        use dmesh_proto::Lod;
+        // clap refuses two of them; with none, tau 1 pixel.
+        let lod = (self.epsilon.map(Lod::Epsilon))
+            .or(self.max_triangles.map(Lod::MaxTriangles))
+            .or(self.budget_ms.map(Lod::BudgetMs))
+            .unwrap_or(Lod::Tau(self.tau.unwrap_or(1.0)));
         Detail {
-            tau: self.tau,
-            epsilon: self.epsilon,
-            max_triangles: self.max_triangles,
-            budget_ms: self.budget_ms,
+            lod,
             bits: self.bits,
             max_views: self.max_views,
         }

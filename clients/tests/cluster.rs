@@ -136,7 +136,7 @@ fn a_replica_killed_under_load_loses_no_acknowledged_upload_and_p99_recovers() {
     let cameras = rt.block_on(server.cameras("box")).unwrap();
     let cameras = orbit(&cameras, 16).unwrap();
     let detail = Detail {
-        tau: Some(1.0),
+        lod: dmesh_proto::Lod::Tau(1.0),
         ..Default::default()
     };
     let load = {

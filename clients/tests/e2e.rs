@@ -17,7 +17,7 @@ use glam::DVec3;
 
 async fn render(server: &Server, novel: &Camera, tau: f64, max_views: u32) -> Blended {
     let request = Detail {
-        tau: Some(tau),
+        lod: dmesh_proto::Lod::Tau(tau),
         max_views: Some(max_views),
         ..Default::default()
     }
@@ -231,7 +231,7 @@ async fn seams_between_references_are_filled_and_disocclusions_kept() {
         let cam = camera(320, 240, scene.fov_deg, eye, DVec3::new(0.0, 0.4, 0.0)).unwrap();
         let truth = scene.ground_truth(&cam).unwrap();
         let request = Detail {
-            tau: Some(1.0),
+            lod: dmesh_proto::Lod::Tau(1.0),
             ..Default::default()
         }
         .request((&cam).into());

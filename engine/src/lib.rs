@@ -7,6 +7,8 @@
 //! - [`image`]: decoding depth (EXR, PNG, PFM) and colour, conversion to `z`;
 //! - [`mesh`]: the hierarchy, its error metric, segmentation and extraction;
 //! - [`ply`]: binary PLY output of an extracted mesh;
+//! - [`render_plan`]: what a request asks for and the steps that answer it
+//!   (select, share, resolve, extract, encode), for the server and the report;
 //! - [`scene`]: reference-view selection and weights for a novel camera;
 //! - [`sim`]: the scene simulator with ground truth;
 //! - [`synthetic`]: built-in synthetic depth maps;
@@ -27,6 +29,7 @@ mod error;
 pub mod image;
 pub mod mesh;
 pub mod ply;
+pub mod render_plan;
 pub mod scene;
 pub mod sim;
 pub mod synthetic;

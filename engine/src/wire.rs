@@ -2,12 +2,12 @@
 //! strip response, 16-bit indices when the vertex count allows.
 
 use dmesh_proto::{
-    Depths, Indices, Lod as WireLod, RawGrid, Reach as WireReach, ResidualDepths, ResidualError, StripResponse,
-    WireVertex, PROTOCOL_VERSION,
+    Depths, Indices, RawGrid, Reach as WireReach, ResidualDepths, ResidualError, StripResponse, WireVertex,
+    PROTOCOL_VERSION,
 };
 
 use crate::camera::Camera;
-use crate::mesh::{Lod, Mesh, MeshVertex, Reach, MAX_CULLED};
+use crate::mesh::{Mesh, MeshVertex, Reach, MAX_CULLED};
 
 impl From<&MeshVertex> for WireVertex {
     fn from(v: &MeshVertex) -> Self {
@@ -69,21 +69,12 @@ pub struct DepthCoding {
     pub raw_grid: Option<RawGrid>,
 }
 
-/// The wire form of `lod` (the requesting camera travels separately).
-pub fn wire_lod(lod: &Lod<'_>) -> WireLod {
-    match *lod {
-        Lod::Epsilon(e) => WireLod::Epsilon(e),
-        Lod::Tau { tau, .. } => WireLod::Tau(tau),
-    }
-}
-
-/// `mesh`, extracted from the view `scene/view` seen by `camera` at `lod`, as
+/// `mesh`, extracted from the view `scene/view` seen by `camera` at `mesh.lod`, as
 /// a strip response with depths coded by `coding`.
 pub fn strip_response(
     mesh: &Mesh,
     scene: &str,
     view: &str,
-    lod: WireLod,
     camera: &Camera,
     coding: DepthCoding,
 ) -> Result<StripResponse, ResidualError> {
@@ -110,7 +101,7 @@ pub fn strip_response(
         version: PROTOCOL_VERSION,
         scene: scene.to_string(),
         view: view.to_string(),
-        lod,
+        lod: mesh.lod,
         camera: camera.into(),
         vertices,
         depths,
@@ -141,7 +132,7 @@ pub fn strip_response(
 mod tests {
     use super::*;
     use crate::image::DepthImage;
-    use crate::mesh::{decode_strips, DepthMesh, Segmentation};
+    use crate::mesh::{decode_strips, DepthMesh, Lod, Segmentation};
 
     #[test]
     fn the_wire_strips_draw_the_mesh_triangles() {
@@ -154,7 +145,7 @@ mod tests {
             .unwrap()
             .extract(Lod::Epsilon(0.001))
             .unwrap();
-        let wire = strip_response(&mesh, "s", "v", WireLod::Epsilon(0.001), &cam, DepthCoding::default()).unwrap();
+        let wire = strip_response(&mesh, "s", "v", &cam, DepthCoding::default()).unwrap();
         let bytes = dmesh_proto::to_bincode(&wire).unwrap();
         let back: StripResponse = dmesh_proto::from_bincode(&bytes).unwrap();
         assert!(matches!(back.indices, Indices::U16(_)), "expected 16-bit indices");
@@ -195,7 +186,7 @@ mod tests {
                 root_side: h.grid().side(),
                 raw_grid: None,
             };
-            let wire = strip_response(&mesh, "s", "v", WireLod::Epsilon(0.0005), &cam, coding).unwrap();
+            let wire = strip_response(&mesh, "s", "v", &cam, coding).unwrap();
             let Depths::Residual(r) = &wire.depths else {
                 panic!("expected residual depths")
             };

@@ -32,7 +32,7 @@ pub use strips::{Depths, Indices, Lod, Reach, StripRequest, StripResponse, WireV
 pub use view::{SceneList, ViewList, ViewSummary};
 
 /// Version of the wire format, sent in every response.
-pub const PROTOCOL_VERSION: u16 = 4;
+pub const PROTOCOL_VERSION: u16 = 5;
 
 /// Media type of bincode bodies.
 pub const BINCODE_MEDIA_TYPE: &str = "application/x-bincode";

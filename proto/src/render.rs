@@ -22,20 +22,9 @@ pub enum Selection {
 pub struct RenderRequest {
     /// The novel camera.
     pub camera: Camera,
-    /// View-dependent tolerance in pixels (exclusive with `epsilon`).
-    #[serde(default)]
-    pub tau: Option<f64>,
-    /// Static tolerance in metres (exclusive with `tau`).
-    #[serde(default)]
-    pub epsilon: Option<f64>,
-    /// Most triangles over all returned views (instead of `tau` or
-    /// `epsilon`), shared out by view weight.
-    #[serde(default)]
-    pub max_triangles: Option<u32>,
-    /// Extraction time to aim for over all returned views, milliseconds
-    /// (instead of `tau`, `epsilon` or `max_triangles`).
-    #[serde(default)]
-    pub budget_ms: Option<f64>,
+    /// The level of detail: `tau` in the novel camera's pixels, `epsilon`,
+    /// or a budget shared out by view weight.
+    pub lod: crate::strips::Lod,
     /// Residual bit-depth of the depths, `0..=16`; absent: exact.
     #[serde(default)]
     pub bits: Option<u8>,
@@ -107,10 +96,10 @@ mod tests {
 
     #[test]
     fn request_round_trips_and_defaults() {
-        let json = r#"{"camera": {"width": 4, "height": 3, "projection": {"perspective": {"fx": 4, "fy": 4, "cx": 1.5, "cy": 1}}}, "tau": 1.0}"#;
+        let json = r#"{"camera": {"width": 4, "height": 3, "projection": {"perspective": {"fx": 4, "fy": 4, "cx": 1.5, "cy": 1}}}, "lod": {"tau": 1.0}}"#;
         let r: RenderRequest = serde_json::from_str(json).unwrap();
         assert_eq!(r.selection, Selection::Dmesh);
-        assert_eq!(r.tau, Some(1.0));
+        assert_eq!(r.lod, crate::strips::Lod::Tau(1.0));
         crate::round_trip::both(&r);
         crate::round_trip::both(&RenderRequest {
             selection: Selection::Limited,
@@ -156,7 +145,7 @@ mod tests {
             },
         };
         let b = crate::to_bincode(&response).unwrap();
-        assert_eq!(&b[0..2], &4u16.to_le_bytes());
+        assert_eq!(&b[0..2], &5u16.to_le_bytes());
         assert_eq!(&b[2..10], &1u64.to_le_bytes());
         assert_eq!(&b[10..18], &0.25f64.to_le_bytes());
         let at = 18 + strip_bytes.len();

@@ -13,14 +13,29 @@ use serde::{Deserialize, Serialize};
 use crate::camera::Camera;
 use crate::residual::{ResidualDepths, ResidualError};
 
-/// The level of detail a mesh was extracted at.
+/// A level of detail: what a request asks for (any variant) and what a
+/// response was extracted at (`epsilon` or `tau`: a budget is answered with
+/// the tolerance it resolved to). JSON: one key, `{"tau": 1.0}`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase", deny_unknown_fields)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
 pub enum Lod {
     /// Static: object-space tolerance in metres.
     Epsilon(f64),
     /// View-dependent: tolerance in pixels of the requesting camera.
     Tau(f64),
+    /// At most this many triangles (shared by weight over a render's
+    /// views); the server picks the finest tolerance it can guarantee meets it.
+    MaxTriangles(u32),
+    /// Extraction time to aim for in milliseconds (shared likewise), turned
+    /// into a triangle budget by the server's measured extraction rate.
+    BudgetMs(f64),
+}
+
+impl Default for Lod {
+    /// Full resolution.
+    fn default() -> Self {
+        Self::Epsilon(0.0)
+    }
 }
 
 /// One vertex (its depth travels in [`Depths`]): 7 bytes in bincode.
@@ -57,29 +72,18 @@ pub enum Depths {
     Residual(ResidualDepths),
 }
 
-/// Body of `POST .../strips`: exactly one level of detail, `{"epsilon": E}`,
-/// `{"tau": T, "camera": {...}}`, or a budget (`max_triangles` or
+/// Body of `POST .../strips`: one level of detail, `{"lod": {"epsilon": E}}`,
+/// `{"lod": {"tau": T}, "camera": {...}}`, or a budget (`max_triangles` or
 /// `budget_ms`, with `camera` for a view-dependent mesh); optionally `bits`.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct StripRequest {
-    /// Static tolerance in metres.
-    #[serde(default)]
-    pub epsilon: Option<f64>,
-    /// View-dependent tolerance in pixels of `camera`.
-    #[serde(default)]
-    pub tau: Option<f64>,
-    /// The requesting camera, with `tau` or a budget.
+    /// The level of detail.
+    pub lod: Lod,
+    /// The requesting camera: needed with `tau`, optional with a budget
+    /// (view-dependent then), refused with `epsilon`.
     #[serde(default)]
     pub camera: Option<Camera>,
-    /// Most triangles the mesh may have; the server picks the finest
-    /// tolerance it can guarantee meets it.
-    #[serde(default)]
-    pub max_triangles: Option<u32>,
-    /// Extraction time to aim for in milliseconds, turned into
-    /// `max_triangles` by the server's measured extraction rate.
-    #[serde(default)]
-    pub budget_ms: Option<f64>,
     /// Residual bit-depth of the depths, `0..=16`; absent: exact `f32`.
     #[serde(default)]
     pub bits: Option<u8>,
@@ -257,23 +261,22 @@ mod tests {
 
     #[test]
     fn request_round_trips() {
-        crate::round_trip::both(&StripRequest {
-            epsilon: Some(0.01),
-            ..Default::default()
-        });
-        crate::round_trip::both(&StripRequest {
-            tau: Some(1.0),
-            camera: Some(sample().camera),
-            bits: Some(8),
-            ..Default::default()
-        });
-        crate::round_trip::both(&StripRequest {
-            max_triangles: Some(5000),
-            budget_ms: Some(2.5),
-            ..Default::default()
-        });
-        let r: StripRequest = serde_json::from_str(r#"{"epsilon": 0.5}"#).unwrap();
-        assert_eq!(r.epsilon, Some(0.5));
+        for (lod, camera, bits) in [
+            (Lod::Epsilon(0.01), None, None),
+            (Lod::Tau(1.0), Some(sample().camera), Some(8)),
+            (Lod::MaxTriangles(5000), None, None),
+            (Lod::BudgetMs(2.5), Some(sample().camera), None),
+        ] {
+            crate::round_trip::both(&StripRequest { lod, camera, bits });
+        }
+        let r: StripRequest = serde_json::from_str(r#"{"lod": {"epsilon": 0.5}}"#).unwrap();
+        assert_eq!(r.lod, Lod::Epsilon(0.5));
+        let r: StripRequest = serde_json::from_str(r#"{"lod": {"max_triangles": 500}, "bits": 4}"#).unwrap();
+        assert_eq!((r.lod, r.bits), (Lod::MaxTriangles(500), Some(4)));
+        // One key: two levels of detail, or an unknown one, are refused.
+        assert!(serde_json::from_str::<StripRequest>(r#"{"lod": {"tau": 1, "epsilon": 1}}"#).is_err());
+        assert!(serde_json::from_str::<StripRequest>(r#"{"lod": {"pixels": 1}}"#).is_err());
+        assert!(serde_json::from_str::<StripRequest>(r#"{"tau": 1}"#).is_err());
     }
 
     #[test]
@@ -281,7 +284,7 @@ mod tests {
         let r = sample();
         let b = crate::to_bincode(&r).unwrap();
         // version
-        assert_eq!(&b[0..2], &4u16.to_le_bytes());
+        assert_eq!(&b[0..2], &5u16.to_le_bytes());
         // scene: u64 length + bytes
         assert_eq!(&b[2..10], &4u64.to_le_bytes());
         assert_eq!(&b[10..14], b"demo");

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{anyhow, bail, Context, Result};
 use clap::{ArgGroup, ValueEnum};
 use dmesh::camera::{camera_from_json, Camera};
-use dmesh::image::{decode_color, decode_depth, decode_mask, ColorImage, DepthKind, DepthOptions, Limits};
+use dmesh::image::{decode_view, ColorImage, DecodedView, DepthKind, DepthOptions, Limits, ViewFiles};
 use dmesh::mesh::{DepthMesh, Lod, Mesh, Method, Segmentation, StripOrder, Threads};
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -154,30 +154,18 @@ pub fn run(a: &MeshArgs) -> Result<()> {
         focal_baseline: a.focal_baseline,
         channel: a.channel.clone(),
     };
-    let mut depth = decode_depth(&read(&a.depth, "depth")?, &options, &camera, &limits)
-        .with_context(|| format!("depth file {}", a.depth.display()))?;
-    if let Some(p) = &a.mask {
-        let mask = decode_mask(&read(p, "mask")?, depth.width, depth.height, &limits)
-            .with_context(|| format!("mask file {}", p.display()))?;
-        depth.apply_mask(&mask)?;
-    }
-    let color = match &a.color {
-        Some(p) => {
-            let c =
-                decode_color(&read(p, "colour")?, &limits).with_context(|| format!("colour file {}", p.display()))?;
-            if (c.width, c.height) != (depth.width, depth.height) {
-                bail!(
-                    "colour image is {}x{} but the depth image is {}x{}; they must match",
-                    c.width,
-                    c.height,
-                    depth.width,
-                    depth.height
-                );
-            }
-            Some(c)
-        }
-        None => None,
+    let (depth_bytes, mask_bytes, color_bytes) = (
+        read(&a.depth, "depth")?,
+        a.mask.as_deref().map(|p| read(p, "mask")).transpose()?,
+        a.color.as_deref().map(|p| read(p, "colour")).transpose()?,
+    );
+    let files = ViewFiles {
+        depth: &depth_bytes,
+        mask: mask_bytes.as_deref(),
+        color: color_bytes.as_deref(),
     };
+    let DecodedView { depth, color } =
+        decode_view(files, &options, &camera, &limits).with_context(|| format!("view {}", a.depth.display()))?;
     let seg = Segmentation {
         method: match a.segment {
             SegmentArg::Orthogonality => Method::Orthogonality { omega_deg: a.omega },
@@ -197,14 +185,11 @@ pub fn run(a: &MeshArgs) -> Result<()> {
     let lod = match (a.epsilon, a.tau, a.max_triangles, &view) {
         (Some(e), None, None, _) => Lod::Epsilon(e),
         (None, Some(t), None, Some(v)) => Lod::Tau { tau: t, view: v },
-        (None, None, Some(m), v) => hierarchy
-            .lod_for_triangles(m, v.as_ref())?
-            .lod(v.as_ref().unwrap_or(&camera)),
+        (None, None, Some(m), v) => Lod::Triangles {
+            max: m,
+            view: v.as_ref(),
+        },
         _ => bail!("give one of --epsilon E, --tau T with --view VIEWCAM.json, or --max-triangles N"),
-    };
-    let (lod_name, lod_value) = match lod {
-        Lod::Epsilon(e) => ("epsilon", e),
-        Lod::Tau { tau, .. } => ("tau", tau),
     };
     let order = match a.strips {
         StripsArg::Traversal => StripOrder::Traversal,
@@ -212,6 +197,13 @@ pub fn run(a: &MeshArgs) -> Result<()> {
         StripsArg::Tunnelled => StripOrder::Tunnelled,
     };
     let mesh = hierarchy.extract_with(lod, order)?;
+    // The tolerance used (a budget's resolution).
+    let (lod_name, lod_value) = match mesh.lod {
+        dmesh_proto::Lod::Tau(t) => ("tau", t),
+        dmesh_proto::Lod::Epsilon(e) => ("epsilon", e),
+        // Not produced: an extraction states the tolerance it used.
+        other => bail!("the extraction stated {other:?}"),
+    };
     if let Some(p) = &a.ply {
         write_ply(p, &mesh, &camera, color.as_ref())?;
     }

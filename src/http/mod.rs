@@ -210,3 +210,149 @@ pub async fn serve_on(
         })
         .await
 }
+
+#[cfg(test)]
+mod tests {
+    //! The router without a socket: requests through `app(state)` with
+    //! `tower::ServiceExt::oneshot`.
+    use super::*;
+    use crate::store::FileStore;
+    use axum::body::{to_bytes, Body};
+    use axum::http::{header, StatusCode};
+    use tower::ServiceExt;
+
+    fn router(dir: &std::path::Path) -> Router {
+        let store = Arc::new(FileStore::open(dir).unwrap());
+        app(
+            Arc::new(AppState::new(store, state::Settings::default())),
+            Pipeline::default(),
+        )
+    }
+
+    async fn call(router: &Router, request: Request<Body>) -> (StatusCode, serde_json::Value) {
+        let response = router.clone().oneshot(request).await.unwrap();
+        let status = response.status();
+        let bytes = to_bytes(response.into_body(), 1 << 24).await.unwrap();
+        (
+            status,
+            serde_json::from_slice(&bytes).unwrap_or(serde_json::Value::Null),
+        )
+    }
+
+    fn json(method: &str, uri: &str, body: String) -> Request<Body> {
+        Request::builder()
+            .method(method)
+            .uri(uri)
+            .header(header::CONTENT_TYPE, "application/json")
+            .body(Body::from(body))
+            .unwrap()
+    }
+
+    /// A 16 x 12 view: a slanted plane and a grey image.
+    fn upload() -> (String, Request<Body>) {
+        let camera = crate::camera::Camera::perspective(16, 12, 14.0, 14.0, 7.5, 5.5).unwrap();
+        let camera = serde_json::to_string(&dmesh_proto::Camera::from(&camera)).unwrap();
+        let z: Vec<f32> = (0..16 * 12).map(|i| 2.0 + 0.01 * (i % 16) as f32).collect();
+        let depth = crate::image::encode_pfm(16, 12, &z);
+        let mut color = Vec::new();
+        image::DynamicImage::ImageRgb8(image::RgbImage::from_pixel(16, 12, image::Rgb([90, 90, 90])))
+            .write_to(&mut std::io::Cursor::new(&mut color), image::ImageFormat::Png)
+            .unwrap();
+        let mut body = Vec::new();
+        for (name, data) in [
+            ("camera", camera.as_bytes()),
+            ("depth", &depth[..]),
+            ("color", &color[..]),
+        ] {
+            body.extend_from_slice(
+                format!("--b\r\nContent-Disposition: form-data; name=\"{name}\"\r\n\r\n").as_bytes(),
+            );
+            body.extend_from_slice(data);
+            body.extend_from_slice(b"\r\n");
+        }
+        body.extend_from_slice(b"--b--\r\n");
+        let request = Request::put("/v1/scenes/s/views/v")
+            .header(header::CONTENT_TYPE, "multipart/form-data; boundary=b")
+            .body(Body::from(body))
+            .unwrap();
+        (camera, request)
+    }
+
+    #[tokio::test]
+    async fn uploads_strips_and_renders_answer_through_the_router() {
+        let dir = tempfile::tempdir().unwrap();
+        let router = router(dir.path());
+        let (camera, put) = upload();
+        let (status, summary) = call(&router, put).await;
+        assert_eq!(status, StatusCode::CREATED, "{summary}");
+        assert_eq!(summary["view"], "v");
+
+        // The query form and the body form of one level of detail.
+        let get = Request::get("/v1/scenes/s/views/v/strips?epsilon=0.001")
+            .body(Body::empty())
+            .unwrap();
+        let (status, strips) = call(&router, get).await;
+        assert_eq!(status, StatusCode::OK, "{strips}");
+        assert_eq!(strips["lod"]["epsilon"], 0.001);
+        let body = r#"{"lod": {"max_triangles": 200}}"#.to_string();
+        let (status, budgeted) = call(&router, json("POST", "/v1/scenes/s/views/v/strips", body)).await;
+        assert_eq!(status, StatusCode::OK, "{budgeted}");
+        assert!(budgeted["triangles"].as_u64().unwrap() <= 200);
+        assert!(
+            budgeted["lod"]["epsilon"].is_number(),
+            "a static budget states epsilon: {budgeted}"
+        );
+
+        let body = format!(r#"{{"camera": {camera}, "lod": {{"tau": 1}}}}"#);
+        let (status, render) = call(&router, json("POST", "/v1/scenes/s/render", body)).await;
+        assert_eq!(status, StatusCode::OK, "{render}");
+        assert_eq!(render["views"].as_array().unwrap().len(), 1);
+        assert_eq!(render["views"][0]["strips"]["lod"]["tau"], 1.0);
+    }
+
+    #[tokio::test]
+    async fn a_level_of_detail_is_one_value() {
+        let dir = tempfile::tempdir().unwrap();
+        let router = router(dir.path());
+        let (camera, put) = upload();
+        assert_eq!(call(&router, put).await.0, StatusCode::CREATED);
+        let refused = [
+            // The flat fields of protocol 4 are no longer a body's form.
+            json("POST", "/v1/scenes/s/views/v/strips", r#"{"epsilon": 0.01}"#.into()),
+            json(
+                "POST",
+                "/v1/scenes/s/views/v/strips",
+                r#"{"lod": {"tau": 1, "epsilon": 1}}"#.into(),
+            ),
+            json("POST", "/v1/scenes/s/views/v/strips", r#"{"lod": {"tau": 1}}"#.into()),
+            json(
+                "POST",
+                "/v1/scenes/s/views/v/strips",
+                format!(r#"{{"lod": {{"epsilon": 1}}, "camera": {camera}}}"#),
+            ),
+            json(
+                "POST",
+                "/v1/scenes/s/views/v/strips",
+                r#"{"lod": {"budget_ms": 0}}"#.into(),
+            ),
+            Request::get("/v1/scenes/s/views/v/strips?epsilon=1&tau=1")
+                .body(Body::empty())
+                .unwrap(),
+            json(
+                "POST",
+                "/v1/scenes/s/render",
+                format!(r#"{{"camera": {camera}, "tau": 1}}"#),
+            ),
+        ];
+        for request in refused {
+            let what = format!("{} {}", request.method(), request.uri());
+            let (status, body) = call(&router, request).await;
+            assert_eq!(status, StatusCode::BAD_REQUEST, "{what}: {body}");
+            assert!(body["error"]["message"].is_string(), "{what}: {body}");
+        }
+        // A share below the coarsest mesh is refused, not exceeded.
+        let body = format!(r#"{{"camera": {camera}, "lod": {{"max_triangles": 1}}}}"#);
+        let (status, body) = call(&router, json("POST", "/v1/scenes/s/render", body)).await;
+        assert_eq!(status, StatusCode::CONFLICT, "{body}");
+    }
+}

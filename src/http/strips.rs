@@ -7,14 +7,14 @@ use axum::extract::{Path, Query, State};
 use axum::http::{header, HeaderMap, StatusCode};
 use axum::response::{IntoResponse, Response};
 use axum::Json;
-use dmesh_proto::{RenderRequest, RenderResponse, RenderedView, Selection, StripRequest, Timings, PROTOCOL_VERSION};
+use dmesh_proto::{
+    Lod as WireLod, RenderRequest, RenderResponse, RenderedView, StripRequest, StripResponse, Timings, PROTOCOL_VERSION,
+};
 use serde::Deserialize;
 
 use crate::camera::{camera_from_json, Camera};
-use crate::mesh::Lod;
-use crate::scene::{select_views, SelectionRule};
+use crate::render_plan::{self, Ask};
 use crate::store::validate_id;
-use crate::wire::{strip_response, wire_lod, DepthCoding};
 
 use super::error::AppError;
 use super::negotiate::encode;
@@ -23,7 +23,7 @@ use super::views::{color_url, load};
 
 /// Query of `GET .../strips`: `epsilon`, or `tau` with the requesting
 /// `camera` (JSON), or a budget (`max_triangles` or `budget_ms`, optionally
-/// with `camera`); optionally `bits`.
+/// with `camera`); optionally `bits`. The flat form of the body's `lod`.
 #[derive(Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct StripQuery {
@@ -35,156 +35,44 @@ pub struct StripQuery {
     bits: Option<u8>,
 }
 
-/// What a request asks for: one level of detail and a depth coding.
-#[derive(Clone, Debug)]
-struct Ask {
-    tol: Tolerance,
-    bits: Option<u8>,
-}
-
-#[derive(Clone, Debug)]
-enum Tolerance {
-    Epsilon(f64),
-    Tau(f64, Camera),
-    /// At most this many triangles, view-dependent with a camera.
-    Triangles(u64, Option<Camera>),
-    /// Aim at this many milliseconds of extraction.
-    Millis(f64, Option<Camera>),
-}
-
-/// The level-of-detail fields of a strip or render request.
-struct Fields {
-    epsilon: Option<f64>,
-    tau: Option<f64>,
-    camera: Option<Camera>,
-    max_triangles: Option<u32>,
-    budget_ms: Option<f64>,
-    bits: Option<u8>,
-}
-
-impl Ask {
-    fn new(f: Fields) -> Result<Self, AppError> {
-        if let Some(b) = f.bits.filter(|&b| b > dmesh_proto::residual::MAX_BITS) {
-            return Err(AppError::BadRequest(format!("bits is {b}; it must be 0..=16")));
-        }
-        let exactly_one = || {
-            AppError::BadRequest(
-                "give exactly one of epsilon (metres), tau (pixels, with camera), max_triangles or budget_ms".into(),
-            )
-        };
+impl StripQuery {
+    /// The level of detail it names: exactly one of the four.
+    fn lod(&self) -> Result<WireLod, AppError> {
         let given = [
-            f.epsilon.is_some(),
-            f.tau.is_some(),
-            f.max_triangles.is_some(),
-            f.budget_ms.is_some(),
+            self.epsilon.map(WireLod::Epsilon),
+            self.tau.map(WireLod::Tau),
+            self.max_triangles.map(WireLod::MaxTriangles),
+            self.budget_ms.map(WireLod::BudgetMs),
         ];
-        if given.iter().filter(|&&g| g).count() != 1 {
-            return Err(exactly_one());
-        }
-        let tol = match f {
-            Fields {
-                epsilon: Some(_),
-                camera: Some(_),
-                ..
-            } => {
-                return Err(AppError::BadRequest(
-                    "camera is not used with epsilon; give tau or a budget, or drop camera".into(),
-                ))
-            }
-            Fields { epsilon: Some(e), .. } => Tolerance::Epsilon(e),
-            Fields {
-                tau: Some(t),
-                camera: Some(c),
-                ..
-            } => Tolerance::Tau(t, c),
-            Fields { tau: Some(_), .. } => {
-                return Err(AppError::BadRequest("tau needs the requesting camera (camera)".into()))
-            }
-            Fields {
-                max_triangles: Some(m),
-                camera,
-                ..
-            } => Tolerance::Triangles(u64::from(m), camera),
-            Fields {
-                budget_ms: Some(ms),
-                camera,
-                ..
-            } if ms.is_finite() && ms > 0.0 => Tolerance::Millis(ms, camera),
-            Fields {
-                budget_ms: Some(ms), ..
-            } => {
-                return Err(AppError::BadRequest(format!(
-                    "budget_ms is {ms}; it must be a finite number of milliseconds > 0"
-                )))
-            }
-            _ => return Err(exactly_one()),
-        };
-        Ok(Self { tol, bits: f.bits })
-    }
-
-    /// The same request with a share of a render request's budget.
-    fn share(&self, fraction: f64) -> Self {
-        let tol = match &self.tol {
-            Tolerance::Triangles(m, c) => Tolerance::Triangles((*m as f64 * fraction).floor() as u64, *c),
-            Tolerance::Millis(ms, c) => Tolerance::Millis(ms * fraction, *c),
-            other => other.clone(),
-        };
-        Self { tol, bits: self.bits }
-    }
-
-    /// The ETag suffix of a cacheable (static) answer.
-    fn cache_key(&self) -> Option<String> {
-        let bits = self.bits.map_or(String::new(), |b| format!("-b{b}"));
-        match &self.tol {
-            Tolerance::Epsilon(e) => Some(format!("{:016x}{bits}", e.to_bits())),
-            Tolerance::Triangles(m, None) => Some(format!("t{m}{bits}")),
-            _ => None,
+        match given.iter().flatten().collect::<Vec<_>>()[..] {
+            [lod] => Ok(*lod),
+            _ => Err(AppError::BadRequest(
+                "give exactly one of epsilon (metres), tau (pixels, with camera), max_triangles or budget_ms".into(),
+            )),
         }
     }
 }
 
+/// One view's strips for `ask`, with the server's measured extraction rate
+/// turning a time budget into triangles (blocking).
 fn extract(
     state: &AppState,
     scene: &str,
     view: &str,
     loaded: &Loaded,
-    ask: &Ask,
-) -> Result<dmesh_proto::StripResponse, AppError> {
-    fn budget<'a>(loaded: &'a Loaded, max: u64, camera: Option<&'a Camera>) -> Result<Lod<'a>, AppError> {
-        let chosen = loaded.hierarchy.lod_for_triangles(max, camera)?;
-        Ok(chosen.lod(camera.unwrap_or(&loaded.camera)))
+    ask: &Ask<'_>,
+) -> Result<StripResponse, AppError> {
+    // A time budget allows as many more triangles as meshes have recently
+    // fallen short of their allowance.
+    let (rate, fill) = (state.metrics.ms_per_triangle(), state.metrics.budget_fill());
+    let (_, out) = render_plan::extract(&loaded.hierarchy, loaded.raw_grid, scene, view, ask, |ms| {
+        ms / rate / fill
+    })?;
+    state.metrics.extraction(out.response.extract_ms, out.triangles);
+    if let Some(allowed) = out.allowed {
+        state.metrics.budget_filled(out.triangles as f64 / allowed as f64);
     }
-    let h = &loaded.hierarchy;
-    let mut time_budget = None;
-    let lod = match &ask.tol {
-        Tolerance::Epsilon(e) => Lod::Epsilon(*e),
-        Tolerance::Tau(t, c) => Lod::Tau { tau: *t, view: c },
-        Tolerance::Triangles(m, c) => budget(loaded, *m, c.as_ref())?,
-        Tolerance::Millis(ms, c) => {
-            // The triangle bound is conservative; a time budget needs no
-            // proof, so it allows as many more as meshes have recently
-            // fallen short of their allowance, and never less than the
-            // coarsest mesh.
-            let target = ms / state.metrics.ms_per_triangle();
-            let allowed = ((target / state.metrics.budget_fill()) as u64).max(h.coarsest_triangles());
-            time_budget = Some(allowed);
-            budget(loaded, allowed, c.as_ref())?
-        }
-    };
-    let mesh = h.extract(lod)?;
-    state.metrics.extraction(mesh.extract_ms, mesh.triangles.len());
-    if let Some(allowed) = time_budget {
-        state
-            .metrics
-            .budget_filled(mesh.triangles.len() as f64 / allowed as f64);
-    }
-    let coding = DepthCoding {
-        bits: ask.bits,
-        root_side: h.grid().side(),
-        raw_grid: loaded.raw_grid,
-    };
-    strip_response(&mesh, scene, view, wire_lod(&lod), &loaded.camera, coding)
-        .map_err(|e| AppError::BadRequest(e.to_string()))
+    Ok(out.response)
 }
 
 async fn strips(
@@ -192,8 +80,9 @@ async fn strips(
     scene: String,
     view: String,
     headers: HeaderMap,
-    ask: Ask,
+    (lod, camera, bits): (WireLod, Option<Camera>, Option<u8>),
 ) -> Result<Response, AppError> {
+    let ask = Ask::new(lod, camera.as_ref(), bits)?;
     let loaded = load(&state, &scene, &view).await?;
     // Static meshes are a function of the stored view and the request: cacheable.
     let etag = ask
@@ -209,7 +98,11 @@ async fn strips(
         }
     }
     let st = state.clone();
-    let response = tokio::task::spawn_blocking(move || extract(&st, &scene, &view, &loaded, &ask)).await??;
+    let response = tokio::task::spawn_blocking(move || {
+        let ask = Ask::new(lod, camera.as_ref(), bits)?;
+        extract(&st, &scene, &view, &loaded, &ask)
+    })
+    .await??;
     let mut out = encode(&headers, &response)?;
     server_timing(&mut out, response.extract_ms, response.extract_ms);
     if let Some(tag) = etag {
@@ -229,16 +122,9 @@ pub async fn get_strips(
     headers: HeaderMap,
 ) -> Result<Response, AppError> {
     let Query(q) = query.map_err(|e| AppError::BadRequest(format!("query: {}", e.body_text())))?;
+    let lod = q.lod()?;
     let camera = q.camera.as_deref().map(camera_from_json).transpose()?;
-    let ask = Ask::new(Fields {
-        epsilon: q.epsilon,
-        tau: q.tau,
-        camera,
-        max_triangles: q.max_triangles,
-        budget_ms: q.budget_ms,
-        bits: q.bits,
-    })?;
-    strips(state, scene, view, headers, ask).await
+    strips(state, scene, view, headers, (lod, camera, q.bits)).await
 }
 
 /// `POST /v1/scenes/{scene}/views/{view}/strips` with a [`StripRequest`] body.
@@ -250,15 +136,7 @@ pub async fn post_strips(
 ) -> Result<Response, AppError> {
     let Json(b) = body.map_err(json_rejection)?;
     let camera = b.camera.as_ref().map(Camera::try_from).transpose()?;
-    let ask = Ask::new(Fields {
-        epsilon: b.epsilon,
-        tau: b.tau,
-        camera,
-        max_triangles: b.max_triangles,
-        budget_ms: b.budget_ms,
-        bits: b.bits,
-    })?;
-    strips(state, scene, view, headers, ask).await
+    strips(state, scene, view, headers, (b.lod, camera, b.bits)).await
 }
 
 pub(crate) fn json_rejection(e: axum::extract::rejection::JsonRejection) -> AppError {
@@ -283,27 +161,16 @@ pub async fn render(
     let Json(req) = body.map_err(json_rejection)?;
     validate_id("scene", &scene)?;
     let novel = Camera::try_from(&req.camera)?;
-    let ask = Ask::new(Fields {
-        epsilon: req.epsilon,
-        tau: req.tau,
-        camera: req.epsilon.is_none().then_some(novel),
-        max_triangles: req.max_triangles,
-        budget_ms: req.budget_ms,
-        bits: req.bits,
-    })?;
-    let rule = match req.selection {
-        Selection::Dmesh => SelectionRule::Dmesh {
-            max_angle_deg: req.max_angle_deg.unwrap_or(135.0),
-        },
-        Selection::Limited => SelectionRule::Limited,
-    };
-    let max_views = req.max_views.map_or(5, |m| m as usize);
+    // The novel camera is the requesting one, except for a static tolerance.
+    let requesting = (!matches!(req.lod, WireLod::Epsilon(_))).then_some(novel);
+    Ask::new(req.lod, requesting.as_ref(), req.bits)?;
     let st = state.clone();
     let response = tokio::task::spawn_blocking(move || -> Result<RenderResponse, AppError> {
+        let ask = Ask::new(req.lod, requesting.as_ref(), req.bits)?;
         // Select from the cameras alone; only the selected views are loaded.
         let candidates = st.scene_cameras(&scene)?;
         let cameras: Vec<Camera> = candidates.iter().map(|l| l.camera).collect();
-        let selected = select_views(&novel, &cameras, rule, max_views)?;
+        let selected = render_plan::select(&novel, &cameras, req.selection, req.max_views, req.max_angle_deg)?;
         let select_ms = start.elapsed().as_secs_f64() * 1e3;
         let t = Instant::now();
         let views = selected

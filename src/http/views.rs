@@ -9,7 +9,7 @@ use axum::response::{IntoResponse, Response};
 use dmesh_proto::{SceneList, ViewList, ViewSummary, PROTOCOL_VERSION};
 
 use crate::camera::{camera_from_json, Camera};
-use crate::image::{decode_color, decode_depth, decode_mask, sniff, DepthOptions, Format};
+use crate::image::{decode_view, DepthOptions, ViewFiles};
 use crate::store::{validate_id, SegmentMethod, SegmentationSpec, StoredView};
 
 use super::error::AppError;
@@ -128,22 +128,12 @@ pub async fn put_view(
     let loaded = tokio::task::spawn_blocking(move || -> Result<Arc<Loaded>, AppError> {
         let limits = st.settings.limits;
         let camera: Camera = camera_from_json(&camera_text)?;
-        let mut depth = decode_depth(&depth_bytes, &u.options, &camera, &limits)?;
-        if let Some(m) = &u.mask {
-            depth.apply_mask(&decode_mask(m, depth.width, depth.height, &limits)?)?;
-        }
-        if !matches!(sniff(&color_bytes), Some(Format::Png | Format::Jpeg)) {
-            return Err(AppError::Undecodable(
-                "field color is not PNG or JPEG (unrecognised magic bytes)".into(),
-            ));
-        }
-        let color = decode_color(&color_bytes, &limits)?;
-        if (color.width, color.height) != (depth.width, depth.height) {
-            return Err(AppError::BadRequest(format!(
-                "colour image is {}x{} but the depth image is {}x{}; they must match",
-                color.width, color.height, depth.width, depth.height
-            )));
-        }
+        let files = ViewFiles {
+            depth: &depth_bytes,
+            mask: u.mask.as_deref(),
+            color: Some(&color_bytes),
+        };
+        let depth = decode_view(files, &u.options, &camera, &limits)?.depth;
         u.segmentation.to_engine().validate()?;
         let stored = StoredView {
             camera: (&camera).into(),

@@ -14,9 +14,10 @@ pub mod plot;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use dmesh_engine::mesh::{DepthMesh, Lod, Segmentation};
+use dmesh_engine::mesh::{DepthMesh, Segmentation};
+use dmesh_engine::render_plan::{self, Ask};
 use dmesh_engine::scene::{select_views, SelectionRule};
-use dmesh_engine::wire::{strip_response, DepthCoding};
+use dmesh_proto::Lod as WireLod;
 use serde::Serialize;
 
 use crate::blend::{blend, BlendOptions, ViewInput};
@@ -149,6 +150,22 @@ pub fn sweep(case: &Case, options: &Options) -> anyhow::Result<Vec<Row>> {
     let mut rows = Vec::new();
     for sweep in [Sweep::Tau, Sweep::Epsilon, Sweep::Bits, Sweep::Budget] {
         for setting in sweep.settings(options.quick) {
+            // As the server does: a view's share of a budget below its
+            // coarsest mesh is refused, so such a budget has no row.
+            let attainable = |sel: &Vec<dmesh_engine::scene::Weighted>| {
+                sel.iter().all(|w| {
+                    let share = Ask::new(WireLod::MaxTriangles(setting as u32), None, None)
+                        .map(|a| a.share(w.weight).lod);
+                    matches!(share, Ok(WireLod::MaxTriangles(m)) if u64::from(m) >= hierarchies[w.index].coarsest_triangles())
+                })
+            };
+            if sweep == Sweep::Budget && !selections.iter().all(attainable) {
+                eprintln!(
+                    "{}: max_triangles {setting} is below the coarsest meshes of some selected views; no row",
+                    case.name
+                );
+                continue;
+            }
             let mut acc = Row {
                 scene: case.name.clone(),
                 sweep,
@@ -167,43 +184,25 @@ pub fn sweep(case: &Case, options: &Options) -> anyhow::Result<Vec<Row>> {
                 let mut responses = Vec::new();
                 for w in selected {
                     let (h, r) = (&hierarchies[w.index], &case.references[w.index]);
-                    let lod = match sweep {
-                        Sweep::Tau => Lod::Tau {
-                            tau: setting,
-                            view: &novel.camera,
-                        },
-                        Sweep::Bits => Lod::Tau {
-                            tau: 1.0,
-                            view: &novel.camera,
-                        },
-                        Sweep::Epsilon => Lod::Epsilon(setting * case.depth_scale),
-                        Sweep::Budget => {
-                            let max = ((setting * w.weight) as u64).max(h.coarsest_triangles());
-                            h.lod_for_triangles(max, Some(&novel.camera))?.lod(&novel.camera)
-                        }
+                    // The server's render plan, step by step: the share of
+                    // the request's level of detail, resolved by the view.
+                    let (lod, novel_camera) = match sweep {
+                        Sweep::Tau => (WireLod::Tau(setting), Some(&novel.camera)),
+                        Sweep::Bits => (WireLod::Tau(1.0), Some(&novel.camera)),
+                        Sweep::Epsilon => (WireLod::Epsilon(setting * case.depth_scale), None),
+                        Sweep::Budget => (WireLod::MaxTriangles(setting as u32), Some(&novel.camera)),
                     };
+                    let bits = (sweep == Sweep::Bits).then_some(setting as u8);
+                    let ask = Ask::new(lod, novel_camera, bits)?.share(w.weight);
                     let mut times = Vec::new();
-                    let mut mesh = None;
+                    let mut answer = None;
                     for _ in 0..repeats {
-                        let m = h.extract(lod)?;
-                        times.push(m.extract_ms);
-                        mesh = Some(m);
+                        let (_, out) = render_plan::extract(h, r.raw_grid, &case.name, "v", &ask, |ms| ms)?;
+                        times.push(out.response.extract_ms);
+                        answer = Some(out);
                     }
-                    let mesh = mesh.ok_or_else(|| anyhow::anyhow!("no extraction"))?;
+                    let wire = answer.ok_or_else(|| anyhow::anyhow!("no extraction"))?.response;
                     acc.extract_ms += median(times);
-                    let coding = DepthCoding {
-                        bits: (sweep == Sweep::Bits).then_some(setting as u8),
-                        root_side: h.grid().side(),
-                        raw_grid: r.raw_grid,
-                    };
-                    let wire = strip_response(
-                        &mesh,
-                        &case.name,
-                        "v",
-                        dmesh_engine::wire::wire_lod(&lod),
-                        &r.camera,
-                        coding,
-                    )?;
                     let bytes = dmesh_proto::to_bincode(&wire)?;
                     acc.bytes += bytes.len() as f64;
                     acc.triangles += f64::from(wire.triangles);

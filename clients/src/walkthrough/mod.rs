@@ -228,10 +228,9 @@ pub async fn run(
         };
         count_holes(&plan, &mut frame);
         let request = StripRequest {
-            tau: Some(policy.tau),
+            lod: dmesh_proto::Lod::Tau(policy.tau),
             camera: Some((&widened(&camera, options.guard)?).into()),
             bits: options.bits,
-            ..StripRequest::default()
         };
         let mut tasks = tokio::task::JoinSet::new();
         for v in plan.fetches() {
@@ -263,7 +262,8 @@ pub async fn run(
             let (mesh, bytes) = answer.with_context(|| format!("frame {t}: view {}", scene.views[v]))?;
             let tau = match mesh.lod {
                 dmesh_proto::Lod::Tau(tau) => tau,
-                dmesh_proto::Lod::Epsilon(_) => policy.tau,
+                // A response states epsilon or tau; only tau was asked for.
+                _ => policy.tau,
             };
             let reach = mesh.reach.as_ref().map(dmesh_engine::wire::engine_reach).transpose()?;
             frame.server_ms += mesh.extract_ms;

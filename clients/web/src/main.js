@@ -336,8 +336,7 @@ let sceneLoaded = false; // no request before the scene's cameras have placed th
 /** @param {CameraJson} cam */
 function requestBody(cam) {
   /** @type {Record<string, unknown>} */
-  const body = { camera: cam };
-  body[state.lodKind] = state.lodValue;
+  const body = { camera: cam, lod: { [state.lodKind]: state.lodValue } };
   if (state.bits !== null) body.bits = state.bits;
   return body;
 }

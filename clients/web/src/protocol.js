@@ -56,7 +56,7 @@
  * @property {{select_ms: number, extract_ms: number, total_ms: number}} timings
  */
 
-export const PROTOCOL_VERSION = 4;
+export const PROTOCOL_VERSION = 5;
 export const BINCODE = 'application/x-bincode';
 
 /** A malformed body: the message says what and where. */

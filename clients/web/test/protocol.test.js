@@ -21,7 +21,7 @@ const same = (a, b) => a.length === b.length && Array.prototype.every.call(a, (v
 
 for (const extra of [{}, { bits: 10 }, { bits: 0 }]) {
   test(`bincode and JSON decode to the same arrays ${JSON.stringify(extra)}`, async () => {
-    const body = { camera: demoNovel(), tau: 1, ...extra };
+    const body = { camera: demoNovel(), lod: { tau: 1 }, ...extra };
     const b = decodeRender(/** @type {ArrayBuffer} */ (await render(server.url, 'demo', body)));
     const j = renderFromJson(await render(server.url, 'demo', body, 'application/json'));
     assert.ok(b.views.length >= 2, 'the demo camera selects several views');
@@ -43,7 +43,7 @@ for (const extra of [{}, { bits: 10 }, { bits: 0 }]) {
 }
 
 test('strips with restarts give the triangles the server counted', async () => {
-  const r = decodeRender(/** @type {ArrayBuffer} */ (await render(server.url, 'demo', { camera: demoNovel(), tau: 1 })));
+  const r = decodeRender(/** @type {ArrayBuffer} */ (await render(server.url, 'demo', { camera: demoNovel(), lod: { tau: 1 } })));
   let restarts = 0;
   for (const v of r.views) {
     const s = v.strips;
@@ -56,9 +56,9 @@ test('strips with restarts give the triangles the server counted', async () => {
 
 test('residual depths decode within the stated bound of the exact ones', async () => {
   const camera = demoNovel();
-  const exact = decodeRender(/** @type {ArrayBuffer} */ (await render(server.url, 'demo', { camera, tau: 1 })));
+  const exact = decodeRender(/** @type {ArrayBuffer} */ (await render(server.url, 'demo', { camera, lod: { tau: 1 } })));
   for (const bits of [4, 10, 16]) {
-    const coded = decodeRender(/** @type {ArrayBuffer} */ (await render(server.url, 'demo', { camera, tau: 1, bits })));
+    const coded = decodeRender(/** @type {ArrayBuffer} */ (await render(server.url, 'demo', { camera, lod: { tau: 1 }, bits })));
     coded.views.forEach((v, k) => {
       const e = exact.views[k].strips;
       const s = v.strips;
@@ -130,7 +130,7 @@ test('16-bit depth: lattice residuals decode exactly as the server states, each 
 });
 
 test('malformed bodies are refused with a reason', async () => {
-  const good = /** @type {ArrayBuffer} */ (await render(server.url, 'demo', { camera: demoNovel(), tau: 2 }));
+  const good = /** @type {ArrayBuffer} */ (await render(server.url, 'demo', { camera: demoNovel(), lod: { tau: 2 } }));
   assert.throws(() => decodeRender(good.slice(0, good.byteLength - 3)), WireError);
   const longer = new Uint8Array(good.byteLength + 1);
   longer.set(new Uint8Array(good));

@@ -309,7 +309,7 @@ test('a 503 is retried after its Retry-After', async () => {
   let flooding = true;
   /** Full-resolution renders back to back: the server's one read slot is nearly always taken. */
   const flood = async () => {
-    const body = JSON.stringify({ camera: demoNovel(), tau: 0, max_views: 2 });
+    const body = JSON.stringify({ camera: demoNovel(), lod: { tau: 0 }, max_views: 2 });
     while (flooding) {
       const r = await fetch(`${busy.url}/v1/scenes/demo/render`, {
         method: 'POST', headers: { 'content-type': 'application/json', accept: 'application/x-bincode' }, body,

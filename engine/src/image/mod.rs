@@ -13,10 +13,12 @@ mod color;
 mod exr_depth;
 mod pfm;
 mod png_depth;
+mod view;
 
 pub use color::{decode_color, ColorImage};
 pub use exr_depth::encode_exr;
 pub use pfm::{decode_pfm, encode_pfm};
+pub use view::{decode_view, DecodedView, ViewFiles};
 
 use crate::camera::Camera;
 use crate::error::{Error, Result};

@@ -34,7 +34,7 @@
 
 use super::border::FORCED;
 use super::grid::{Grid, Pt};
-use super::lod::Budgeted;
+use super::lod::Lod;
 use crate::camera::{Camera, Projection};
 use crate::error::{Error, Result};
 
@@ -200,13 +200,13 @@ impl ErrorStats {
     /// (static). `eye` is the view's eye in the reference camera's frame,
     /// `sphere` a vertex's position and nested radius there. Fails when
     /// even the coarsest mesh has more.
-    pub(crate) fn lod_for_triangles(
+    pub(crate) fn lod_for_triangles<'v>(
         &self,
         max_triangles: u64,
-        view: Option<&Camera>,
+        view: Option<&'v Camera>,
         eye: impl Fn(&Camera) -> glam::DVec3,
         sphere: impl Fn(Pt) -> (glam::DVec3, f32),
-    ) -> Result<Budgeted> {
+    ) -> Result<Lod<'v>> {
         let st = self;
         let coarsest = || {
             Error::unattainable(format!(
@@ -215,9 +215,9 @@ impl ErrorStats {
             ))
         };
         let eps_from = |t: Option<f64>| t.map_or(0.0, |x| x.sqrt() * (1.0 + MARGIN));
-        let fallback = || -> Result<Budgeted> {
+        let fallback = || -> Result<Lod<'v>> {
             let t = st.threshold(&st.all, 0, max_triangles).ok_or_else(coarsest)?;
-            Ok(Budgeted::Epsilon(eps_from(t)))
+            Ok(Lod::Epsilon(eps_from(t)))
         };
         let Some(view) = view else {
             return fallback();
@@ -246,14 +246,17 @@ impl ErrorStats {
                     })
                     .fold(f64::INFINITY, f64::min);
                 if finest.is_finite() {
-                    Ok(Budgeted::Tau(finest))
+                    Ok(Lod::Tau { tau: finest, view })
                 } else {
                     fallback()
                 }
             }
             (None, Projection::Orthographic { sx, sy, .. }) => {
                 let t = st.threshold(&st.all, 0, max_triangles).ok_or_else(coarsest)?;
-                Ok(Budgeted::Tau((eps_from(t) / sx.min(sy)).min(f64::MAX)))
+                Ok(Lod::Tau {
+                    tau: (eps_from(t) / sx.min(sy)).min(f64::MAX),
+                    view,
+                })
             }
             (None, Projection::Perspective { .. }) => fallback(),
         }

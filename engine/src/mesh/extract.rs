@@ -62,6 +62,9 @@ pub struct Mesh {
     pub dropped_triangles: usize,
     /// Wall-clock time of the extraction.
     pub extract_ms: f64,
+    /// The tolerance it was extracted at: `Epsilon` or `Tau` (a budget's
+    /// resolution), as the wire states it.
+    pub lod: dmesh_proto::Lod,
     /// For a view-dependent mesh, how far the requesting camera may move
     /// before the mesh stops meeting its tolerance or misses culled parts.
     pub reach: Option<Reach>,
@@ -276,9 +279,14 @@ impl DepthMesh {
                 mesh.reach = Some(self.reach(view, walked, &sel));
                 mesh
             }
+            // Resolved to `Epsilon` or `Tau`, never to `Triangles` again.
+            Lod::Triangles { max, view } => return self.extract_with(self.lod_for_triangles(max, view)?, strips),
         };
         let mut mesh = tris;
         mesh.extract_ms = start.elapsed().as_secs_f64() * 1e3;
+        if let Some(wire) = lod.wire() {
+            mesh.lod = wire;
+        }
         tracing::debug!(triangles = mesh.triangles.len(), ms = mesh.extract_ms, "extracted");
         Ok(mesh)
     }
@@ -454,6 +462,7 @@ impl DepthMesh {
             triangles,
             dropped_triangles: 0,
             extract_ms: 0.0,
+            lod: dmesh_proto::Lod::Epsilon(0.0),
             reach: None,
         }
     }

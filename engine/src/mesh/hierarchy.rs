@@ -45,7 +45,7 @@ use super::budget::ErrorStats;
 use super::flags::Flags;
 use super::grid::{Grid, Pt};
 use super::levels::{coarse_deviations, Levels};
-use super::lod::Budgeted;
+use super::lod::Lod;
 use super::normals::normals_and_quality;
 use super::segmentation::{leaf_flags, Method, Samples, Segmentation};
 use crate::camera::Camera;
@@ -342,8 +342,9 @@ impl DepthMesh {
     /// The finest level of detail whose mesh has at most `max_triangles`
     /// triangles, for the requesting camera `view` (view-dependent) or none
     /// (static), from the error statistics gathered at build time
-    /// (`budget.rs`). Fails when even the coarsest mesh has more.
-    pub fn lod_for_triangles(&self, max_triangles: u64, view: Option<&Camera>) -> Result<Budgeted> {
+    /// (`budget.rs`): `Tau` for `view` or `Epsilon`, never `Triangles`. Fails
+    /// when even the coarsest mesh has more.
+    pub fn lod_for_triangles<'v>(&self, max_triangles: u64, view: Option<&'v Camera>) -> Result<Lod<'v>> {
         self.stats.lod_for_triangles(
             max_triangles,
             view,

@@ -18,34 +18,33 @@ pub enum Lod<'a> {
         /// The requesting camera.
         view: &'a Camera,
     },
+    /// At most `max` triangles, view-dependent for `view` or static: the
+    /// hierarchy resolves it to the finest `Epsilon` or `Tau` whose mesh
+    /// provably fits ([`crate::mesh::DepthMesh::lod_for_triangles`]).
+    Triangles {
+        /// Most triangles.
+        max: u64,
+        /// The requesting camera, if any.
+        view: Option<&'a Camera>,
+    },
 }
 
 impl Lod<'_> {
-    /// Its kind and tolerance, for logs: `epsilon=E` or `tau=T`.
+    /// Its kind and value, for logs: `epsilon=E`, `tau=T` or `max_triangles=N`.
     pub fn kind(&self) -> String {
         match self {
             Self::Epsilon(e) => format!("epsilon={e}"),
             Self::Tau { tau, .. } => format!("tau={tau}"),
+            Self::Triangles { max, .. } => format!("max_triangles={max}"),
         }
     }
-}
 
-/// The level of detail a budget resolved to.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Budgeted {
-    /// Static tolerance in metres.
-    Epsilon(f64),
-    /// View-dependent tolerance in pixels of the requesting camera.
-    Tau(f64),
-}
-
-impl Budgeted {
-    /// The level of detail to extract: `view` is the requesting camera the
-    /// budget was resolved for (unused for a static answer).
-    pub fn lod(self, view: &Camera) -> Lod<'_> {
-        match self {
-            Self::Epsilon(e) => Lod::Epsilon(e),
-            Self::Tau(tau) => Lod::Tau { tau, view },
+    /// The tolerance as the wire states it (`None` for an unresolved budget).
+    pub fn wire(&self) -> Option<dmesh_proto::Lod> {
+        match *self {
+            Self::Epsilon(e) => Some(dmesh_proto::Lod::Epsilon(e)),
+            Self::Tau { tau, .. } => Some(dmesh_proto::Lod::Tau(tau)),
+            Self::Triangles { .. } => None,
         }
     }
 }

@@ -39,7 +39,7 @@ pub mod strips;
 pub use extract::{Mesh, MeshVertex};
 pub use grid::Grid;
 pub use hierarchy::{BuildStats, DepthMesh, Threads};
-pub use lod::{Budgeted, Lod};
+pub use lod::Lod;
 pub use reach::{Reach, MAX_CULLED};
 pub use segmentation::{Method, Segmentation};
 pub use strips::{decode_strips, StripOrder, RESTART};

@@ -1,0 +1,202 @@
+//! The render plan of a request (DMesh Sec. 6.2): what a client asks for, in
+//! one place, and the steps that answer it. A request names a level of
+//! detail and a depth coding ([`Ask`]); a novel view selects reference views
+//! ([`select`]), shares a budget out by view weight ([`Ask::share`]), and
+//! each view's hierarchy resolves its share ([`Ask::lod`]) and is extracted
+//! and encoded ([`extract`]). The server's `/render` and `/strips`, the
+//! `dmesh mesh` command and `dmesh-client report` all run these steps, so a
+//! report measures what the server serves.
+
+use dmesh_proto::{Lod as WireLod, RawGrid, StripResponse};
+
+use crate::camera::Camera;
+use crate::error::{Error, Result};
+use crate::mesh::{DepthMesh, Lod, Mesh};
+use crate::scene::{select_views, SelectionRule, Weighted};
+use crate::wire::{strip_response, DepthCoding};
+
+/// Views a render answers with unless asked otherwise.
+pub const MAX_VIEWS: usize = 5;
+/// DMesh's selection limit between view directions, degrees, unless asked otherwise.
+pub const MAX_ANGLE_DEG: f64 = 135.0;
+
+/// What a request asks for: a level of detail, the requesting camera it is
+/// meant for, and the depth coding. Checked on construction.
+#[derive(Clone, Copy, Debug)]
+pub struct Ask<'a> {
+    /// The level of detail; a budget is shared by [`Self::share`].
+    pub lod: WireLod,
+    /// The requesting camera: with `tau` always, with a budget optionally.
+    pub camera: Option<&'a Camera>,
+    /// Residual bit-depth of the depths, `None` for exact `f32`.
+    pub bits: Option<u8>,
+}
+
+impl<'a> Ask<'a> {
+    /// Checks the combination: bits at most 16, a camera with `tau` and
+    /// none with `epsilon`, a positive finite time budget.
+    pub fn new(lod: WireLod, camera: Option<&'a Camera>, bits: Option<u8>) -> Result<Self> {
+        if let Some(b) = bits.filter(|&b| b > dmesh_proto::residual::MAX_BITS) {
+            return Err(Error::invalid(format!("bits is {b}; it must be 0..=16")));
+        }
+        match (lod, camera) {
+            (WireLod::Epsilon(_), Some(_)) => {
+                return Err(Error::invalid(
+                    "camera is not used with epsilon; give tau or a budget, or drop camera",
+                ))
+            }
+            (WireLod::Tau(_), None) => return Err(Error::invalid("tau needs the requesting camera (camera)")),
+            (WireLod::BudgetMs(ms), _) if !(ms.is_finite() && ms > 0.0) => {
+                return Err(Error::invalid(format!(
+                    "budget_ms is {ms}; it must be a finite number of milliseconds > 0"
+                )))
+            }
+            _ => {}
+        }
+        Ok(Self { lod, camera, bits })
+    }
+
+    /// The request one view of weight `weight` gets: budgets are shared out
+    /// by weight (triangles rounded down), tolerances are not.
+    pub fn share(&self, weight: f64) -> Self {
+        let lod = match self.lod {
+            WireLod::MaxTriangles(m) => WireLod::MaxTriangles((f64::from(m) * weight).floor() as u32),
+            WireLod::BudgetMs(ms) => WireLod::BudgetMs(ms * weight),
+            other => other,
+        };
+        Self { lod, ..*self }
+    }
+
+    /// The level of detail `hierarchy` extracts. A time budget becomes a
+    /// triangle budget through `triangles_for_ms` (the caller's measured
+    /// extraction rate); a triangle budget stays one, for the hierarchy to
+    /// resolve. Also returns the triangles a time budget allowed.
+    pub fn lod(&self, hierarchy: &DepthMesh, triangles_for_ms: impl FnOnce(f64) -> f64) -> (Lod<'a>, Option<u64>) {
+        match self.lod {
+            WireLod::Epsilon(e) => (Lod::Epsilon(e), None),
+            WireLod::Tau(tau) => match self.camera {
+                Some(view) => (Lod::Tau { tau, view }, None),
+                // Not reached: `new` refuses tau without a camera.
+                None => (Lod::Epsilon(0.0), None),
+            },
+            WireLod::MaxTriangles(m) => (
+                Lod::Triangles {
+                    max: u64::from(m),
+                    view: self.camera,
+                },
+                None,
+            ),
+            WireLod::BudgetMs(ms) => {
+                // A time budget needs no proof, so it never asks for less
+                // than the coarsest mesh.
+                let allowed = (triangles_for_ms(ms).max(0.0) as u64).max(hierarchy.coarsest_triangles());
+                (
+                    Lod::Triangles {
+                        max: allowed,
+                        view: self.camera,
+                    },
+                    Some(allowed),
+                )
+            }
+        }
+    }
+
+    /// The ETag suffix of a cacheable answer (static: no requesting camera).
+    pub fn cache_key(&self) -> Option<String> {
+        let bits = self.bits.map_or(String::new(), |b| format!("-b{b}"));
+        match (self.lod, self.camera) {
+            (WireLod::Epsilon(e), _) => Some(format!("{:016x}{bits}", e.to_bits())),
+            (WireLod::MaxTriangles(m), None) => Some(format!("t{m}{bits}")),
+            _ => None,
+        }
+    }
+}
+
+/// The reference views of `cameras` a novel camera uses, with weights
+/// summing to 1: DMesh's rule within `max_angle_deg` (default
+/// [`MAX_ANGLE_DEG`]) or Verlani et al.'s limited set, at most `max_views`
+/// (default [`MAX_VIEWS`]).
+pub fn select(
+    novel: &Camera,
+    cameras: &[Camera],
+    selection: dmesh_proto::Selection,
+    max_views: Option<u32>,
+    max_angle_deg: Option<f64>,
+) -> Result<Vec<Weighted>> {
+    let rule = match selection {
+        dmesh_proto::Selection::Dmesh => SelectionRule::Dmesh {
+            max_angle_deg: max_angle_deg.unwrap_or(MAX_ANGLE_DEG),
+        },
+        dmesh_proto::Selection::Limited => SelectionRule::Limited,
+    };
+    select_views(novel, cameras, rule, max_views.map_or(MAX_VIEWS, |m| m as usize))
+}
+
+/// One view's answer: its mesh's figures and the encoded response.
+#[derive(Clone, Debug)]
+pub struct Extracted {
+    /// The response.
+    pub response: StripResponse,
+    /// Triangles of the mesh.
+    pub triangles: usize,
+    /// What a time budget allowed, if the request had one.
+    pub allowed: Option<u64>,
+}
+
+/// Extracts `hierarchy` (the view `scene/view`, stored at `raw_grid`) for
+/// `ask` and encodes it; `triangles_for_ms` as in [`Ask::lod`].
+pub fn extract(
+    hierarchy: &DepthMesh,
+    raw_grid: Option<RawGrid>,
+    scene: &str,
+    view: &str,
+    ask: &Ask<'_>,
+    triangles_for_ms: impl FnOnce(f64) -> f64,
+) -> Result<(Mesh, Extracted)> {
+    let (lod, allowed) = ask.lod(hierarchy, triangles_for_ms);
+    let mesh = hierarchy.extract(lod)?;
+    let coding = DepthCoding {
+        bits: ask.bits,
+        root_side: hierarchy.grid().side(),
+        raw_grid,
+    };
+    let response =
+        strip_response(&mesh, scene, view, hierarchy.camera(), coding).map_err(|e| Error::invalid(e.to_string()))?;
+    let triangles = mesh.triangles.len();
+    Ok((
+        mesh,
+        Extracted {
+            response,
+            triangles,
+            allowed,
+        },
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cam() -> Camera {
+        Camera::perspective(8, 6, 8.0, 8.0, 3.5, 2.5).unwrap()
+    }
+
+    #[test]
+    fn asks_are_checked_and_budgets_shared_by_weight() {
+        let c = cam();
+        assert!(Ask::new(WireLod::Epsilon(0.01), Some(&c), None).is_err());
+        assert!(Ask::new(WireLod::Tau(1.0), None, None).is_err());
+        assert!(Ask::new(WireLod::BudgetMs(0.0), None, None).is_err());
+        assert!(Ask::new(WireLod::Epsilon(0.01), None, Some(17)).is_err());
+        let a = Ask::new(WireLod::MaxTriangles(1001), Some(&c), Some(8)).unwrap();
+        assert_eq!(a.share(0.5).lod, WireLod::MaxTriangles(500));
+        assert_eq!(a.share(0.5).bits, Some(8));
+        let t = Ask::new(WireLod::Tau(2.0), Some(&c), None).unwrap();
+        assert_eq!(t.share(0.25).lod, WireLod::Tau(2.0));
+        assert!(t.cache_key().is_none() && a.cache_key().is_none());
+        assert!(Ask::new(WireLod::MaxTriangles(9), None, None)
+            .unwrap()
+            .cache_key()
+            .is_some());
+    }
+}
