@@ -7,6 +7,7 @@ use anyhow::{anyhow, bail, Context, Result};
 use clap::{ArgGroup, ValueEnum};
 use dmesh::camera::{camera_from_json, Camera};
 use dmesh::image::{decode_view, ColorImage, DecodedView, DepthKind, DepthOptions, Limits, ViewFiles};
+use dmesh::mesh::segmentation;
 use dmesh::mesh::{DepthMesh, Lod, Mesh, Method, Segmentation, StripOrder, Threads};
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -80,16 +81,16 @@ pub struct MeshArgs {
     #[arg(long, value_enum, default_value = "orthogonality")]
     segment: SegmentArg,
     /// Orthogonality angle in degrees.
-    #[arg(long, default_value_t = 5.0, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = segmentation::OMEGA_DEG, allow_negative_numbers = true)]
     omega: f64,
     /// Disparity threshold (Eq. 9).
-    #[arg(long, default_value_t = 0.05, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = segmentation::SIGMA, allow_negative_numbers = true)]
     sigma: f64,
     /// Connectedness threshold (Eq. 6).
-    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = segmentation::KAPPA, allow_negative_numbers = true)]
     kappa: f64,
     /// Depth-range gate dz / z (Eq. 11).
-    #[arg(long, default_value_t = 0.02, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = segmentation::LAMBDA, allow_negative_numbers = true)]
     lambda: f64,
     /// Strip order: the traversal's (fastest), greedy (fewer indices) or
     /// tunnelled (fewest indices, slowest).

@@ -51,14 +51,16 @@ pub enum SegmentMethod {
     None,
 }
 
+use crate::mesh::segmentation;
+
 impl Default for SegmentationSpec {
     fn default() -> Self {
         Self {
             method: SegmentMethod::Orthogonality,
-            omega: 5.0,
-            sigma: 0.05,
-            kappa: 1.0,
-            lambda: 0.02,
+            omega: segmentation::OMEGA_DEG,
+            sigma: segmentation::SIGMA,
+            kappa: segmentation::KAPPA,
+            lambda: segmentation::LAMBDA,
         }
     }
 }

@@ -1,9 +1,10 @@
 //! `dmesh-client report`: what accuracy costs in time and bytes.
 //!
 //! Sweeps the level of detail (tau, epsilon, residual bits, triangle
-//! budget) over scenes with ground truth, runs the engine in process exactly
-//! as the server does for `/render` (select views, extract, encode the strip
-//! responses in bincode, decode them as a client), blends the novel view and
+//! budget) over scenes with ground truth, runs the server's render plan in
+//! process (`dmesh_engine::render_plan`: select views, share the level of
+//! detail by weight, extract, encode the strip responses in bincode), decodes
+//! them as a client, blends the novel view and
 //! compares it with the truth: PSNR on the valid mask and inverse-depth RMSE
 //! (Naik's protocol), triangles, bytes and milliseconds. Tables go to
 //! `report.md` and `report.json`, curves to SVG and PNG.
@@ -16,7 +17,6 @@ use std::time::Instant;
 
 use dmesh_engine::mesh::{DepthMesh, Segmentation};
 use dmesh_engine::render_plan::{self, Ask};
-use dmesh_engine::scene::{select_views, SelectionRule};
 use dmesh_proto::Lod as WireLod;
 use serde::Serialize;
 
@@ -141,11 +141,10 @@ pub fn sweep(case: &Case, options: &Options) -> anyhow::Result<Vec<Row>> {
         .collect::<anyhow::Result<_>>()?;
     let build_ms = median(build_ms);
     let cameras: Vec<_> = case.references.iter().map(|r| r.camera).collect();
-    let rule = SelectionRule::Dmesh { max_angle_deg: 135.0 };
     let selections = case
         .novels
         .iter()
-        .map(|n| select_views(&n.camera, &cameras, rule, 5))
+        .map(|n| render_plan::select(&n.camera, &cameras, dmesh_proto::Selection::Dmesh, None, None))
         .collect::<Result<Vec<_>, _>>()?;
     let mut rows = Vec::new();
     for sweep in [Sweep::Tau, Sweep::Epsilon, Sweep::Bits, Sweep::Budget] {

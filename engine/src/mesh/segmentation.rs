@@ -59,12 +59,21 @@ pub struct Segmentation {
     pub lambda: f64,
 }
 
+/// Default orthogonality angle, degrees (DMesh's choice).
+pub const OMEGA_DEG: f64 = 5.0;
+/// Default disparity threshold (Eq. 9).
+pub const SIGMA: f64 = 0.05;
+/// Default connectedness threshold (Eq. 6).
+pub const KAPPA: f64 = 1.0;
+/// Default depth-range gate `dz / z` (Eq. 11).
+pub const LAMBDA: f64 = 0.02;
+
 impl Default for Segmentation {
-    /// Orthogonality at 5 degrees (DMesh's choice), `lambda = 0.02`.
+    /// Orthogonality at [`OMEGA_DEG`], gated by [`LAMBDA`].
     fn default() -> Self {
         Self {
-            method: Method::Orthogonality { omega_deg: 5.0 },
-            lambda: 0.02,
+            method: Method::Orthogonality { omega_deg: OMEGA_DEG },
+            lambda: LAMBDA,
         }
     }
 }
