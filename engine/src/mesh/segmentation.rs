@@ -159,6 +159,8 @@ pub(crate) fn leaf_flags(s: &Samples<'_>, seg: &Segmentation) -> Vec<u8> {
                             Method::None => false,
                             Method::Orthogonality { .. } => orthogonal(s.camera, pts, sin2),
                             Method::Disparity { .. } => {
+                                // Computed above for exactly this method.
+                                debug_assert!(disparity_marks.is_some(), "disparity marks missing");
                                 let marks = disparity_marks.as_deref().unwrap_or_default();
                                 corners
                                     .iter()
