@@ -12,9 +12,7 @@
 //! async workers.
 
 pub mod error;
-pub mod metrics;
 pub mod negotiate;
-pub mod state;
 pub mod strips;
 pub mod views;
 pub mod web;
@@ -32,8 +30,8 @@ use axum::{BoxError, Router};
 use tower::ServiceBuilder;
 use tower_http::compression::CompressionLayer;
 
+pub use crate::service::{AppState, Settings};
 pub use error::AppError;
-pub use state::{AppState, Settings};
 
 /// The port `dmesh serve` listens on by default (on 127.0.0.1).
 pub const DEFAULT_PORT: u16 = 8080;
@@ -223,10 +221,7 @@ mod tests {
 
     fn router(dir: &std::path::Path) -> Router {
         let store = Arc::new(FileStore::open(dir).unwrap());
-        app(
-            Arc::new(AppState::new(store, state::Settings::default())),
-            Pipeline::default(),
-        )
+        app(Arc::new(AppState::new(store, Settings::default())), Pipeline::default())
     }
 
     async fn call(router: &Router, request: Request<Body>) -> (StatusCode, serde_json::Value) {

@@ -6,7 +6,7 @@ use axum::response::{IntoResponse, Response};
 use dmesh_proto::BINCODE_MEDIA_TYPE;
 use serde::Serialize;
 
-use super::error::AppError;
+use crate::service::AppError;
 
 /// True when the request asks for bincode.
 pub fn wants_bincode(headers: &HeaderMap) -> bool {

@@ -16,10 +16,10 @@ use crate::camera::{camera_from_json, Camera};
 use crate::render_plan::{self, Ask};
 use crate::store::validate_id;
 
-use super::error::AppError;
 use super::negotiate::encode;
-use super::state::{AppState, Loaded};
 use super::views::{color_url, load};
+use crate::service::AppError;
+use crate::service::{AppState, Loaded};
 
 /// Query of `GET .../strips`: `epsilon`, or `tau` with the requesting
 /// `camera` (JSON), or a budget (`max_triangles` or `budget_ms`, optionally

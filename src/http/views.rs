@@ -8,13 +8,13 @@ use axum::http::{header, HeaderMap, StatusCode};
 use axum::response::{IntoResponse, Response};
 use dmesh_proto::{SceneList, ViewList, ViewSummary, PROTOCOL_VERSION};
 
-use crate::camera::{camera_from_json, Camera};
-use crate::image::{decode_view, DepthOptions, ViewFiles};
-use crate::store::{validate_id, SegmentMethod, SegmentationSpec, StoredView};
+use crate::image::DepthOptions;
+use crate::store::{validate_id, SegmentMethod, SegmentationSpec};
 
-use super::error::AppError;
 use super::negotiate::encode;
-use super::state::{AppState, Loaded};
+use crate::service::ingest::{ingest, Upload};
+use crate::service::AppError;
+use crate::service::{AppState, Loaded};
 
 /// `/v1/scenes/{scene}/views/{view}/color`.
 pub fn color_url(scene: &str, view: &str) -> String {
@@ -44,8 +44,9 @@ fn number(name: &str, text: &str) -> Result<f64, AppError> {
         .ok_or_else(|| AppError::BadRequest(format!("field {name} is {text:?}; it must be a finite number")))
 }
 
+/// The multipart fields as they arrive.
 #[derive(Default)]
-struct Upload {
+struct Fields {
     camera: Option<String>,
     depth: Option<Bytes>,
     color: Option<Bytes>,
@@ -54,8 +55,8 @@ struct Upload {
     segmentation: SegmentationSpec,
 }
 
-async fn read_upload(mut multipart: Multipart) -> Result<Upload, AppError> {
-    let mut u = Upload::default();
+async fn read_upload(mut multipart: Multipart) -> Result<Fields, AppError> {
+    let mut u = Fields::default();
     while let Some(field) = multipart.next_field().await? {
         let name = field.name().unwrap_or_default().to_string();
         let data = field.bytes().await?;
@@ -113,43 +114,25 @@ pub async fn put_view(
     let multipart =
         multipart.map_err(|e| AppError::UnsupportedMedia(format!("upload must be multipart/form-data: {e}")))?;
     let u = read_upload(multipart).await?;
-    u.segmentation.validate()?;
-    let camera_text = u
-        .camera
-        .ok_or_else(|| AppError::BadRequest("field camera (JSON) is missing".into()))?;
-    let depth_bytes = u
-        .depth
-        .ok_or_else(|| AppError::BadRequest("field depth (EXR, PNG or PFM) is missing".into()))?;
-    let color_bytes = u
-        .color
-        .ok_or_else(|| AppError::BadRequest("field color (PNG or JPEG) is missing".into()))?;
+    let upload = Upload {
+        camera: u
+            .camera
+            .ok_or_else(|| AppError::BadRequest("field camera (JSON) is missing".into()))?,
+        depth: u
+            .depth
+            .ok_or_else(|| AppError::BadRequest("field depth (EXR, PNG or PFM) is missing".into()))?
+            .to_vec(),
+        color: u
+            .color
+            .ok_or_else(|| AppError::BadRequest("field color (PNG or JPEG) is missing".into()))?
+            .to_vec(),
+        mask: u.mask.map(|m| m.to_vec()),
+        options: u.options,
+        segmentation: u.segmentation,
+    };
     let st = state.clone();
     let (sc, vw) = (scene.clone(), view.clone());
-    let loaded = tokio::task::spawn_blocking(move || -> Result<Arc<Loaded>, AppError> {
-        let limits = st.settings.limits;
-        let camera: Camera = camera_from_json(&camera_text)?;
-        let files = ViewFiles {
-            depth: &depth_bytes,
-            mask: u.mask.as_deref(),
-            color: Some(&color_bytes),
-        };
-        let depth = decode_view(files, &u.options, &camera, &limits)?.depth;
-        u.segmentation.to_engine().validate()?;
-        let stored = StoredView {
-            camera: (&camera).into(),
-            segmentation: u.segmentation,
-            z: depth.z,
-            raw_grid: (u.options.kind == crate::image::DepthKind::Z).then_some(dmesh_proto::RawGrid {
-                scale: u.options.scale,
-                offset: u.options.offset,
-            }),
-            color: color_bytes.to_vec(),
-        };
-        // Build before storing: a view that cannot be meshed is not kept.
-        let loaded = Loaded::from_stored(&stored, String::new())?;
-        st.store_view(&sc, &vw, &stored, loaded)
-    })
-    .await??;
+    let loaded = tokio::task::spawn_blocking(move || ingest(&st, &sc, &vw, upload)).await??;
     let mut response = encode(&headers, &summary(&scene, &view, &loaded))?;
     *response.status_mut() = StatusCode::CREATED;
     Ok(response)

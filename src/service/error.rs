@@ -1,0 +1,60 @@
+//! The service's one error type, which the HTTP layer turns into a status
+//! and a JSON body (`http/error.rs`).
+
+use crate::store::StoreError;
+
+/// A failed request.
+#[derive(Debug)]
+pub enum AppError {
+    /// 400: a bad field; the message names it and what is accepted.
+    BadRequest(String),
+    /// 404: no such scene or view.
+    NotFound(String),
+    /// 413: body or image over a limit.
+    TooLarge(String),
+    /// 415: a body or part of a type the endpoint does not take.
+    UnsupportedMedia(String),
+    /// 422: image bytes that do not decode.
+    Undecodable(String),
+    /// 409: a valid request the stored data cannot satisfy.
+    Conflict(String),
+    /// 405: the endpoint exists but not with this method.
+    MethodNotAllowed,
+    /// 408: the request took longer than the configured timeout.
+    Timeout,
+    /// 503: shed under overload; retry after the given seconds.
+    Overloaded(u64),
+    /// 503: a store the server depends on is down; retry after the given
+    /// seconds.
+    Unavailable(String, u64),
+    /// 500: logged in full, reported briefly.
+    Internal(String),
+}
+
+impl From<crate::Error> for AppError {
+    fn from(e: crate::Error) -> Self {
+        match e {
+            crate::Error::InvalidInput(m) => Self::BadRequest(m),
+            crate::Error::TooLarge(m) => Self::TooLarge(m),
+            crate::Error::Decode(m) => Self::Undecodable(m),
+            crate::Error::Unattainable(m) => Self::Conflict(m),
+            crate::Error::Internal(m) => Self::Internal(m),
+        }
+    }
+}
+
+impl From<StoreError> for AppError {
+    fn from(e: StoreError) -> Self {
+        match e {
+            StoreError::BadId(m) => Self::BadRequest(m),
+            StoreError::Unavailable(m) => Self::Unavailable(m, 1),
+            other => Self::Internal(other.to_string()),
+        }
+    }
+}
+
+impl From<tokio::task::JoinError> for AppError {
+    fn from(e: tokio::task::JoinError) -> Self {
+        Self::Internal(format!("worker task failed: {e}"))
+    }
+}

@@ -1,0 +1,19 @@
+//! The service layer between HTTP and the engine: what the server keeps
+//! (the store, the cache of built views with their revalidation, metrics),
+//! and ingest, the upload pipeline. The HTTP handlers (`http/`) and
+//! `dmesh serve --demo` call it; the render plan it serves is the engine's
+//! (`dmesh_engine::render_plan`), which the report runs too. It knows
+//! nothing of axum.
+//!
+//! - [`state`]: the store, the cache, revalidation, changes;
+//! - [`ingest`]: decode, mask, check, build and store one view;
+//! - [`metrics`]: Prometheus counters and the extraction-rate estimate;
+//! - [`error`]: the one error type.
+
+pub mod error;
+pub mod ingest;
+pub mod metrics;
+pub mod state;
+
+pub use error::AppError;
+pub use state::{AppState, Loaded, Settings};
