@@ -1,5 +1,8 @@
 //! dmesh's thin client: talks to the server only through HTTP and
 //! `dmesh-proto`, and blends the served strips into novel views on the CPU.
+//! It links the engine (`dmesh-engine`: decoding, cameras, the simulator,
+//! the render plan the report runs in process), never the server
+//! (`tests/dependencies.rs` checks the tree).
 //!
 //! - [`blend`]: the two-pass epsilon-z-buffer blend of DMesh Sec. 6.3-6.4 and
 //!   Verlani Sec. 3, with perspective-correct interpolation;
