@@ -11,7 +11,7 @@ use dmesh_proto::{Lod as WireLod, RawGrid, StripResponse};
 
 use crate::camera::Camera;
 use crate::error::{Error, Result};
-use crate::mesh::{DepthMesh, Lod, Mesh};
+use crate::mesh::{DepthMesh, Lod};
 use crate::scene::{select_views, SelectionRule, Weighted};
 use crate::wire::{strip_response, DepthCoding};
 
@@ -23,19 +23,19 @@ pub const MAX_ANGLE_DEG: f64 = 135.0;
 /// What a request asks for: a level of detail, the requesting camera it is
 /// meant for, and the depth coding. Checked on construction.
 #[derive(Clone, Copy, Debug)]
-pub struct Ask<'a> {
+pub struct Ask {
     /// The level of detail; a budget is shared by [`Self::share`].
     pub lod: WireLod,
     /// The requesting camera: with `tau` always, with a budget optionally.
-    pub camera: Option<&'a Camera>,
+    pub camera: Option<Camera>,
     /// Residual bit-depth of the depths, `None` for exact `f32`.
     pub bits: Option<u8>,
 }
 
-impl<'a> Ask<'a> {
+impl Ask {
     /// Checks the combination: bits at most 16, a camera with `tau` and
     /// none with `epsilon`, a positive finite time budget.
-    pub fn new(lod: WireLod, camera: Option<&'a Camera>, bits: Option<u8>) -> Result<Self> {
+    pub fn new(lod: WireLod, camera: Option<Camera>, bits: Option<u8>) -> Result<Self> {
         if let Some(b) = bits.filter(|&b| b > dmesh_proto::residual::MAX_BITS) {
             return Err(Error::invalid(format!("bits is {b}; it must be 0..=16")));
         }
@@ -71,10 +71,10 @@ impl<'a> Ask<'a> {
     /// triangle budget through `triangles_for_ms` (the caller's measured
     /// extraction rate); a triangle budget stays one, for the hierarchy to
     /// resolve. Also returns the triangles a time budget allowed.
-    pub fn lod(&self, hierarchy: &DepthMesh, triangles_for_ms: impl FnOnce(f64) -> f64) -> (Lod<'a>, Option<u64>) {
+    pub fn lod(&self, hierarchy: &DepthMesh, triangles_for_ms: impl FnOnce(f64) -> f64) -> (Lod<'_>, Option<u64>) {
         match self.lod {
             WireLod::Epsilon(e) => (Lod::Epsilon(e), None),
-            WireLod::Tau(tau) => match self.camera {
+            WireLod::Tau(tau) => match &self.camera {
                 Some(view) => (Lod::Tau { tau, view }, None),
                 // Not reached: `new` refuses tau without a camera.
                 None => (Lod::Epsilon(0.0), None),
@@ -82,7 +82,7 @@ impl<'a> Ask<'a> {
             WireLod::MaxTriangles(m) => (
                 Lod::Triangles {
                     max: u64::from(m),
-                    view: self.camera,
+                    view: self.camera.as_ref(),
                 },
                 None,
             ),
@@ -93,7 +93,7 @@ impl<'a> Ask<'a> {
                 (
                     Lod::Triangles {
                         max: allowed,
-                        view: self.camera,
+                        view: self.camera.as_ref(),
                     },
                     Some(allowed),
                 )
@@ -132,13 +132,11 @@ pub fn select(
     select_views(novel, cameras, rule, max_views.map_or(MAX_VIEWS, |m| m as usize))
 }
 
-/// One view's answer: its mesh's figures and the encoded response.
+/// One view's answer: the encoded response, and what a time budget allowed.
 #[derive(Clone, Debug)]
 pub struct Extracted {
-    /// The response.
+    /// The response (its `triangles` are the mesh's).
     pub response: StripResponse,
-    /// Triangles of the mesh.
-    pub triangles: usize,
     /// What a time budget allowed, if the request had one.
     pub allowed: Option<u64>,
 }
@@ -150,9 +148,9 @@ pub fn extract(
     raw_grid: Option<RawGrid>,
     scene: &str,
     view: &str,
-    ask: &Ask<'_>,
+    ask: &Ask,
     triangles_for_ms: impl FnOnce(f64) -> f64,
-) -> Result<(Mesh, Extracted)> {
+) -> Result<Extracted> {
     let (lod, allowed) = ask.lod(hierarchy, triangles_for_ms);
     let mesh = hierarchy.extract(lod)?;
     let coding = DepthCoding {
@@ -162,15 +160,7 @@ pub fn extract(
     };
     let response =
         strip_response(&mesh, scene, view, hierarchy.camera(), coding).map_err(|e| Error::invalid(e.to_string()))?;
-    let triangles = mesh.triangles.len();
-    Ok((
-        mesh,
-        Extracted {
-            response,
-            triangles,
-            allowed,
-        },
-    ))
+    Ok(Extracted { response, allowed })
 }
 
 #[cfg(test)]
@@ -184,14 +174,14 @@ mod tests {
     #[test]
     fn asks_are_checked_and_budgets_shared_by_weight() {
         let c = cam();
-        assert!(Ask::new(WireLod::Epsilon(0.01), Some(&c), None).is_err());
+        assert!(Ask::new(WireLod::Epsilon(0.01), Some(c), None).is_err());
         assert!(Ask::new(WireLod::Tau(1.0), None, None).is_err());
         assert!(Ask::new(WireLod::BudgetMs(0.0), None, None).is_err());
         assert!(Ask::new(WireLod::Epsilon(0.01), None, Some(17)).is_err());
-        let a = Ask::new(WireLod::MaxTriangles(1001), Some(&c), Some(8)).unwrap();
+        let a = Ask::new(WireLod::MaxTriangles(1001), Some(c), Some(8)).unwrap();
         assert_eq!(a.share(0.5).lod, WireLod::MaxTriangles(500));
         assert_eq!(a.share(0.5).bits, Some(8));
-        let t = Ask::new(WireLod::Tau(2.0), Some(&c), None).unwrap();
+        let t = Ask::new(WireLod::Tau(2.0), Some(c), None).unwrap();
         assert_eq!(t.share(0.25).lod, WireLod::Tau(2.0));
         assert!(t.cache_key().is_none() && a.cache_key().is_none());
         assert!(Ask::new(WireLod::MaxTriangles(9), None, None)

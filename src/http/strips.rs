@@ -55,22 +55,17 @@ impl StripQuery {
 
 /// One view's strips for `ask`, with the server's measured extraction rate
 /// turning a time budget into triangles (blocking).
-fn extract(
-    state: &AppState,
-    scene: &str,
-    view: &str,
-    loaded: &Loaded,
-    ask: &Ask<'_>,
-) -> Result<StripResponse, AppError> {
+fn extract(state: &AppState, scene: &str, view: &str, loaded: &Loaded, ask: &Ask) -> Result<StripResponse, AppError> {
     // A time budget allows as many more triangles as meshes have recently
     // fallen short of their allowance.
     let (rate, fill) = (state.metrics.ms_per_triangle(), state.metrics.budget_fill());
-    let (_, out) = render_plan::extract(&loaded.hierarchy, loaded.raw_grid, scene, view, ask, |ms| {
+    let out = render_plan::extract(&loaded.hierarchy, loaded.raw_grid, scene, view, ask, |ms| {
         ms / rate / fill
     })?;
-    state.metrics.extraction(out.response.extract_ms, out.triangles);
+    let triangles = out.response.triangles as usize;
+    state.metrics.extraction(out.response.extract_ms, triangles);
     if let Some(allowed) = out.allowed {
-        state.metrics.budget_filled(out.triangles as f64 / allowed as f64);
+        state.metrics.budget_filled(triangles as f64 / allowed as f64);
     }
     Ok(out.response)
 }
@@ -82,7 +77,7 @@ async fn strips(
     headers: HeaderMap,
     (lod, camera, bits): (WireLod, Option<Camera>, Option<u8>),
 ) -> Result<Response, AppError> {
-    let ask = Ask::new(lod, camera.as_ref(), bits)?;
+    let ask = Ask::new(lod, camera, bits)?;
     let loaded = load(&state, &scene, &view).await?;
     // Static meshes are a function of the stored view and the request: cacheable.
     let etag = ask
@@ -98,11 +93,7 @@ async fn strips(
         }
     }
     let st = state.clone();
-    let response = tokio::task::spawn_blocking(move || {
-        let ask = Ask::new(lod, camera.as_ref(), bits)?;
-        extract(&st, &scene, &view, &loaded, &ask)
-    })
-    .await??;
+    let response = tokio::task::spawn_blocking(move || extract(&st, &scene, &view, &loaded, &ask)).await??;
     let mut out = encode(&headers, &response)?;
     server_timing(&mut out, response.extract_ms, response.extract_ms);
     if let Some(tag) = etag {
@@ -163,10 +154,9 @@ pub async fn render(
     let novel = Camera::try_from(&req.camera)?;
     // The novel camera is the requesting one, except for a static tolerance.
     let requesting = (!matches!(req.lod, WireLod::Epsilon(_))).then_some(novel);
-    Ask::new(req.lod, requesting.as_ref(), req.bits)?;
+    let ask = Ask::new(req.lod, requesting, req.bits)?;
     let st = state.clone();
     let response = tokio::task::spawn_blocking(move || -> Result<RenderResponse, AppError> {
-        let ask = Ask::new(req.lod, requesting.as_ref(), req.bits)?;
         // Select from the cameras alone; only the selected views are loaded.
         let candidates = st.scene_cameras(&scene)?;
         let cameras: Vec<Camera> = candidates.iter().map(|l| l.camera).collect();

@@ -28,7 +28,15 @@ pub struct S3Server {
     root: Option<tempfile::TempDir>,
 }
 
-fn free_port() -> u16 {
+/// SIGKILLs `child`, if running, and reaps it.
+pub fn kill(child: &mut Option<Child>) {
+    if let Some(mut c) = child.take() {
+        let _ = c.kill();
+        let _ = c.wait();
+    }
+}
+
+pub fn free_port() -> u16 {
     TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port()
 }
 
@@ -131,10 +139,7 @@ impl S3Server {
 
     /// Kills the server (SIGKILL); what it held in memory is gone.
     pub fn kill(&mut self) {
-        if let Some(mut c) = self.child.take() {
-            let _ = c.kill();
-            let _ = c.wait();
-        }
+        kill(&mut self.child);
     }
 
     /// Starts it again on the same port (and, for `s3s-fs`, the same files).

@@ -151,11 +151,11 @@ pub fn sweep(case: &Case, options: &Options) -> anyhow::Result<Vec<Row>> {
         for setting in sweep.settings(options.quick) {
             // As the server does: a view's share of a budget below its
             // coarsest mesh is refused, so such a budget has no row.
+            let budget = Ask::new(WireLod::MaxTriangles(setting as u32), None, None)?;
             let attainable = |sel: &Vec<dmesh_engine::scene::Weighted>| {
                 sel.iter().all(|w| {
-                    let share = Ask::new(WireLod::MaxTriangles(setting as u32), None, None)
-                        .map(|a| a.share(w.weight).lod);
-                    matches!(share, Ok(WireLod::MaxTriangles(m)) if u64::from(m) >= hierarchies[w.index].coarsest_triangles())
+                    matches!(budget.share(w.weight).lod,
+                        WireLod::MaxTriangles(m) if u64::from(m) >= hierarchies[w.index].coarsest_triangles())
                 })
             };
             if sweep == Sweep::Budget && !selections.iter().all(attainable) {
@@ -186,17 +186,17 @@ pub fn sweep(case: &Case, options: &Options) -> anyhow::Result<Vec<Row>> {
                     // The server's render plan, step by step: the share of
                     // the request's level of detail, resolved by the view.
                     let (lod, novel_camera) = match sweep {
-                        Sweep::Tau => (WireLod::Tau(setting), Some(&novel.camera)),
-                        Sweep::Bits => (WireLod::Tau(1.0), Some(&novel.camera)),
+                        Sweep::Tau => (WireLod::Tau(setting), Some(novel.camera)),
+                        Sweep::Bits => (WireLod::Tau(1.0), Some(novel.camera)),
                         Sweep::Epsilon => (WireLod::Epsilon(setting * case.depth_scale), None),
-                        Sweep::Budget => (WireLod::MaxTriangles(setting as u32), Some(&novel.camera)),
+                        Sweep::Budget => (WireLod::MaxTriangles(setting as u32), Some(novel.camera)),
                     };
                     let bits = (sweep == Sweep::Bits).then_some(setting as u8);
                     let ask = Ask::new(lod, novel_camera, bits)?.share(w.weight);
                     let mut times = Vec::new();
                     let mut answer = None;
                     for _ in 0..repeats {
-                        let (_, out) = render_plan::extract(h, r.raw_grid, &case.name, "v", &ask, |ms| ms)?;
+                        let out = render_plan::extract(h, r.raw_grid, &case.name, "v", &ask, |ms| ms)?;
                         times.push(out.response.extract_ms);
                         answer = Some(out);
                     }

@@ -6,7 +6,7 @@
 #![allow(dead_code)]
 
 use std::io::{Read, Write};
-use std::net::{SocketAddr, TcpListener, TcpStream};
+use std::net::{SocketAddr, TcpStream};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
@@ -14,9 +14,8 @@ use std::time::{Duration, Instant};
 #[path = "../../../tests/server_support/s3.rs"]
 pub mod s3;
 
-pub fn free_port() -> u16 {
-    TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port()
-}
+pub use s3::free_port;
+
 
 /// The `dmesh` server binary: `DMESH_BIN` (a directory, as the node tests
 /// take it) or the one `cargo test --workspace` built beside this test.
@@ -140,10 +139,7 @@ impl Replica {
 
     /// SIGKILL: no shutdown, requests in flight are cut.
     pub fn kill(&mut self) {
-        if let Some(mut c) = self.child.take() {
-            let _ = c.kill();
-            let _ = c.wait();
-        }
+        s3::kill(&mut self.child);
     }
 
     /// Starts it (again) on the same port, and waits until it is healthy.
