@@ -16,7 +16,6 @@ pub mod s3;
 
 pub use s3::free_port;
 
-
 /// The `dmesh` server binary: `DMESH_BIN` (a directory, as the node tests
 /// take it) or the one `cargo test --workspace` built beside this test.
 pub fn dmesh_bin() -> PathBuf {

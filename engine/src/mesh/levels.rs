@@ -159,6 +159,7 @@ pub(crate) fn coarse_deviations(grid: Grid, z: &[f32]) -> Vec<[f32; 2]> {
 }
 
 /// The squared exact deviation of the half of `s` with apex `apex`, rounded up.
+#[inline(always)]
 fn half_deviation2(z: &[f32], gw: usize, s: Split, h: u32, apex: Pt) -> f32 {
     let rows = half_rows(s.v, h, apex, s.bisects == Bisects::Row, s.bisects == Bisects::Diagonal);
     let dev = max_deviation(z, gw, [s.a, s.b, apex], rows);
@@ -370,26 +371,33 @@ impl Levels<'_> {
         let mut err = 0f32;
         let mut radius = 0f64;
         let mut eq12_done = false;
-        for (half, apex) in apex.into_iter().enumerate() {
-            let Some(apex) = apex else {
+        // Plain index loops: `array::map` and `into_iter` compiled to a call
+        // per child that cost more than the child's arithmetic.
+        for half in 0..2 {
+            let Some(apex) = apex[half] else {
                 bits.set_half(half, Half::ABSENT);
                 continue;
             };
             // The half's children: hypotenuses a-apex and apex-b, both with
-            // apex v; a unit diagonal is a full-resolution triangle of a cell.
-            let [c0, c1] = [(a, apex), (apex, b)].map(|(e0, e1)| {
-                if e0.0.abs_diff(e1.0) == 1 && e0.1.abs_diff(e1.1) == 1 {
+            // apex v; a unit diagonal is a full-resolution triangle of a
+            // cell (only on the finest level: h is 1).
+            let mut kids = [Half::ABSENT; 2];
+            for (k, kid) in kids.iter_mut().enumerate() {
+                let (e0, e1) = if k == 0 { (a, apex) } else { (apex, b) };
+                *kid = if h == 1 && e0.0.abs_diff(e1.0) == 1 && e0.1.abs_diff(e1.1) == 1 {
                     let cell = (e0.0.min(e1.0), e0.1.min(e1.1));
-                    return Half::leaf(flags[at(cell)].cell(cell_half(cell, v)));
-                }
-                let c = ((e0.0 + e1.0) / 2, (e0.1 + e1.1) / 2);
-                let ci = at(c);
-                // Saturation and nesting over the DAG children.
-                err = err.max(self.err2[ci]);
-                let d = pv - self.bp.point(c.0, c.1, self.z[ci]);
-                radius = radius.max(norm_bound(d) + f64::from(self.radius[ci]));
-                flags[ci].half(half_of(c, v))
-            });
+                    Half::leaf(flags[at(cell)].cell(cell_half(cell, v)))
+                } else {
+                    let c = ((e0.0 + e1.0) / 2, (e0.1 + e1.1) / 2);
+                    let ci = at(c);
+                    // Saturation and nesting over the DAG children.
+                    err = err.max(self.err2[ci]);
+                    let d = pv - self.bp.point(c.0, c.1, self.z[ci]);
+                    radius = radius.max(norm_bound(d) + f64::from(self.radius[ci]));
+                    flags[ci].half(half_of(c, v))
+                };
+            }
+            let [c0, c1] = kids;
             let flagged = c0.join(c1);
             bits.set_half(half, flagged);
             if flagged.unflagged() {
