@@ -48,6 +48,16 @@ fn detail2(za: f32, zv: f32, zb: f32) -> f64 {
     detail * detail
 }
 
+/// The squared footprint of a partly segmented half: its hypotenuse, `len`
+/// pixels, at the pixel size of the deepest valid of `corners` (or of the
+/// image's deepest sample when none is valid).
+fn footprint2(camera: &Camera, len: f64, corners: [f32; 4], zmax: f32) -> f64 {
+    let zref = corners.into_iter().fold(0f32, f32::max);
+    let zref = if zref > 0.0 { zref } else { zmax };
+    let extent = len * camera.pixel_size(f64::from(zref));
+    extent * extent
+}
+
 /// What the pass reads and writes.
 pub(crate) struct Levels<'a> {
     pub grid: Grid,
@@ -206,14 +216,9 @@ fn small_half(gw: usize, s: Split, apex: Pt) -> SmallHalf {
 }
 
 impl Levels<'_> {
-    /// The squared footprint of a partly segmented half: its hypotenuse,
-    /// `len` pixels, at the pixel size of the deepest valid of `corners`
-    /// (or of the image's deepest sample when none is valid).
+    /// [`footprint2`] with this pass's camera.
     fn footprint2(&self, len: f64, corners: [f32; 4], zmax: f32) -> f64 {
-        let zref = corners.into_iter().fold(0f32, f32::max);
-        let zref = if zref > 0.0 { zref } else { zmax };
-        let extent = len * self.camera.pixel_size(f64::from(zref));
-        extent * extent
+        footprint2(self.camera, len, corners, zmax)
     }
 
     /// The finest level (three quarters of all vertices), in dedicated passes.
@@ -325,64 +330,93 @@ impl Levels<'_> {
     #[inline(never)]
     fn finest_centres(&mut self, flags: &mut [Flags], zmax: f32) {
         let (gw, gh) = (self.grid.gw() as usize, self.grid.gh() as usize);
+        let (bp, camera, z) = (self.bp, self.camera, self.z);
+        let cols = bp.cols();
+        // `BackProject::point`, given the column's and the row's factors.
+        let point = |(ax, bx): (f64, f64), (ay, by): (f64, f64), z: f32| {
+            let z = f64::from(z);
+            DVec3::new(ax + bx * z, ay + by * z, z)
+        };
+        // Row by row: the rows above and below are read (their edge
+        // midpoints are the children), the centres' row is written.
         for y in (1..gh).step_by(2) {
-            // The diagonal through v runs from (px, py) to (qx, qy).
-            let py = if (y - 1) / 2 % 2 == 1 { y - 1 } else { y + 1 };
-            let qy = 2 * y - py;
+            let rows = [bp.row(y - 1), bp.row(y), bp.row(y + 1)];
+            let zs = [
+                &z[(y - 1) * gw..y * gw],
+                &z[y * gw..(y + 1) * gw],
+                &z[(y + 1) * gw..(y + 2) * gw],
+            ];
+            let (head, tail) = self.err2.split_at_mut(y * gw);
+            let (err_row, rest) = tail.split_at_mut(gw);
+            let (err_up, err_down) = (&head[(y - 1) * gw..], &rest[..gw]);
+            let (head, tail) = flags.split_at_mut(y * gw);
+            let (flag_row, rest) = tail.split_at_mut(gw);
+            let (flag_up, flag_down) = (&head[(y - 1) * gw..], &rest[..gw]);
+            let radius_row = &mut self.radius[y * gw..(y + 1) * gw];
+            // The diagonal through v runs from (px, py) to (qx, qy): py is
+            // the row above (0) or below (2), qy the other.
+            let p_row = if (y - 1) / 2 % 2 == 1 { 0 } else { 2 };
+            let q_row = 2 - p_row;
             for x in (1..gw).step_by(2) {
                 let px = if (x - 1) / 2 % 2 == 1 { x - 1 } else { x + 1 };
                 let qx = 2 * x - px;
-                let vi = y * gw + x;
-                let (ai, bi) = (py * gw + px, qy * gw + qx);
                 // Half 0 has its apex at x - 1, half 1 at x + 1; each holds
                 // the child beside v on its side and the one above or below
                 // v on its apex's row. Children before v (left, or above)
                 // hold v in their half 1, those after in half 0.
-                let (apex0_y, apex1_y) = if px < qx { (qy, py) } else { (py, qy) };
-                let vertical = |apex_y: usize| if apex_y < y { (vi - gw, 1) } else { (vi + gw, 0) };
-                let halves = [[(vi - 1, 1usize), vertical(apex0_y)], [(vi + 1, 0), vertical(apex1_y)]];
-                let apexes = [apex0_y * gw + x - 1, apex1_y * gw + x + 1];
-                let mut bits = flags[vi].cell_only();
+                let apex_rows = if px < qx { [q_row, p_row] } else { [p_row, q_row] };
+                let vertical = |apex_row: usize| {
+                    if apex_row == 0 {
+                        flag_up[x].half(1)
+                    } else {
+                        flag_down[x].half(0)
+                    }
+                };
+                let beside = [flag_row[x - 1].half(1), flag_row[x + 1].half(0)];
+                let mut bits = flag_row[x].cell_only();
                 let mut unflagged = false;
                 let mut partial_zapex = None::<f32>;
-                for (half, kids) in halves.iter().enumerate() {
-                    let [(c0, h0), (c1, h1)] = *kids;
-                    let flagged = flags[c0].half(h0).join(flags[c1].half(h1));
+                for half in 0..2 {
+                    let flagged = beside[half].join(vertical(apex_rows[half]));
                     bits.set_half(half, flagged);
                     unflagged |= flagged.unflagged();
                     if flagged.partial() {
-                        let za = self.z[apexes[half]];
+                        let za = zs[apex_rows[half]][x + 2 * half - 1];
                         partial_zapex = Some(partial_zapex.map_or(za, |z: f32| z.max(za)));
                     }
                 }
-                flags[vi] = bits;
-                let zv = self.z[vi];
-                let (za, zb) = (self.z[ai], self.z[bi]);
-                let pv = self.bp.point(x as u32, y as u32, zv);
-                let mut err = 0f32;
+                flag_row[x] = bits;
+                let zv = zs[1][x];
+                let (za, zb) = (zs[p_row][px], zs[q_row][qx]);
+                let pv = point(cols[x], rows[1], zv);
+                let err = err_row[x - 1].max(err_row[x + 1]).max(err_up[x]).max(err_down[x]);
                 let mut radius = 0f64;
-                for (ci, cx, cy) in [
-                    (vi - 1, x - 1, y),
-                    (vi + 1, x + 1, y),
-                    (vi - gw, x, y - 1),
-                    (vi + gw, x, y + 1),
+                for (col, row, zc) in [
+                    (cols[x - 1], rows[1], zs[1][x - 1]),
+                    (cols[x + 1], rows[1], zs[1][x + 1]),
+                    (cols[x], rows[0], zs[0][x]),
+                    (cols[x], rows[2], zs[2][x]),
                 ] {
-                    err = err.max(self.err2[ci]);
-                    radius = radius.max(norm_bound(pv - self.bp.point(cx as u32, cy as u32, self.z[ci])));
+                    radius = radius.max(norm_bound(pv - point(col, row, zc)));
                 }
                 let mut own = 0f64;
                 if unflagged {
-                    let pa = self.bp.point(px as u32, py as u32, za);
-                    let pb = self.bp.point(qx as u32, qy as u32, zb);
+                    let pa = point(cols[px], rows[p_row], za);
+                    let pb = point(cols[qx], rows[q_row], zb);
                     own = eq12(Bisects::Diagonal, pv, pa, pb).max(detail2(za, zv, zb));
                 }
                 if let Some(zapex) = partial_zapex {
                     // Each partial half's footprint; the larger apex depth
                     // covers both when both are partial.
-                    own = own.max(self.footprint2(2.0 * std::f64::consts::SQRT_2, [za, zb, zv, zapex], zmax));
+                    own = own.max(footprint2(
+                        camera,
+                        2.0 * std::f64::consts::SQRT_2,
+                        [za, zb, zv, zapex],
+                        zmax,
+                    ));
                 }
-                self.err2[vi] = err.max(round_up(own));
-                self.radius[vi] = round_up(radius);
+                err_row[x] = err.max(round_up(own));
+                radius_row[x] = round_up(radius);
             }
         }
     }
