@@ -11,7 +11,9 @@ use super::backproject::BackProject;
 use super::deviation::{half_rows, max_deviation, small_half_deviation, SmallHalf};
 use super::error_metric::{norm_bound, point_line_2d_sq, point_line_3d_sq};
 use super::flags::{Flags, Half};
-use super::grid::{cell_half, half_of, Grid, Pt};
+#[cfg(test)]
+use super::grid::cell_half;
+use super::grid::{half_of, Grid, Pt};
 use crate::camera::Camera;
 use glam::DVec3;
 
@@ -56,6 +58,22 @@ fn footprint2(camera: &Camera, len: f64, corners: [f32; 4], zmax: f32) -> f64 {
     let zref = if zref > 0.0 { zref } else { zmax };
     let extent = len * camera.pixel_size(f64::from(zref));
     extent * extent
+}
+
+/// Rows `y - d` and `y + d` of a row-major `v` of rows `gw` long, to read
+/// (empty where off the grid), beside row `y` to write.
+#[inline(always)]
+fn rows3<T>(v: &mut [T], gw: usize, y: u32, d: u32) -> (&[T], &mut [T], &[T]) {
+    let (y, d) = (y as usize, d as usize);
+    let (head, tail) = v.split_at_mut(y * gw);
+    let (row, rest) = tail.split_at_mut(gw.min(tail.len()));
+    let up = if y >= d {
+        &head[(y - d) * gw..(y - d + 1) * gw]
+    } else {
+        &[]
+    };
+    let down = rest.get((d - 1) * gw..d * gw).unwrap_or(&[]);
+    (up, row, down)
 }
 
 /// What the pass reads and writes.
@@ -230,19 +248,153 @@ impl Levels<'_> {
     }
 
     /// The levels above the finest, given their [`coarse_deviations`] or
-    /// (`None`) computing each unsegmented half's as it comes.
+    /// (`None`) computing each unsegmented half's as it comes: per level the
+    /// edge midpoints along rows, along columns, then the centres, each in
+    /// a straight loop over rows ([`Self::coarse_row`]), in the order of
+    /// [`for_each_coarse`].
     #[inline(never)]
     pub(crate) fn run_coarse(&mut self, flags: &mut [Flags], zmax: f32, deviations: Option<&[[f32; 2]]>) {
         let mut next = deviations.map(|d| d.iter());
-        for_each_coarse(self.grid, |s| {
-            // `coarse_deviations` yields one pair per split vertex, in this
-            // order. Were one missing, it is computed here, never taken as 0
-            // (which would break the epsilon bound without a trace).
-            let dev2 = next.as_mut().and_then(|it| it.next().copied());
-            debug_assert!(deviations.is_none() || dev2.is_some(), "deviations ran short");
-            self.split_vertex(flags, zmax, s, dev2);
-        });
+        let gh = self.grid.gh();
+        for g in 1..self.grid.k {
+            let h = 1u32 << g;
+            let step = 2 * h as usize;
+            for y in (0..gh).step_by(step) {
+                self.coarse_row(flags, zmax, Bisects::Row, h, y, &mut next);
+            }
+            for y in (h..gh).step_by(step) {
+                self.coarse_row(flags, zmax, Bisects::Column, h, y, &mut next);
+            }
+            for y in (h..gh).step_by(step) {
+                self.coarse_row(flags, zmax, Bisects::Diagonal, h, y, &mut next);
+            }
+        }
         debug_assert!(next.is_none_or(|mut it| it.next().is_none()), "deviations left over");
+    }
+
+    /// The split vertices of one kind (`bisects`) on row `y` of the level of
+    /// half-size `h`: [`Self::split_vertex`]'s results, with the rows its
+    /// children lie on sliced once (read) beside the row it writes, and the
+    /// children and their halves found by the kind's fixed geometry.
+    #[inline(always)]
+    fn coarse_row(
+        &mut self,
+        flags: &mut [Flags],
+        zmax: f32,
+        bisects: Bisects,
+        h: u32,
+        y: u32,
+        next: &mut Option<std::slice::Iter<'_, [f32; 2]>>,
+    ) {
+        let (gw, gh) = (self.grid.gw(), self.grid.gh());
+        let (bp, camera, z) = (self.bp, self.camera, self.z);
+        let cols = bp.cols();
+        let q = h / 2;
+        // Children lie `d` rows above and below (and, for centres, on the
+        // row itself).
+        let d = if bisects == Bisects::Diagonal { h } else { q };
+        let (err_up, err_row, err_down) = rows3(self.err2, gw as usize, y, d);
+        let (flag_up, flag_row, flag_down) = rows3(flags, gw as usize, y, d);
+        let (rad_up, rad_row, rad_down) = rows3(self.radius, gw as usize, y, d);
+        let factor = |yy: u32| bp.row(yy as usize);
+        let point = |(ax, bx): (f64, f64), (ay, by): (f64, f64), zz: f32| {
+            let zz = f64::from(zz);
+            DVec3::new(ax + bx * zz, ay + by * zz, zz)
+        };
+        let at = |p: Pt| p.1 as usize * gw as usize + p.0 as usize;
+        let row_factor = factor(y);
+        let xs = match bisects {
+            Bisects::Row | Bisects::Diagonal => (h..gw).step_by(2 * h as usize),
+            Bisects::Column => (0..gw).step_by(2 * h as usize),
+        };
+        for x in xs {
+            let v = (x, y);
+            let (a, b, apex) = match bisects {
+                Bisects::Row => (
+                    (x - h, y),
+                    (x + h, y),
+                    [(y >= h).then(|| (x, y - h)), (y + h < gh).then_some((x, y + h))],
+                ),
+                Bisects::Column => (
+                    (x, y - h),
+                    (x, y + h),
+                    [(x >= h).then(|| (x - h, y)), (x + h < gw).then_some((x + h, y))],
+                ),
+                Bisects::Diagonal => {
+                    let px = if ((x - h) / (2 * h)) % 2 == 1 { x - h } else { x + h };
+                    let py = if ((y - h) / (2 * h)) % 2 == 1 { y - h } else { y + h };
+                    let (qx, qy) = (2 * x - px, 2 * y - py);
+                    let apex = if px < qx {
+                        [(px, qy), (qx, py)]
+                    } else {
+                        [(qx, py), (px, qy)]
+                    };
+                    ((px, py), (qx, qy), apex.map(Some))
+                }
+            };
+            let dev2 = next.as_mut().and_then(|it| it.next().copied());
+            debug_assert!(next.is_none() || dev2.is_some(), "deviations ran short");
+            let (za, zb, zv) = (z[at(a)], z[at(b)], z[at(v)]);
+            let xi = x as usize;
+            let pv = point(cols[xi], row_factor, zv);
+            let mut bits = flag_row[xi].cell_only();
+            let mut own = 0f64;
+            let mut own_dev2 = 0f32;
+            let mut err = 0f32;
+            let mut radius = 0f64;
+            let mut eq12_done = false;
+            let s = Split { v, a, b, apex, bisects };
+            for half in 0..2 {
+                let Some(c) = apex[half] else {
+                    bits.set_half(half, Half::ABSENT);
+                    continue;
+                };
+                // The half's children: the midpoints of a-c and c-b, on the
+                // row above, the row itself or the row below.
+                let mut flagged = None::<Half>;
+                for (e0, e1) in [(a, c), (c, b)] {
+                    let m = ((e0.0 + e1.0) / 2, (e0.1 + e1.1) / 2);
+                    let mx = m.0 as usize;
+                    let (ce, cr, cf) = match m.1.cmp(&y) {
+                        std::cmp::Ordering::Less => (err_up[mx], rad_up[mx], flag_up[mx]),
+                        std::cmp::Ordering::Equal => (err_row[mx], rad_row[mx], flag_row[mx]),
+                        std::cmp::Ordering::Greater => (err_down[mx], rad_down[mx], flag_down[mx]),
+                    };
+                    err = err.max(ce);
+                    let dd = pv - point(cols[mx], factor(m.1), z[at(m)]);
+                    radius = radius.max(norm_bound(dd) + f64::from(cr));
+                    let kid = cf.half(half_of(m, v));
+                    flagged = Some(flagged.map_or(kid, |f| f.join(kid)));
+                }
+                let flagged = flagged.unwrap_or(Half::ABSENT);
+                bits.set_half(half, flagged);
+                if flagged.unflagged() {
+                    own_dev2 = own_dev2.max(match dev2 {
+                        Some(dv) => dv[half],
+                        None => half_deviation2(z, gw as usize, s, h, c),
+                    });
+                    if !eq12_done {
+                        eq12_done = true;
+                        let (pa, pb) = (
+                            point(cols[a.0 as usize], factor(a.1), za),
+                            point(cols[b.0 as usize], factor(b.1), zb),
+                        );
+                        own = own.max(eq12(bisects, pv, pa, pb));
+                    }
+                } else if flagged.partial() {
+                    let len = f64::from(2 * h)
+                        * if bisects == Bisects::Diagonal {
+                            std::f64::consts::SQRT_2
+                        } else {
+                            1.0
+                        };
+                    own = own.max(footprint2(camera, len, [za, zb, zv, z[at(c)]], zmax));
+                }
+            }
+            flag_row[xi] = bits;
+            err_row[xi] = err.max(round_up(own)).max(own_dev2);
+            rad_row[xi] = round_up(radius);
+        }
     }
 
     /// The edge midpoints of level 0, which bisect an edge of length 2: their
@@ -426,7 +578,7 @@ impl Levels<'_> {
     /// Children are finer and already done. This is the general kernel:
     /// [`Self::run_finest`]'s loops give the same results for level 0 (a
     /// test checks), where a half's children are full-resolution triangles.
-    #[inline(always)]
+    #[cfg(test)]
     fn split_vertex(&mut self, flags: &mut [Flags], zmax: f32, s: Split, dev2: Option<[f32; 2]>) {
         let Split { v, a, b, apex, bisects } = s;
         let gw = self.grid.gw() as usize;
@@ -563,8 +715,71 @@ mod tests {
         [edges, centres]
     }
 
+    /// The levels above the finest, from the same finest level, by the row
+    /// loops of [`Levels::run_coarse`] (scanning, and given the helper's
+    /// deviations) and by the general kernel.
+    fn coarse_three_ways(n: u32, z: &[f32], cells: &[u8]) -> [State; 3] {
+        let grid = Grid::for_image(n, n);
+        let f = 0.8 * f64::from(n);
+        let camera = Camera::perspective(n, n, f, f, 0.5 * f64::from(n), 0.5 * f64::from(n)).unwrap();
+        let bp = BackProject::new(&camera, grid.gw(), grid.gh());
+        let zmax = z.iter().copied().fold(0f32, f32::max);
+        let run = |from: &State, pass: &dyn Fn(&mut Levels<'_>, &mut [Flags])| {
+            let mut st = from.clone();
+            let mut levels = Levels {
+                grid,
+                camera: &camera,
+                bp: &bp,
+                z,
+                err2: &mut st.err2,
+                radius: &mut st.radius,
+            };
+            pass(&mut levels, &mut st.flags);
+            st
+        };
+        let start = State {
+            flags: cells.iter().copied().map(Flags::of_cell).collect(),
+            err2: vec![0f32; grid.len()],
+            radius: vec![0f32; grid.len()],
+        };
+        let finest = run(&start, &|l, flags| l.run_finest(flags, zmax));
+        let deviations = coarse_deviations(grid, z);
+        [
+            run(&finest, &|l, flags| l.run_coarse(flags, zmax, None)),
+            run(&finest, &|l, flags| l.run_coarse(flags, zmax, Some(&deviations))),
+            run(&finest, &|l, flags| {
+                for_each_coarse(grid, |s| l.split_vertex(flags, zmax, s, None))
+            }),
+        ]
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(64))]
+
+        /// The row loops of the levels above the finest compute exactly what
+        /// the general kernel does, with or without the helper's deviations.
+        #[test]
+        fn the_coarse_row_loops_match_the_general_kernel(
+            depths in proptest::collection::vec(prop_oneof![1 => Just(0.0f32), 9 => 0.5f32..4.0], 33 * 33),
+            cells in proptest::collection::vec(prop_oneof![6 => Just(0u8), 1 => 0u8..4], 33 * 33),
+        ) {
+            let grid = Grid::for_image(33, 33);
+            prop_assume!(grid.len() == depths.len());
+            let z = |x: usize, y: usize| depths[(y.min(32)) * 33 + x.min(32)];
+            let cells: Vec<u8> = (0..33 * 33)
+                .map(|i| {
+                    let (x, y) = (i % 33, i / 33);
+                    let touches = [z(x, y), z(x + 1, y), z(x, y + 1), z(x + 1, y + 1)].contains(&0.0);
+                    if touches { 3 } else { cells[i] }
+                })
+                .collect();
+            let [rows, given, general] = coarse_three_ways(33, &depths, &cells);
+            prop_assert_eq!(&rows.flags, &general.flags);
+            prop_assert_eq!(&rows.radius, &general.radius);
+            prop_assert_eq!(&rows.err2, &general.err2);
+            prop_assert_eq!(&given.err2, &general.err2);
+            prop_assert_eq!(&given.flags, &general.flags);
+        }
 
         /// The tight loops of the finest level compute what the general
         /// kernel does: the same flags and radii, errors never below it and
