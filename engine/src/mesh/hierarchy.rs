@@ -27,8 +27,9 @@
 //!   (the distance bounded from above without a square root), which keeps the
 //!   view-dependent test of Eq. 4 monotone.
 //!
-//! The pass itself is in `levels.rs`; the finest level (three quarters of
-//! all vertices) gets dedicated loops there. The exact deviations of the
+//! The pass itself is in `levels.rs`, in straight loops per kind of vertex
+//! and row (the finest level, three quarters of all vertices, in loops of
+//! its own). The exact deviations of the
 //! levels above it and the normals and quality read only the depths, so with
 //! [`Threads::Parallel`] a helper thread computes them meanwhile (the
 //! normals first when the segmentation needs them: connectedness).

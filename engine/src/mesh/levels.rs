@@ -6,6 +6,12 @@
 //! the levels above the finest, which need the depths alone, can be computed
 //! beforehand on another thread ([`coarse_deviations`]) while this pass
 //! builds the finest level.
+//!
+//! Every level runs in straight loops per kind of vertex (edge midpoints
+//! along rows, along columns, centres) and row, with the rows a kind's
+//! children lie on sliced once beside the row it writes. A general kernel
+//! per split vertex, `split_vertex`, states the same computation once for
+//! any vertex; the tests check the loops against it.
 
 use super::backproject::BackProject;
 use super::deviation::{half_rows, max_deviation, small_half_deviation, SmallHalf};
