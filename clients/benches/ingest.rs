@@ -16,7 +16,8 @@
 //! Usage: `cargo bench -p dmesh-client --bench ingest [-- SECONDS [FPS [CLIENTS]]]`
 //! (defaults 10 s, 30 frames per second, 8 clients).
 
-use std::sync::Arc;
+mod support;
+
 use std::time::{Duration, Instant};
 
 use dmesh::http::Pipeline;
@@ -86,18 +87,8 @@ fn measure(width: u32, height: u32, seconds: f64, fps: f64, clients: usize) -> a
         percentile(&mut t, 0.5)
     };
 
-    let server_rt = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(2)
-        .enable_all()
-        .build()?;
-    let dir = tempfile::tempdir()?;
-    let state = Arc::new(dmesh::http::AppState::new(
-        Arc::new(dmesh::store::FileStore::open(dir.path())?),
-        dmesh::http::Settings::default(),
-    ));
-    let listener = server_rt.block_on(tokio::net::TcpListener::bind("127.0.0.1:0"))?;
-    let base = format!("http://{}", listener.local_addr()?);
-    server_rt.spawn(dmesh::http::serve_on(listener, state, Pipeline::default()));
+    let app = support::serve(Pipeline::default())?;
+    let base = app.base.clone();
     let client_rt = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(1)
         .enable_all()
@@ -152,7 +143,7 @@ fn measure(width: u32, height: u32, seconds: f64, fps: f64, clients: usize) -> a
             render,
         })
     })?;
-    server_rt.shutdown_timeout(Duration::from_secs(1));
+    app.runtime.shutdown_timeout(Duration::from_secs(1));
     Ok(row)
 }
 

@@ -9,7 +9,8 @@
 //! Usage: `cargo bench -p dmesh-client --bench shedding [-- SECONDS [CLIENTS]]`
 //! (defaults 10 s, 32 clients).
 
-use std::sync::Arc;
+mod support;
+
 use std::time::Duration;
 
 use dmesh::http::Pipeline;
@@ -67,18 +68,8 @@ fn main() -> anyhow::Result<()> {
     ];
     let mut rows: Vec<(String, Report)> = Vec::new();
     for (name, pipeline) in settings {
-        let server_rt = tokio::runtime::Builder::new_multi_thread()
-            .worker_threads(2)
-            .enable_all()
-            .build()?;
-        let dir = tempfile::tempdir()?;
-        let state = Arc::new(dmesh::http::AppState::new(
-            Arc::new(dmesh::store::FileStore::open(dir.path())?),
-            dmesh::http::Settings::default(),
-        ));
-        let listener = server_rt.block_on(tokio::net::TcpListener::bind("127.0.0.1:0"))?;
-        let base = format!("http://{}", listener.local_addr()?);
-        server_rt.spawn(dmesh::http::serve_on(listener, state, pipeline));
+        let app = support::serve(pipeline)?;
+        let base = app.base.clone();
         let client_rt = tokio::runtime::Builder::new_current_thread().enable_all().build()?;
         let report = client_rt.block_on(async {
             let server = Server::new(&base, None);
@@ -111,7 +102,7 @@ fn main() -> anyhow::Result<()> {
             .await
         })?;
         rows.push((name, report));
-        server_rt.shutdown_timeout(Duration::from_secs(1));
+        app.runtime.shutdown_timeout(Duration::from_secs(1));
     }
     eprintln!();
     println!(

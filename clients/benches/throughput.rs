@@ -15,6 +15,8 @@
 //! (defaults 10 s per phase, 2 requests served at once after a wait of at most
 //! `QUEUE_WAIT_US` = 1000 us, 64 then 256 clients).
 
+mod support;
+
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -109,23 +111,12 @@ fn main() -> anyhow::Result<()> {
 
     let (engine_rps, triangles) = engine_rate(&hierarchy, &cams, seconds);
 
-    let server_rt = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(2)
-        .enable_all()
-        .build()?;
-    let dir = tempfile::tempdir()?;
-    let state = Arc::new(dmesh::http::AppState::new(
-        Arc::new(dmesh::store::FileStore::open(dir.path())?),
-        dmesh::http::Settings::default(),
-    ));
-    let listener = server_rt.block_on(tokio::net::TcpListener::bind("127.0.0.1:0"))?;
-    let base = format!("http://{}", listener.local_addr()?);
-    let pipeline = dmesh::http::Pipeline {
+    let app = support::serve(dmesh::http::Pipeline {
         max_concurrency,
         queue_wait: Duration::from_micros(queue_wait_us),
         ..Default::default()
-    };
-    server_rt.spawn(dmesh::http::serve_on(listener, state, pipeline));
+    })?;
+    let base = app.base.clone();
 
     // The load generator on one thread, as `dmesh-client loadtest` runs.
     let client_rt = tokio::runtime::Builder::new_current_thread().enable_all().build()?;
@@ -164,6 +155,7 @@ fn main() -> anyhow::Result<()> {
         }
         anyhow::Ok(out)
     })?;
+    app.runtime.shutdown_timeout(Duration::from_secs(1));
     eprintln!();
     println!(
         "2 cores ({} threads available), 513 x 513 view, tau = 1 px, {} orbit viewpoints, {seconds} s per phase, \

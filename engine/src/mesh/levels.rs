@@ -675,24 +675,8 @@ mod tests {
     /// centres of both start from the loops' edges, so a difference is the
     /// stage's own. Returns the two results of each stage.
     fn stages(n: u32, z: &[f32], cells: &[u8]) -> [[State; 2]; 2] {
-        let grid = Grid::for_image(n, n);
-        let f = 0.8 * f64::from(n);
-        let camera = Camera::perspective(n, n, f, f, 0.5 * f64::from(n), 0.5 * f64::from(n)).unwrap();
-        let bp = BackProject::new(&camera, grid.gw(), grid.gh());
-        let zmax = z.iter().copied().fold(0f32, f32::max);
-        let run = |from: &State, pass: &dyn Fn(&mut Levels<'_>, &mut [Flags])| {
-            let mut st = from.clone();
-            let mut levels = Levels {
-                grid,
-                camera: &camera,
-                bp: &bp,
-                z,
-                err2: &mut st.err2,
-                radius: &mut st.radius,
-            };
-            pass(&mut levels, &mut st.flags);
-            st
-        };
+        let fx = Fixture::new(n, z);
+        let (grid, zmax) = (fx.grid, fx.zmax);
         let general = |diagonal: bool| {
             move |l: &mut Levels<'_>, flags: &mut [Flags]| {
                 for_each_split(grid, 0..1, |s| {
@@ -702,21 +686,17 @@ mod tests {
                 });
             }
         };
-        let start = State {
-            flags: cells.iter().copied().map(Flags::of_cell).collect(),
-            err2: vec![0f32; grid.len()],
-            radius: vec![0f32; grid.len()],
-        };
+        let start = fx.start(cells);
         let edges = [
-            run(&start, &|l, flags| {
+            fx.run(&start, &|l, flags| {
                 l.finest_edges::<true>(flags, zmax);
                 l.finest_edges::<false>(flags, zmax);
             }),
-            run(&start, &general(false)),
+            fx.run(&start, &general(false)),
         ];
         let centres = [
-            run(&edges[0], &|l, flags| l.finest_centres(flags, zmax)),
-            run(&edges[0], &general(true)),
+            fx.run(&edges[0], &|l, flags| l.finest_centres(flags, zmax)),
+            fx.run(&edges[0], &general(true)),
         ];
         [edges, centres]
     }
@@ -725,38 +705,68 @@ mod tests {
     /// loops of [`Levels::run_coarse`] (scanning, and given the helper's
     /// deviations) and by the general kernel.
     fn coarse_three_ways(n: u32, z: &[f32], cells: &[u8]) -> [State; 3] {
-        let grid = Grid::for_image(n, n);
-        let f = 0.8 * f64::from(n);
-        let camera = Camera::perspective(n, n, f, f, 0.5 * f64::from(n), 0.5 * f64::from(n)).unwrap();
-        let bp = BackProject::new(&camera, grid.gw(), grid.gh());
-        let zmax = z.iter().copied().fold(0f32, f32::max);
-        let run = |from: &State, pass: &dyn Fn(&mut Levels<'_>, &mut [Flags])| {
+        let fx = Fixture::new(n, z);
+        let (grid, zmax) = (fx.grid, fx.zmax);
+        let finest = fx.run(&fx.start(cells), &|l, flags| l.run_finest(flags, zmax));
+        let deviations = coarse_deviations(grid, z);
+        [
+            fx.run(&finest, &|l, flags| l.run_coarse(flags, zmax, None)),
+            fx.run(&finest, &|l, flags| l.run_coarse(flags, zmax, Some(&deviations))),
+            fx.run(&finest, &|l, flags| {
+                for_each_coarse(grid, |s| l.split_vertex(flags, zmax, s, None))
+            }),
+        ]
+    }
+
+    /// An `n x n` grid of depths `z` seen by a perspective camera, and
+    /// passes run on copies of a state.
+    struct Fixture<'z> {
+        grid: Grid,
+        camera: Camera,
+        bp: BackProject,
+        z: &'z [f32],
+        zmax: f32,
+    }
+
+    impl<'z> Fixture<'z> {
+        fn new(n: u32, z: &'z [f32]) -> Self {
+            let grid = Grid::for_image(n, n);
+            let f = 0.8 * f64::from(n);
+            let camera = Camera::perspective(n, n, f, f, 0.5 * f64::from(n), 0.5 * f64::from(n)).unwrap();
+            let bp = BackProject::new(&camera, grid.gw(), grid.gh());
+            let zmax = z.iter().copied().fold(0f32, f32::max);
+            Self {
+                grid,
+                camera,
+                bp,
+                z,
+                zmax,
+            }
+        }
+
+        /// The leaf flags `cells`, nothing computed yet.
+        fn start(&self, cells: &[u8]) -> State {
+            State {
+                flags: cells.iter().copied().map(Flags::of_cell).collect(),
+                err2: vec![0f32; self.grid.len()],
+                radius: vec![0f32; self.grid.len()],
+            }
+        }
+
+        /// `pass` run on a copy of `from`.
+        fn run(&self, from: &State, pass: &dyn Fn(&mut Levels<'_>, &mut [Flags])) -> State {
             let mut st = from.clone();
             let mut levels = Levels {
-                grid,
-                camera: &camera,
-                bp: &bp,
-                z,
+                grid: self.grid,
+                camera: &self.camera,
+                bp: &self.bp,
+                z: self.z,
                 err2: &mut st.err2,
                 radius: &mut st.radius,
             };
             pass(&mut levels, &mut st.flags);
             st
-        };
-        let start = State {
-            flags: cells.iter().copied().map(Flags::of_cell).collect(),
-            err2: vec![0f32; grid.len()],
-            radius: vec![0f32; grid.len()],
-        };
-        let finest = run(&start, &|l, flags| l.run_finest(flags, zmax));
-        let deviations = coarse_deviations(grid, z);
-        [
-            run(&finest, &|l, flags| l.run_coarse(flags, zmax, None)),
-            run(&finest, &|l, flags| l.run_coarse(flags, zmax, Some(&deviations))),
-            run(&finest, &|l, flags| {
-                for_each_coarse(grid, |s| l.split_vertex(flags, zmax, s, None))
-            }),
-        ]
+        }
     }
 
     proptest! {
