@@ -32,6 +32,18 @@ enum Bisects {
     Column,
 }
 
+impl Bisects {
+    /// Length in pixels of the edge a split vertex of half-size `h` bisects.
+    fn hypotenuse(self, h: u32) -> f64 {
+        f64::from(2 * h)
+            * if self == Self::Diagonal {
+                std::f64::consts::SQRT_2
+            } else {
+                1.0
+            }
+    }
+}
+
 /// `v` as f32, rounded up (an error or radius may grow, never shrink),
 /// saturated at `f32::MAX`.
 fn round_up(v: f64) -> f32 {
@@ -388,12 +400,7 @@ impl Levels<'_> {
                         own = own.max(eq12(bisects, pv, pa, pb));
                     }
                 } else if flagged.partial() {
-                    let len = f64::from(2 * h)
-                        * if bisects == Bisects::Diagonal {
-                            std::f64::consts::SQRT_2
-                        } else {
-                            1.0
-                        };
+                    let len = bisects.hypotenuse(h);
                     own = own.max(footprint2(camera, len, [za, zb, zv, z[at(c)]], zmax));
                 }
             }
@@ -642,12 +649,7 @@ impl Levels<'_> {
                     own = own.max(eq12(bisects, pv, pa, pb));
                 }
             } else if flagged.partial() {
-                let len = f64::from(2 * h)
-                    * if bisects == Bisects::Diagonal {
-                        std::f64::consts::SQRT_2
-                    } else {
-                        1.0
-                    };
+                let len = bisects.hypotenuse(h);
                 own = own.max(self.footprint2(len, [za, zb, zv, self.z[at(apex)]], zmax));
             }
         }
@@ -718,6 +720,24 @@ mod tests {
         ]
     }
 
+    /// Leaf flags of an `n x n` grid as segmentation sets them: a cell
+    /// touching an invalid sample has both its triangles flagged, the
+    /// others take `random`.
+    fn leaf_cells(n: usize, depths: &[f32], random: &[u8]) -> Vec<u8> {
+        let z = |x: usize, y: usize| depths[y.min(n - 1) * n + x.min(n - 1)];
+        (0..n * n)
+            .map(|i| {
+                let (x, y) = (i % n, i / n);
+                let touches = [z(x, y), z(x + 1, y), z(x, y + 1), z(x + 1, y + 1)].contains(&0.0);
+                if touches {
+                    3
+                } else {
+                    random[i]
+                }
+            })
+            .collect()
+    }
+
     /// An `n x n` grid of depths `z` seen by a perspective camera, and
     /// passes run on copies of a state.
     struct Fixture<'z> {
@@ -779,16 +799,8 @@ mod tests {
             depths in proptest::collection::vec(prop_oneof![1 => Just(0.0f32), 9 => 0.5f32..4.0], 33 * 33),
             cells in proptest::collection::vec(prop_oneof![6 => Just(0u8), 1 => 0u8..4], 33 * 33),
         ) {
-            let grid = Grid::for_image(33, 33);
-            prop_assume!(grid.len() == depths.len());
-            let z = |x: usize, y: usize| depths[(y.min(32)) * 33 + x.min(32)];
-            let cells: Vec<u8> = (0..33 * 33)
-                .map(|i| {
-                    let (x, y) = (i % 33, i / 33);
-                    let touches = [z(x, y), z(x + 1, y), z(x, y + 1), z(x + 1, y + 1)].contains(&0.0);
-                    if touches { 3 } else { cells[i] }
-                })
-                .collect();
+            prop_assume!(Grid::for_image(33, 33).len() == depths.len());
+            let cells = leaf_cells(33, &depths, &cells);
             let [rows, given, general] = coarse_three_ways(33, &depths, &cells);
             prop_assert_eq!(&rows.flags, &general.flags);
             prop_assert_eq!(&rows.radius, &general.radius);
@@ -806,18 +818,8 @@ mod tests {
             depths in proptest::collection::vec(prop_oneof![Just(0.0f32), 0.5f32..4.0], 17 * 17),
             cells in proptest::collection::vec(0u8..4, 17 * 17),
         ) {
-            let grid = Grid::for_image(17, 17);
-            prop_assume!(grid.len() == depths.len());
-            // As segmentation always does: a cell touching an invalid sample
-            // has both its triangles flagged (others at random).
-            let z = |x: usize, y: usize| depths[(y.min(16)) * 17 + x.min(16)];
-            let cells: Vec<u8> = (0..17 * 17)
-                .map(|i| {
-                    let (x, y) = (i % 17, i / 17);
-                    let touches = [z(x, y), z(x + 1, y), z(x, y + 1), z(x + 1, y + 1)].contains(&0.0);
-                    if touches { 3 } else { cells[i] }
-                })
-                .collect();
+            prop_assume!(Grid::for_image(17, 17).len() == depths.len());
+            let cells = leaf_cells(17, &depths, &cells);
             for [fast, general] in stages(17, &depths, &cells) {
                 prop_assert_eq!(&fast.flags, &general.flags);
                 prop_assert_eq!(&fast.radius, &general.radius);
