@@ -27,9 +27,15 @@ impl BackProject {
     /// The camera-frame point of grid vertex `(x, y)` at depth `z`.
     #[inline]
     pub fn point(&self, x: u32, y: u32, z: f32) -> DVec3 {
+        Self::point_from(self.cols[x as usize], self.rows[y as usize], z)
+    }
+
+    /// The camera-frame point at depth `z` of the sample whose column
+    /// factors are `(ax, bx)` ([`Self::col`]) and row factors `(ay, by)`
+    /// ([`Self::row`]): for loops that hold a row's factors already.
+    #[inline]
+    pub fn point_from((ax, bx): (f64, f64), (ay, by): (f64, f64), z: f32) -> DVec3 {
         let z = f64::from(z);
-        let (ax, bx) = self.cols[x as usize];
-        let (ay, by) = self.rows[y as usize];
         DVec3::new(ax + bx * z, ay + by * z, z)
     }
 

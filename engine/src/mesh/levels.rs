@@ -252,11 +252,6 @@ fn small_half(gw: usize, s: Split, apex: Pt) -> SmallHalf {
 }
 
 impl Levels<'_> {
-    /// [`footprint2`] with this pass's camera.
-    fn footprint2(&self, len: f64, corners: [f32; 4], zmax: f32) -> f64 {
-        footprint2(self.camera, len, corners, zmax)
-    }
-
     /// The finest level (three quarters of all vertices), in dedicated passes.
     #[inline(never)]
     pub(crate) fn run_finest(&mut self, flags: &mut [Flags], zmax: f32) {
@@ -315,10 +310,7 @@ impl Levels<'_> {
         let (flag_up, flag_row, flag_down) = rows3(flags, gw as usize, y, d);
         let (rad_up, rad_row, rad_down) = rows3(self.radius, gw as usize, y, d);
         let factor = |yy: u32| bp.row(yy as usize);
-        let point = |(ax, bx): (f64, f64), (ay, by): (f64, f64), zz: f32| {
-            let zz = f64::from(zz);
-            DVec3::new(ax + bx * zz, ay + by * zz, zz)
-        };
+        let point = BackProject::point_from;
         let at = |p: Pt| p.1 as usize * gw as usize + p.0 as usize;
         let row_factor = factor(y);
         let xs = match bisects {
@@ -477,7 +469,12 @@ impl Levels<'_> {
                         [false, true] => self.z[vi + across],
                         [false, false] => 0.0,
                     };
-                    own = own.max(self.footprint2(2.0, [za, zb, zv, zapex], zmax));
+                    own = own.max(footprint2(
+                        self.camera,
+                        bisects.hypotenuse(1),
+                        [za, zb, zv, zapex],
+                        zmax,
+                    ));
                 }
                 self.err2[vi] = round_up(own);
                 self.radius[vi] = 0.0;
@@ -497,11 +494,7 @@ impl Levels<'_> {
         let (gw, gh) = (self.grid.gw() as usize, self.grid.gh() as usize);
         let (bp, camera, z) = (self.bp, self.camera, self.z);
         let cols = bp.cols();
-        // `BackProject::point`, given the column's and the row's factors.
-        let point = |(ax, bx): (f64, f64), (ay, by): (f64, f64), z: f32| {
-            let z = f64::from(z);
-            DVec3::new(ax + bx * z, ay + by * z, z)
-        };
+        let point = BackProject::point_from;
         // Row by row: the rows above and below are read (their edge
         // midpoints are the children), the centres' row is written.
         for y in (1..gh).step_by(2) {
@@ -573,12 +566,8 @@ impl Levels<'_> {
                 if let Some(zapex) = partial_zapex {
                     // Each partial half's footprint; the larger apex depth
                     // covers both when both are partial.
-                    own = own.max(footprint2(
-                        camera,
-                        2.0 * std::f64::consts::SQRT_2,
-                        [za, zb, zv, zapex],
-                        zmax,
-                    ));
+                    let len = Bisects::Diagonal.hypotenuse(1);
+                    own = own.max(footprint2(camera, len, [za, zb, zv, zapex], zmax));
                 }
                 err_row[x] = err.max(round_up(own));
                 radius_row[x] = round_up(radius);
@@ -609,8 +598,6 @@ impl Levels<'_> {
         let mut err = 0f32;
         let mut radius = 0f64;
         let mut eq12_done = false;
-        // Plain index loops: `array::map` and `into_iter` compiled to a call
-        // per child that cost more than the child's arithmetic.
         for half in 0..2 {
             let Some(apex) = apex[half] else {
                 bits.set_half(half, Half::ABSENT);
@@ -650,7 +637,7 @@ impl Levels<'_> {
                 }
             } else if flagged.partial() {
                 let len = bisects.hypotenuse(h);
-                own = own.max(self.footprint2(len, [za, zb, zv, self.z[at(apex)]], zmax));
+                own = own.max(footprint2(self.camera, len, [za, zb, zv, self.z[at(apex)]], zmax));
             }
         }
         flags[vi] = bits;
