@@ -3,6 +3,7 @@
 //! warping", 2003), with no HTTP, no async and no store. The server
 //! (`dmesh`) and the clients (`dmesh-client`, third parties) build on it.
 //!
+//! - [`baselines`]: the thesis's baseline meshers beside the restricted quadtree;
 //! - [`camera`]: intrinsics, pose, projection and back-projection;
 //! - [`image`]: decoding depth (EXR, PNG, PFM) and colour, conversion to `z`;
 //! - [`mesh`]: the hierarchy, its error metric, segmentation and extraction;
@@ -24,6 +25,7 @@
 //! # Ok::<(), dmesh_engine::Error>(())
 //! ```
 
+pub mod baselines;
 pub mod camera;
 mod error;
 pub mod image;
