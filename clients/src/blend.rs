@@ -111,6 +111,65 @@ pub struct Blended {
     pub coverage: Vec<u32>,
 }
 
+/// A triangle mesh of one reference view, in that view's pixels: what
+/// [`blend_surfaces`] draws. [`blend`] makes one from each strip response;
+/// the report's baselines make them from their own meshes, whose vertices
+/// need not lie on the sample grid.
+#[derive(Clone)]
+pub struct Surface<'a> {
+    /// The reference camera.
+    pub camera: Camera,
+    /// Blending weight of the view.
+    pub weight: f64,
+    /// Its colour image.
+    pub texture: &'a Texture,
+    /// Vertices.
+    pub points: Vec<SurfacePoint>,
+    /// Vertex indices.
+    pub triangles: Vec<[u32; 3]>,
+}
+
+/// A vertex of a [`Surface`].
+#[derive(Clone, Copy, Debug)]
+pub struct SurfacePoint {
+    /// Reference pixel column (integers are sample centres).
+    pub u: f64,
+    /// Reference pixel row.
+    pub v: f64,
+    /// Reference depth `z`.
+    pub z: f64,
+    /// Sampling quality in `[0, 1]`.
+    pub rho: f64,
+    /// Unit normal in the reference camera's frame.
+    pub normal: DVec3,
+}
+
+impl<'a> Surface<'a> {
+    /// The surface of a strip response.
+    pub fn from_strips(view: &ViewInput<'a>) -> anyhow::Result<Self> {
+        let s = view.strips;
+        let depths = s.decode_depths()?;
+        Ok(Self {
+            camera: Camera::try_from(&s.camera)?,
+            weight: view.weight,
+            texture: view.texture,
+            points: s
+                .vertices
+                .iter()
+                .zip(depths)
+                .map(|(v, depth)| SurfacePoint {
+                    u: f64::from(v.i),
+                    v: f64::from(v.j),
+                    z: f64::from(depth),
+                    rho: f64::from(v.rho) / 255.0,
+                    normal: oct_decode(v.normal),
+                })
+                .collect(),
+            triangles: decode_strips(&s.indices.to_u32()),
+        })
+    }
+}
+
 struct Vertex {
     /// Screen position in the novel camera.
     s: DVec2,
@@ -126,28 +185,23 @@ struct Vertex {
     normal: DVec3,
 }
 
-fn vertices(novel: &Camera, s: &StripResponse) -> anyhow::Result<(Camera, Vec<Option<Vertex>>)> {
-    let reference = Camera::try_from(&s.camera)?;
-    let depths = s.decode_depths()?;
-    let out = s
-        .vertices
+fn vertices(novel: &Camera, s: &Surface<'_>) -> Vec<Option<Vertex>> {
+    let reference = &s.camera;
+    s.points
         .iter()
-        .zip(depths)
-        .map(|(v, depth)| {
-            let local = reference.back_project(f64::from(v.i), f64::from(v.j), f64::from(depth));
-            let world = reference.to_world(local);
+        .map(|p| {
+            let world = reference.to_world(reference.back_project(p.u, p.v, p.z));
             let (x, y, z) = novel.project(novel.to_camera(world))?;
             (z > 1e-9).then(|| Vertex {
                 s: DVec2::new(x, y),
                 z,
-                uvz: DVec3::new(f64::from(v.i), f64::from(v.j), 1.0) * f64::from(depth),
-                rho: f64::from(v.rho) / 255.0,
+                uvz: DVec3::new(p.u, p.v, 1.0) * p.z,
+                rho: p.rho,
                 world,
-                normal: reference.rotation * oct_decode(v.normal),
+                normal: reference.rotation * p.normal,
             })
         })
-        .collect();
-    Ok((reference, out))
+        .collect()
 }
 
 /// Calls `f(pixel index, perspective-correct barycentrics, depth)` for every
@@ -208,21 +262,24 @@ fn raster(w: u32, h: u32, t: [&Vertex; 3], mut f: impl FnMut(usize, [f64; 3], f6
 
 /// Blends `views` into the `novel` camera's image.
 pub fn blend(novel: &Camera, views: &[ViewInput<'_>], options: &BlendOptions) -> anyhow::Result<Blended> {
+    let surfaces = views
+        .iter()
+        .map(Surface::from_strips)
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    Ok(blend_surfaces(novel, &surfaces, options))
+}
+
+/// Blends `surfaces` into the `novel` camera's image (what [`blend`] does
+/// with strip responses).
+pub fn blend_surfaces(novel: &Camera, surfaces: &[Surface<'_>], options: &BlendOptions) -> Blended {
     let (w, h) = (novel.width, novel.height);
     let n = (w * h) as usize;
-    // Per view: reference camera, vertices in the novel view, triangles.
-    type Prepared = (Camera, Vec<Option<Vertex>>, Vec<[u32; 3]>);
-    let prepared: Vec<Prepared> = views
-        .iter()
-        .map(|v| {
-            let (reference, verts) = vertices(novel, v.strips)?;
-            Ok((reference, verts, decode_strips(&v.strips.indices.to_u32())))
-        })
-        .collect::<anyhow::Result<_>>()?;
+    // Per view: vertices in the novel view.
+    let prepared: Vec<Vec<Option<Vertex>>> = surfaces.iter().map(|s| vertices(novel, s)).collect();
     // Pass 1: nearest depth.
     let mut zbuf = vec![f64::INFINITY; n];
-    for (_, verts, tris) in &prepared {
-        for t in tris {
+    for (verts, surface) in prepared.iter().zip(surfaces) {
+        for t in &surface.triangles {
             let (Some(a), Some(b), Some(c)) = (&verts[t[0] as usize], &verts[t[1] as usize], &verts[t[2] as usize])
             else {
                 continue;
@@ -235,8 +292,9 @@ pub fn blend(novel: &Camera, views: &[ViewInput<'_>], options: &BlendOptions) ->
     let mut weight = vec![0f64; n];
     let mut coverage = vec![0u32; n];
     let eye = novel.translation;
-    for (k, ((reference, verts, tris), view)) in prepared.iter().zip(views).enumerate() {
-        for t in tris {
+    for (k, (verts, view)) in prepared.iter().zip(surfaces).enumerate() {
+        let reference = &view.camera;
+        for t in &view.triangles {
             let (Some(a), Some(b), Some(c)) = (&verts[t[0] as usize], &verts[t[1] as usize], &verts[t[2] as usize])
             else {
                 continue;
@@ -283,13 +341,13 @@ pub fn blend(novel: &Camera, views: &[ViewInput<'_>], options: &BlendOptions) ->
         }
     }
     crate::holes::fill_small_holes(w, h, &mut rgb, &mut depth, options.fill_gaps, FILL_DEPTH_TOLERANCE);
-    Ok(Blended {
+    Blended {
         width: w,
         height: h,
         rgb,
         depth,
         coverage,
-    })
+    }
 }
 
 #[cfg(test)]

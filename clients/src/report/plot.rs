@@ -11,16 +11,21 @@ use plotters::prelude::*;
 
 const FONT: &[u8] = include_bytes!("../../assets/DejaVuSansMono.ttf");
 const SIZE: (u32, u32) = (800, 520);
-const COLOURS: [RGBColor; 6] = [
+const COLOURS: [RGBColor; 7] = [
     RGBColor(31, 119, 180),
     RGBColor(214, 39, 40),
     RGBColor(44, 160, 44),
     RGBColor(148, 103, 189),
     RGBColor(255, 127, 14),
     RGBColor(23, 190, 207),
+    RGBColor(120, 80, 40),
 ];
 
-/// A chart: labelled series of `(x, y)` points, x on a log axis unless `linear_x`.
+/// Series with at most this many points get a marker on each.
+const MARKED: usize = 30;
+
+/// A chart: labelled series of `(x, y)` points, x on a log axis unless
+/// `linear_x`, y on a log axis when `log_y`.
 pub struct Chart<'a> {
     /// Title.
     pub title: &'a str,
@@ -31,8 +36,10 @@ pub struct Chart<'a> {
     /// `(name, points)`; points with a non-finite x or y (or, on a log axis,
     /// a non-positive x) are left out.
     pub series: Vec<(String, Vec<(f64, f64)>)>,
-    /// A linear x axis and lines without point markers (for per-frame series).
+    /// A linear x axis.
     pub linear_x: bool,
+    /// A log y axis (non-positive y left out).
+    pub log_y: bool,
 }
 
 fn register_font() -> anyhow::Result<()> {
@@ -53,7 +60,9 @@ impl Chart<'_> {
                 let kept = pts
                     .iter()
                     .copied()
-                    .filter(|(x, y)| x.is_finite() && (self.linear_x || *x > 0.0) && y.is_finite())
+                    .filter(|(x, y)| {
+                        x.is_finite() && (self.linear_x || *x > 0.0) && y.is_finite() && (!self.log_y || *y > 0.0)
+                    })
                     .collect();
                 (name.as_str(), kept)
             })
@@ -82,31 +91,29 @@ impl Chart<'_> {
             .margin(12)
             .x_label_area_size(44)
             .y_label_area_size(56);
-        if self.linear_x {
-            let mut chart = builder
-                .build_cartesian_2d(x0..x1.max(x0 + 1.0), (y0 - pad)..(y1 + pad))
-                .map_err(e)?;
-            self.mesh_and_series(&mut chart, &series, false).map_err(e)?;
-            Self::legend(&mut chart).map_err(e)?;
-        } else {
-            let mut chart = builder
-                .build_cartesian_2d((x0 / 1.3..x1 * 1.3).log_scale(), (y0 - pad)..(y1 + pad))
-                .map_err(e)?;
-            self.mesh_and_series(&mut chart, &series, true).map_err(e)?;
-            Self::legend(&mut chart).map_err(e)?;
+        let markers = series.iter().all(|(_, p)| p.len() <= MARKED);
+        let (lin_x, log_x) = (x0..x1.max(x0 + 1.0), (x0 / 1.3..x1 * 1.3).log_scale());
+        let (lin_y, log_y) = ((y0 - pad)..(y1 + pad), (y0 / 1.5..y1 * 1.5).log_scale());
+        match (self.linear_x, self.log_y) {
+            (true, false) => self.series_on(builder.build_cartesian_2d(lin_x, lin_y).map_err(e)?, &series, markers),
+            (true, true) => self.series_on(builder.build_cartesian_2d(lin_x, log_y).map_err(e)?, &series, markers),
+            (false, false) => self.series_on(builder.build_cartesian_2d(log_x, lin_y).map_err(e)?, &series, markers),
+            (false, true) => self.series_on(builder.build_cartesian_2d(log_x, log_y).map_err(e)?, &series, markers),
         }
+        .map_err(e)?;
         root.present().map_err(e)?;
         Ok(())
     }
 
-    fn mesh_and_series<'b, DB: DrawingBackend + 'b, X>(
+    fn series_on<'b, DB: DrawingBackend + 'b, X, Y>(
         &self,
-        chart: &mut ChartContext<'b, DB, Cartesian2d<X, plotters::coord::types::RangedCoordf64>>,
+        mut chart: ChartContext<'b, DB, Cartesian2d<X, Y>>,
         series: &[(&str, Vec<(f64, f64)>)],
         markers: bool,
     ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>>
     where
         X: Ranged<ValueType = f64> + plotters::coord::ranged1d::ValueFormatter<f64>,
+        Y: Ranged<ValueType = f64> + plotters::coord::ranged1d::ValueFormatter<f64>,
     {
         chart
             .configure_mesh()
@@ -125,12 +132,6 @@ impl Chart<'_> {
                 chart.draw_series(pts.iter().map(|&p| Circle::new(p, 3, colour.filled())))?;
             }
         }
-        Ok(())
-    }
-
-    fn legend<'b, DB: DrawingBackend + 'b, X: Ranged<ValueType = f64>>(
-        chart: &mut ChartContext<'b, DB, Cartesian2d<X, plotters::coord::types::RangedCoordf64>>,
-    ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
         chart
             .configure_series_labels()
             .position(SeriesLabelPosition::LowerRight)

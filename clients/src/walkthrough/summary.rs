@@ -231,6 +231,7 @@ pub fn write(dir: &Path, name: &str, title: &str, walks: &[(String, Vec<Frame>)]
             y_label,
             series,
             linear_x: true,
+            log_y: false,
         }
         .write(&dir.join(format!("{name}-{suffix}")))
     };
