@@ -113,13 +113,26 @@ enum Command {
     },
     /// Sweep tau, epsilon, residual bits and triangle budgets over scenes with
     /// ground truth (simulated, and Middlebury with --data): tables and curves.
+    /// With --baselines, compare the thesis's meshers with the RQT instead.
     Report {
-        /// Output folder for report.md, report.json and the SVG/PNG curves.
-        #[arg(long, default_value = "docs/report")]
-        out: PathBuf,
-        /// Folder of the Middlebury scenes (cones, teddy); left out when not given.
+        /// Output folder [default: docs/report, docs/baselines with --baselines].
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Folder of the Middlebury scenes (cones, teddy; with --baselines art,
+        /// aloe, reindeer, cones); left out of the sweeps when not given.
         #[arg(long)]
         data: Option<PathBuf>,
+        /// Naik's comparison: every baseline mesher and the RQT at reduction
+        /// rates on Middlebury scenes (needs --data): baselines.md,
+        /// baselines.json, PSNR and time against rate per scene.
+        #[arg(long)]
+        baselines: bool,
+        /// Scenes of --baselines, comma-separated.
+        #[arg(long, value_delimiter = ',', default_value = "art,aloe,reindeer,cones")]
+        scenes: Vec<String>,
+        /// Reduction rates of --baselines, comma-separated.
+        #[arg(long, value_delimiter = ',', default_value = "5,10,20,30,45,70")]
+        rates: Vec<f64>,
         /// Timings are the median of this many runs.
         #[arg(long, default_value_t = 3)]
         repeats: usize,
@@ -471,9 +484,31 @@ fn run(cli: Cli) -> Result<()> {
         Command::Report {
             out,
             data,
+            baselines,
+            scenes,
+            rates,
             repeats,
             quick,
         } => {
+            if baselines {
+                let data = data.ok_or_else(|| {
+                    anyhow::anyhow!(
+                        "--baselines needs --data, the folder of the Middlebury scenes (art, aloe, reindeer, cones)"
+                    )
+                })?;
+                anyhow::ensure!(
+                    rates.iter().all(|r| r.is_finite() && *r >= 1.0),
+                    "--rates must be numbers of at least 1 (full-resolution triangles over triangles kept)"
+                );
+                let out = out.unwrap_or_else(|| PathBuf::from("docs/baselines"));
+                let options = dmesh_client::report::baselines::Options { scenes, rates, repeats };
+                let rows = dmesh_client::report::baselines::run(&data, &options)?;
+                dmesh_client::report::baselines::write(&rows, &out)?;
+                print!("{}", dmesh_client::report::baselines::markdown(&rows));
+                eprintln!("wrote {}", out.display());
+                return Ok(());
+            }
+            let out = out.unwrap_or_else(|| PathBuf::from("docs/report"));
             let options = dmesh_client::report::Options { quick, data, repeats };
             let mut rows = Vec::new();
             for case in dmesh_client::report::cases(&options)? {

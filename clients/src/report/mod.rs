@@ -9,6 +9,7 @@
 //! (Naik's protocol), triangles, bytes and milliseconds. Tables go to
 //! `report.md` and `report.json`, curves to SVG and PNG.
 
+pub mod baselines;
 pub mod cases;
 pub mod plot;
 
@@ -331,6 +332,7 @@ pub fn write(rows: &[Row], out: &std::path::Path) -> anyhow::Result<()> {
         x_label: "extraction ms over the selected views (log)",
         y_label: "PSNR dB (valid mask)",
         linear_x: false,
+        log_y: false,
         series: scenes
             .iter()
             .map(|s| (s.to_string(), curve(s, Sweep::Tau, |r| r.extract_ms)))
@@ -342,6 +344,7 @@ pub fn write(rows: &[Row], out: &std::path::Path) -> anyhow::Result<()> {
         x_label: "bincode bytes over the selected views (log)",
         y_label: "PSNR dB (valid mask)",
         linear_x: false,
+        log_y: false,
         series: scenes
             .iter()
             .flat_map(|s| {

@@ -105,6 +105,13 @@ pub trait Mesher: Sync {
     fn knob(&self, depth: &DepthImage) -> Knob;
     /// Meshes `depth`, seen by `camera`, at knob setting `knob`.
     fn mesh(&self, depth: &DepthImage, camera: &Camera, knob: f64) -> Result<TriMesh>;
+    /// For a mesher whose work splits into a part done once per depth image
+    /// and a part per level of detail (the RQT: hierarchy, then
+    /// extraction), the wall-clock milliseconds of the second part at
+    /// `knob`; `None` for the others, which redo everything per level.
+    fn per_level_ms(&self, _depth: &DepthImage, _camera: &Camera, _knob: f64) -> Result<Option<f64>> {
+        Ok(None)
+    }
 }
 
 /// Every mesher of the comparison, the restricted quadtree first.
@@ -128,6 +135,8 @@ pub struct Driven {
     pub mesh: TriMesh,
     /// The knob setting.
     pub knob: f64,
+    /// Wall-clock milliseconds of the meshing that gave it (the search not included).
+    pub ms: f64,
 }
 
 /// Relative distance from the target at which [`drive`] stops searching.
@@ -142,14 +151,14 @@ const SEARCH_STEPS: usize = 40;
 pub fn drive(mesher: &dyn Mesher, depth: &DepthImage, camera: &Camera, triangles: usize) -> Result<Driven> {
     let target = triangles.max(1) as f64;
     let miss = |m: &TriMesh| (m.triangles.len() as f64 / target - 1.0).abs();
+    let timed = |knob: f64| -> Result<Driven> {
+        let start = std::time::Instant::now();
+        let mesh = mesher.mesh(depth, camera, knob)?;
+        let ms = start.elapsed().as_secs_f64() * 1e3;
+        Ok(Driven { mesh, knob, ms })
+    };
     match mesher.knob(depth) {
-        Knob::Triangles => {
-            let knob = target;
-            Ok(Driven {
-                mesh: mesher.mesh(depth, camera, knob)?,
-                knob,
-            })
-        }
+        Knob::Triangles => timed(target),
         Knob::Coarser { lo, hi } => {
             if !(lo > 0.0 && hi >= lo && hi.is_finite()) {
                 return Err(Error::invalid(format!(
@@ -161,17 +170,17 @@ pub fn drive(mesher: &dyn Mesher, depth: &DepthImage, camera: &Camera, triangles
             let mut best: Option<Driven> = None;
             for _ in 0..SEARCH_STEPS {
                 let knob = (0.5 * (a + b)).exp();
-                let mesh = mesher.mesh(depth, camera, knob)?;
-                let n = mesh.triangles.len() as f64;
-                let better = best.as_ref().is_none_or(|d| miss(&mesh) < miss(&d.mesh));
-                let done = miss(&mesh) <= GOOD_ENOUGH;
+                let run = timed(knob)?;
+                let n = run.mesh.triangles.len() as f64;
+                let better = best.as_ref().is_none_or(|d| miss(&run.mesh) < miss(&d.mesh));
+                let done = miss(&run.mesh) <= GOOD_ENOUGH;
                 if n > target {
                     a = knob.ln();
                 } else {
                     b = knob.ln();
                 }
                 if better {
-                    best = Some(Driven { mesh, knob });
+                    best = Some(run);
                 }
                 if done || b - a < 1e-9 {
                     break;
@@ -208,16 +217,18 @@ pub(crate) fn quad(out: &mut Vec<[u32; 3]>, idx: [u32; 4], z: [f32; 4]) {
 }
 
 /// Where the full-resolution depth is not one surface: a grid cell is
-/// broken when a corner is invalid or one of its sides or its diagonal
-/// crosses a discontinuity. A summed-area table answers whether a block of
-/// cells holds a broken one, so the baselines that triangulate blocks
-/// larger than a cell (decimation, the quadtrees) drop or split exactly the
-/// blocks a discontinuity crosses (Naik Sec. 5.2.1 and 5.2.4: "faces with
-/// discontinuous edges" are left out).
+/// *broken* when a corner is invalid or one of its sides or its diagonal
+/// crosses a discontinuity. Summed-area tables answer whether a block of
+/// cells holds a broken cell, or an invalid sample, so the baselines that
+/// triangulate blocks larger than a cell (decimation, the plane-fit
+/// quadtree) drop the blocks a discontinuity crosses (Naik Sec. 5.2.1 and
+/// 5.2.4: "faces with discontinuous edges" are left out).
 pub struct Cuts {
     cols: usize,
     /// `(cols + 1) * (rows + 1)` prefix sums of broken cells.
-    sums: Vec<u32>,
+    broken: Vec<u32>,
+    /// The same of cells with an invalid corner.
+    invalid: Vec<u32>,
 }
 
 impl Cuts {
@@ -225,9 +236,10 @@ impl Cuts {
     pub fn new(depth: &DepthImage) -> Self {
         let (w, h) = (depth.width as usize, depth.height as usize);
         let (cols, rows) = (w - 1, h - 1);
-        let mut sums = vec![0u32; (cols + 1) * (rows + 1)];
+        let mut broken = vec![0u32; (cols + 1) * (rows + 1)];
+        let mut invalid = broken.clone();
         for y in 0..rows {
-            let mut run = 0;
+            let (mut run_broken, mut run_invalid) = (0, 0);
             for x in 0..cols {
                 let z = [
                     depth.z[y * w + x],
@@ -235,21 +247,33 @@ impl Cuts {
                     depth.z[(y + 1) * w + x],
                     depth.z[(y + 1) * w + x + 1],
                 ];
-                let broken = z.iter().any(|&z| z <= 0.0)
-                    || [(0, 1), (0, 2), (1, 3), (2, 3), (0, 3)]
-                        .iter()
-                        .any(|&(a, b)| discontinuous(z[a], z[b]));
-                run += u32::from(broken);
-                sums[(y + 1) * (cols + 1) + x + 1] = sums[y * (cols + 1) + x + 1] + run;
+                let hole = z.iter().any(|&z| z <= 0.0);
+                let jump = [(0, 1), (0, 2), (1, 3), (2, 3), (0, 3)]
+                    .iter()
+                    .any(|&(a, b)| discontinuous(z[a], z[b]));
+                run_broken += u32::from(hole || jump);
+                run_invalid += u32::from(hole);
+                let (at, above) = ((y + 1) * (cols + 1) + x + 1, y * (cols + 1) + x + 1);
+                broken[at] = broken[above] + run_broken;
+                invalid[at] = invalid[above] + run_invalid;
             }
         }
-        Self { cols, sums }
+        Self { cols, broken, invalid }
+    }
+
+    fn count(&self, sums: &[u32], x0: u32, y0: u32, x1: u32, y1: u32) -> bool {
+        let s = |x: u32, y: u32| sums[y as usize * (self.cols + 1) + x as usize];
+        s(x1, y1) + s(x0, y0) == s(x0, y1) + s(x1, y0)
     }
 
     /// True when no cell between sample columns `x0..x1` and rows `y0..y1` is broken.
     pub fn clean(&self, x0: u32, y0: u32, x1: u32, y1: u32) -> bool {
-        let s = |x: u32, y: u32| self.sums[y as usize * (self.cols + 1) + x as usize];
-        s(x1, y1) + s(x0, y0) == s(x0, y1) + s(x1, y0)
+        self.count(&self.broken, x0, y0, x1, y1)
+    }
+
+    /// True when every sample of columns `x0..=x1` and rows `y0..=y1` is valid.
+    pub fn valid(&self, x0: u32, y0: u32, x1: u32, y1: u32) -> bool {
+        self.count(&self.invalid, x0, y0, x1, y1)
     }
 }
 
@@ -297,9 +321,10 @@ pub fn full_mesh(depth: &DepthImage) -> TriMesh {
 
 /// The leaves of a quadtree over the cells of `depth` (Naik Alg. 1): from
 /// one square block of a power-of-two size (clipped to the image), a block
-/// larger than a cell is kept when it is clean ([`Cuts`]) and `accept(x0,
-/// y0, x1, y1)` says so, and is split in four otherwise. Calls `leaf` with
-/// the sample bounds of every kept block and every single cell reached.
+/// larger than a cell is kept when all its samples are valid ([`Cuts`]) and
+/// `accept(x0, y0, x1, y1)` says so, and is split in four otherwise. Calls
+/// `leaf` with the sample bounds of every kept block and every single cell
+/// reached.
 pub(crate) fn quadtree(
     depth: &DepthImage,
     cuts: &Cuts,
@@ -313,7 +338,7 @@ pub(crate) fn quadtree(
             continue;
         }
         let (x1, y1) = ((x0 + size).min(cols), (y0 + size).min(rows));
-        if size == 1 || (cuts.clean(x0, y0, x1, y1) && accept(x0, y0, x1, y1)) {
+        if size == 1 || (cuts.valid(x0, y0, x1, y1) && accept(x0, y0, x1, y1)) {
             leaf(x0, y0, x1, y1);
             continue;
         }

@@ -3,11 +3,13 @@
 //! works on disparity maps, which are inverse depths) is at most the
 //! threshold, and is split in four otherwise; each kept block becomes two
 //! triangles at one constant depth, the middle of its inverse-depth range
-//! (which halves the largest error). Blocks holding an invalid sample or a
-//! discontinuity are split ([`super::Cuts`]); single cells keep their own
-//! four depths, cut as the full mesh is. Neighbouring blocks at different
-//! depths leave cracks between them, which the thesis reports as the
-//! method's holes.
+//! (which halves the largest error). Blocks holding an invalid sample are
+//! split; single cells keep their own four depths, cut as the full mesh is.
+//! A block's faces are flat, so no edge of theirs shows a discontinuity:
+//! blocks whose spread is within the threshold are kept across
+//! discontinuities, which the thesis reports as the method's "discontinuous
+//! edges still connected". Neighbouring blocks at different depths leave
+//! cracks between them, the method's holes.
 
 use super::{inverse_depth_range, quad, quadtree, Cuts, Knob, Mesher, TriMesh};
 use crate::camera::Camera;

@@ -6,8 +6,9 @@
 //! inside is farther than the threshold from its triangle's plane, and is
 //! split in four otherwise (the thesis splits in two, rows then columns; a
 //! quadtree split gives the same leaves one level later). Blocks holding an
-//! invalid sample or a discontinuity are split ([`super::Cuts`]); single
-//! cells are cut as the full mesh is. Corners are shared samples, so the
+//! invalid sample are split; a kept block that a discontinuity crosses
+//! ([`super::Cuts`]) loses its two faces, the thesis's "faces with
+//! discontinuous edges", and single cells are cut as the full mesh is. Corners are shared samples, so the
 //! planes meet at block corners; where a large block borders smaller ones
 //! the smaller ones' extra corners leave T-junction cracks, as in the thesis.
 
@@ -100,10 +101,13 @@ impl Mesher for QuadtreePlane {
                 let [a, b, c, d] = idx;
                 if x1 - x0 == 1 && y1 - y0 == 1 {
                     quad(&mut out.triangles, idx, z);
-                } else if main.get() {
-                    out.triangles.extend([[a, b, d], [a, d, c]]);
-                } else {
-                    out.triangles.extend([[a, b, c], [b, d, c]]);
+                } else if cuts.clean(x0, y0, x1, y1) {
+                    // (A block a discontinuity crosses gets no rubber sheet.)
+                    if main.get() {
+                        out.triangles.extend([[a, b, d], [a, d, c]]);
+                    } else {
+                        out.triangles.extend([[a, b, c], [b, d, c]]);
+                    }
                 }
             },
         );
