@@ -374,6 +374,50 @@ proptest! {
 }
 
 proptest! {
+    #![proptest_config(ProptestConfig { cases: 96, ..ProptestConfig::default() })]
+
+    /// Refining at discontinuities (`extract_refining_edges`) keeps every
+    /// guarantee of the extraction (finite, conforming, strips, the epsilon
+    /// bound) and drops nothing but the segmented cells: the mesh covers
+    /// exactly the unsegmented halves of the image's cells, at any tolerance.
+    #[test]
+    fn refining_edges_covers_every_unsegmented_cell_and_stays_conforming(
+        (w, h, z) in arb_depth(24),
+        eps in prop_oneof![Just(0.0), 0.0f64..0.5, 1.0f64..100.0],
+    ) {
+        let depth = DepthImage::from_z(w, h, z).unwrap();
+        let cam = camera(w, h);
+        let hier = DepthMesh::build(&depth, &cam, &Segmentation::default()).unwrap();
+        let mesh = hier.extract_refining_edges(Lod::Epsilon(eps), 1).unwrap();
+        assert_finite(&mesh, w, h);
+        assert_conforming(&mesh);
+        assert_strips_match(&mesh);
+        assert_epsilon_bound(&mesh, &depth, eps);
+        let area2: i64 = mesh
+            .triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|v| ij(&mesh, v));
+                ((b.0 - a.0) * (c.1 - a.1) - (b.1 - a.1) * (c.0 - a.0)).abs()
+            })
+            .sum();
+        let unsegmented = (0..w - 1)
+            .flat_map(|x| (0..h - 1).map(move |y| (x, y)))
+            .map(|c| (0..2).filter(|&half| !hier.cell_segmented(c, half)).count() as i64)
+            .sum::<i64>();
+        prop_assert_eq!(area2, unsegmented);
+        // Never fewer triangles than the extraction that drops coarse ones,
+        // and a partial refinement in between, conforming too.
+        let plain = hier.extract(Lod::Epsilon(eps)).unwrap();
+        let partial = hier.extract_refining_edges(Lod::Epsilon(eps), 2).unwrap();
+        assert_conforming(&partial);
+        assert_epsilon_bound(&partial, &depth, eps);
+        prop_assert!(mesh.triangles.len() >= partial.triangles.len());
+        prop_assert!(partial.triangles.len() >= plain.triangles.len());
+    }
+}
+
+proptest! {
     #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
 
     /// Padding is outside the image, not invalid data in it: with

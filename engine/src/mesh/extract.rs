@@ -24,7 +24,7 @@ use std::time::Instant;
 use glam::DVec3;
 
 use super::error_metric::norm_bound;
-use super::grid::{cell_half, half_of, Pt};
+use super::grid::{cell_half, half_of, Kind, Pt};
 use super::hierarchy::DepthMesh;
 use super::lod::Lod;
 use super::reach::{merge_spheres, Reach, MAX_CULLED};
@@ -95,6 +95,9 @@ impl Mesh {
 struct Walk<'a, S> {
     mesh: &'a DepthMesh,
     sel: &'a S,
+    /// Vertices split whatever `sel` says (one bit per grid vertex; empty
+    /// for none): [`DepthMesh::extract_refining_edges`].
+    forced: &'a [u64],
     tris: Vec<[u32; 3]>,
     dropped: usize,
     /// Smallest [`Select::left_out`] over the left-out vertices with an error.
@@ -178,7 +181,7 @@ impl<S: Select> Walk<'_, S> {
             }
         };
         let err2 = self.mesh.err2[mi];
-        if self.sel.active(err2, pm, radius) {
+        if self.sel.active(err2, pm, radius) || bit(self.forced, mi) {
             self.tri((l, pl), (a, pa), (m, pm), mask);
             self.tri((a, pa), (r, pr), (m, pm), mask);
             return;
@@ -240,6 +243,12 @@ struct Scratch {
     slot: Vec<u32>,
 }
 
+/// True when bit `i` of `bits` is set (false past its end).
+#[inline]
+fn bit(bits: &[u64], i: usize) -> bool {
+    bits.get(i / 64).is_some_and(|w| w >> (i % 64) & 1 == 1)
+}
+
 /// Triangles whose hypotenuse spans fewer grid steps than this are not
 /// tested against the frustum (their parent straddled it).
 const CULL_MIN_SPAN: u32 = 8;
@@ -252,6 +261,28 @@ impl DepthMesh {
 
     /// Extracts the mesh at level of detail `lod` with strips built in `strips` order.
     pub fn extract_with(&self, lod: Lod<'_>, strips: StripOrder) -> Result<Mesh> {
+        self.extract_inner(lod, strips, None)
+    }
+
+    /// [`Self::extract`], refining instead of dropping whole a coarse
+    /// triangle that a discontinuity crosses: every split vertex whose
+    /// diamond holds a segmented cell in a half that is not wholly segmented
+    /// is selected while it lies at least `finest` samples from its
+    /// hypotenuse's ends, with the vertices it depends on (so the mesh stays
+    /// conforming). With `finest = 1` the only triangles left out are the
+    /// segmented cells themselves and the wholly segmented triangles, so the
+    /// foreground keeps its outline at any tolerance; larger values stop
+    /// the refinement at triangles `2 * finest` samples across, which are
+    /// dropped whole as [`Self::extract`] drops them. It costs the
+    /// triangles along the edges and one pass over the grid's flags. A
+    /// triangle budget (`Lod::Triangles`) is resolved as for
+    /// [`Self::extract`] and its bound does not count these triangles, so
+    /// the mesh may exceed it: the service does not use this extraction.
+    pub fn extract_refining_edges(&self, lod: Lod<'_>, finest: u32) -> Result<Mesh> {
+        self.extract_inner(lod, StripOrder::Traversal, Some(finest.max(1)))
+    }
+
+    fn extract_inner(&self, lod: Lod<'_>, strips: StripOrder, refine: Option<u32>) -> Result<Mesh> {
         let _span = tracing::debug_span!("extract", lod = %lod.kind(), strips = ?strips).entered();
         let start = Instant::now();
         let tris = match lod {
@@ -266,7 +297,7 @@ impl DepthMesh {
                     eps2: if eps2.is_finite() { eps2 } else { f32::MAX },
                     all: eps == 0.0,
                 };
-                self.run(&sel, strips).0
+                self.run(&sel, strips, refine).0
             }
             Lod::Tau { tau, view } => {
                 if !(tau.is_finite() && tau >= 0.0) {
@@ -275,12 +306,14 @@ impl DepthMesh {
                     )));
                 }
                 let sel = ViewDependent::new(&self.camera, view, tau);
-                let (mut mesh, walked) = self.run(&sel, strips);
+                let (mut mesh, walked) = self.run(&sel, strips, refine);
                 mesh.reach = Some(self.reach(view, walked, &sel));
                 mesh
             }
             // Resolved to `Epsilon` or `Tau`, never to `Triangles` again.
-            Lod::Triangles { max, view } => return self.extract_with(self.lod_for_triangles(max, view)?, strips),
+            Lod::Triangles { max, view } => {
+                return self.extract_inner(self.lod_for_triangles(max, view)?, strips, refine)
+            }
         };
         let mut mesh = tris;
         mesh.extract_ms = start.elapsed().as_secs_f64() * 1e3;
@@ -294,7 +327,7 @@ impl DepthMesh {
     /// Walks and assembles with this thread's scratch buffers: the triangle
     /// list of the walk and the grid-sized vertex map are kept between
     /// extractions, so a request allocates only what it returns.
-    fn run<S: Select>(&self, sel: &S, strips: StripOrder) -> (Mesh, Walked) {
+    fn run<S: Select>(&self, sel: &S, strips: StripOrder, refine: Option<u32>) -> (Mesh, Walked) {
         thread_local! {
             static SCRATCH: std::cell::RefCell<Scratch> = const {
                 std::cell::RefCell::new(Scratch { tris: Vec::new(), slot: Vec::new() })
@@ -304,7 +337,10 @@ impl DepthMesh {
             let mut scratch = cell.borrow_mut();
             let Scratch { tris, slot } = &mut *scratch;
             tris.clear();
-            let walked = self.walk(sel, tris);
+            let walked = match refine {
+                Some(finest) => self.walk_refining_edges(sel, tris, finest),
+                None => self.walk(sel, tris, &[]),
+            };
             let mut mesh = self.assemble(tris, strips, slot);
             mesh.dropped_triangles = walked.dropped;
             (mesh, walked)
@@ -350,10 +386,57 @@ impl DepthMesh {
         }
     }
 
-    fn walk<S: Select>(&self, sel: &S, tris: &mut Vec<[u32; 3]>) -> Walked {
+    /// Walks with every split vertex at least `finest` samples from its
+    /// hypotenuse's ends forced whose diamond holds a segmented cell in a
+    /// half that is not wholly segmented (so no triangle that size or larger
+    /// is dropped for a segmented part), and with the vertices those depend
+    /// on (the apexes of their diamonds, up to roots or vertices `sel`
+    /// selects), so selection stays monotone and the mesh conforming.
+    fn walk_refining_edges<S: Select>(&self, sel: &S, tris: &mut Vec<[u32; 3]>, finest: u32) -> Walked {
+        let g = self.grid;
+        let gw = g.gw() as usize;
+        let mut forced = vec![0u64; g.len().div_ceil(64)];
+        let mut stack: Vec<usize> = (0..g.len())
+            .filter(|&i| {
+                let f = self.flags[i];
+                let h = match g.kind(((i % gw) as u32, (i / gw) as u32)) {
+                    Kind::Root => 0,
+                    Kind::Centre { h } | Kind::Edge { h, .. } => h,
+                };
+                h >= finest && (0..2).any(|k| f.half(k).any && !f.half(k).all)
+            })
+            .collect();
+        while let Some(v) = stack.pop() {
+            let pt = ((v % gw) as u32, (v / gw) as u32);
+            let Some(d) = g.diamond(pt) else {
+                continue;
+            };
+            if bit(&forced, v) {
+                continue;
+            }
+            forced[v / 64] |= 1 << (v % 64);
+            for (x, y) in d.apex {
+                if !g.contains(x, y) {
+                    continue;
+                }
+                let p = (x as u32, y as u32);
+                let pi = g.index(p);
+                if g.diamond(p).is_some()
+                    && !bit(&forced, pi)
+                    && !sel.active(self.err2[pi], self.position(p), self.radius[pi])
+                {
+                    stack.push(pi);
+                }
+            }
+        }
+        self.walk(sel, tris, &forced)
+    }
+
+    fn walk<S: Select>(&self, sel: &S, tris: &mut Vec<[u32; 3]>, forced: &[u64]) -> Walked {
         let mut walk = Walk {
             mesh: self,
             sel,
+            forced,
             tris: std::mem::take(tris),
             dropped: 0,
             clearance: f64::INFINITY,
