@@ -133,6 +133,10 @@ enum Command {
         /// Reduction rates of --baselines, comma-separated.
         #[arg(long, value_delimiter = ',', default_value = "5,10,20,30,45,70")]
         rates: Vec<f64>,
+        /// With --baselines: redraw the tables and plots from the output
+        /// folder's baselines.json without meshing again.
+        #[arg(long)]
+        replot: bool,
         /// Timings are the median of this many runs.
         #[arg(long, default_value_t = 3)]
         repeats: usize,
@@ -487,9 +491,22 @@ fn run(cli: Cli) -> Result<()> {
             baselines,
             scenes,
             rates,
+            replot,
             repeats,
             quick,
         } => {
+            if replot {
+                anyhow::ensure!(
+                    baselines,
+                    "--replot redraws a --baselines comparison: give --baselines too"
+                );
+                let out = out.unwrap_or_else(|| PathBuf::from("docs/baselines"));
+                let rows = dmesh_client::report::baselines::read(&out)?;
+                dmesh_client::report::baselines::write(&rows, &out)?;
+                print!("{}", dmesh_client::report::baselines::markdown(&rows));
+                eprintln!("redrew {}", out.display());
+                return Ok(());
+            }
             if baselines {
                 let data = data.ok_or_else(|| {
                     anyhow::anyhow!(

@@ -11,19 +11,24 @@
 //! The valid mask is where the warped full-resolution mesh and the right
 //! view's ground truth both have depth, less the pixels a mesher leaves
 //! uncovered (disocclusions and holes are excluded, as the thesis does);
-//! `coverage` says how much of the mask a mesher covers, so that a mesher
-//! cannot gain PSNR by dropping hard pixels unseen. Times are one meshing
+//! `coverage` says how much of the mask a mesher covers. A mesher that
+//! drops the hard pixels at depth edges would gain PSNR on its own mask, so
+//! the scores that compare meshers (`psnr_common`, `disparity_mse_common`)
+//! are taken on the *common* mask of a rate: the pixels every mesher covers
+//! at that rate. Times are one meshing
 //! at the knob setting that meets the rate (the median of up to `repeats`
 //! runs, fewer once a mesher has taken [`TIME_BUDGET_MS`]), from depth
 //! image to triangles, on one thread; the search for the setting is not
 //! timed.
 
 use std::path::Path;
+
+use anyhow::Context;
 use std::time::Instant;
 
 use dmesh_engine::baselines::{self, full_mesh, Mesher, TriMesh};
 use glam::DVec3;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::cases::{self, Case};
 use super::plot;
@@ -36,11 +41,14 @@ pub const RATES: [f64; 6] = [5.0, 10.0, 20.0, 30.0, 45.0, 70.0];
 pub const SCENES: [&str; 4] = ["art", "aloe", "reindeer", "cones"];
 /// The row name of the full-resolution mesh, every scene's reference.
 pub const FULL: &str = "full";
+/// Relative miss of the reduction rate within which a row counts as
+/// meeting it (the plots leave the others out).
+pub const MET: f64 = 0.1;
 /// No more repeats of a meshing once its runs have taken this long.
 pub const TIME_BUDGET_MS: f64 = 3000.0;
 
 /// One mesher at one rate on one scene.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Row {
     /// Scene name.
     pub scene: String,
@@ -54,6 +62,9 @@ pub struct Row {
     pub achieved_rate: f64,
     /// The knob setting that met it.
     pub knob: f64,
+    /// What the knob is (for the RQT, `tau` or, where `tau` cannot reach
+    /// the rate, `epsilon`).
+    pub knob_name: String,
     /// Meshing time, ms (median of the repeats).
     pub ms: f64,
     /// For the RQT, the extraction alone (its hierarchy is built once per
@@ -65,7 +76,21 @@ pub struct Row {
     pub disparity_mse: f64,
     /// Fraction of the full mesh's valid mask this mesh covers.
     pub coverage: f64,
+    /// PSNR on the pixels every mesher covers at this rate, dB.
+    pub psnr_common: f64,
+    /// MSE of disparity on the same pixels, pixels squared.
+    pub disparity_mse_common: f64,
+    /// Fraction of the full mesh's valid mask that every mesher covers at this rate.
+    pub common_mask: f64,
+    /// Fraction of the common mask whose disparity is off by more than
+    /// [`BAD_DISPARITY_PX`] (Middlebury's "bad pixels"): the pixels where a
+    /// foreground and a background swapped at a depth edge, which carry
+    /// nearly all of the MSE.
+    pub bad_pixels_common: f64,
 }
+
+/// Disparity error, pixels, past which a pixel is "bad".
+pub const BAD_DISPARITY_PX: f64 = 1.0;
 
 /// What to compare.
 #[derive(Clone, Debug)]
@@ -114,6 +139,19 @@ fn warp(case: &Case, mesh: &TriMesh) -> Blended {
         triangles: mesh.triangles.clone(),
     };
     blend_surfaces(&case.novels[0].camera, &[surface], &BlendOptions::default())
+}
+
+/// Fraction of `mask` whose disparity is off by more than [`BAD_DISPARITY_PX`].
+fn bad_pixels(case: &Case, warped: &Blended, mask: &[bool]) -> f64 {
+    let fb = case.focal_baseline.unwrap_or(1.0);
+    let truth = &case.novels[0].depth;
+    let (mut bad, mut n) = (0usize, 0usize);
+    for i in (0..mask.len()).filter(|&i| mask[i] && warped.depth[i] > 0.0 && truth[i] > 0.0) {
+        n += 1;
+        let d = fb * (1.0 / f64::from(warped.depth[i]) - 1.0 / f64::from(truth[i]));
+        bad += usize::from(d.abs() > BAD_DISPARITY_PX);
+    }
+    bad as f64 / n.max(1) as f64
 }
 
 /// Scores a warped view on `mask` (the full mesh's valid pixels).
@@ -175,30 +213,35 @@ pub fn compare_case(case: &Case, meshers: &[Box<dyn Mesher>], options: &Options)
         triangles: full_n,
         achieved_rate: 1.0,
         knob: 0.0,
+        knob_name: "none".into(),
         ms: full_ms,
         per_level_ms: None,
         psnr,
         disparity_mse,
         coverage,
+        psnr_common: psnr,
+        disparity_mse_common: disparity_mse,
+        common_mask: 1.0,
+        bad_pixels_common: bad_pixels(case, &warped, &mask),
     }];
-    for mesher in meshers {
-        for &rate in &options.rates {
+    for &rate in &options.rates {
+        let mut at_rate: Vec<(Row, Blended)> = Vec::new();
+        for mesher in meshers {
             let want = ((full_n as f64 / rate).round() as usize).max(1);
-            let driven = baselines::drive(mesher.as_ref(), depth, camera, want)?;
-            let knob = driven.knob;
-            let (mesh, ms) = time(Some((driven.mesh, driven.ms)), &mut || {
-                Ok(mesher.mesh(depth, camera, knob)?)
-            })?;
+            let baselines::Driven { mesh, knob, ms, runner } = baselines::drive(mesher.as_ref(), depth, camera, want)?;
+            let runner: &dyn Mesher = runner.as_deref().unwrap_or(mesher.as_ref());
+            let (mesh, ms) = time(Some((mesh, ms)), &mut || Ok(runner.mesh(depth, camera, knob)?))?;
             mesh.validate(depth.width, depth.height)?;
             let mut per_level = Vec::new();
             for _ in 0..repeats {
-                match mesher.per_level_ms(depth, camera, knob)? {
+                match runner.per_level_ms(depth, camera, knob)? {
                     Some(ms) => per_level.push(ms),
                     None => break,
                 }
             }
             let per_level_ms = (!per_level.is_empty()).then(|| median(per_level));
-            let (psnr, disparity_mse, coverage) = score(case, &warp(case, &mesh), &mask)?;
+            let warped = warp(case, &mesh);
+            let (psnr, disparity_mse, coverage) = score(case, &warped, &mask)?;
             let row = Row {
                 scene: case.name.clone(),
                 mesher: mesher.name().into(),
@@ -206,15 +249,40 @@ pub fn compare_case(case: &Case, meshers: &[Box<dyn Mesher>], options: &Options)
                 triangles: mesh.triangles.len(),
                 achieved_rate: full_n as f64 / mesh.triangles.len().max(1) as f64,
                 knob,
+                knob_name: runner.knob_name(),
                 ms,
                 per_level_ms,
                 psnr,
                 disparity_mse,
                 coverage,
+                psnr_common: f64::NAN,
+                disparity_mse_common: f64::NAN,
+                common_mask: f64::NAN,
+                bad_pixels_common: f64::NAN,
             };
+            at_rate.push((row, warped));
+        }
+        let common: Vec<bool> = (0..mask.len())
+            .map(|i| mask[i] && at_rate.iter().all(|(_, w)| w.depth[i] > 0.0))
+            .collect();
+        let common_mask =
+            common.iter().filter(|&&c| c).count() as f64 / mask.iter().filter(|&&m| m).count().max(1) as f64;
+        for (mut row, warped) in at_rate {
+            (row.psnr_common, row.disparity_mse_common, _) = score(case, &warped, &common)?;
+            row.common_mask = common_mask;
+            row.bad_pixels_common = bad_pixels(case, &warped, &common);
             eprintln!(
-                "{} {} rate {rate}: {} triangles (rate {:.1}), {:.1} ms, PSNR {:.2} dB, disparity MSE {:.3}, coverage {:.3}",
-                row.scene, row.mesher, row.triangles, row.achieved_rate, row.ms, row.psnr, row.disparity_mse, row.coverage
+                "{} {} rate {rate}: {} triangles (rate {:.1}), {:.1} ms, PSNR {:.2} dB on {:.3} of the mask, {:.2} dB on the common {:.3}, disparity MSE {:.3}",
+                row.scene,
+                row.mesher,
+                row.triangles,
+                row.achieved_rate,
+                row.ms,
+                row.psnr,
+                row.coverage,
+                row.psnr_common,
+                row.common_mask,
+                row.disparity_mse_common
             );
             rows.push(row);
         }
@@ -262,9 +330,9 @@ pub fn markdown(rows: &[Row]) -> String {
         let _ = writeln!(out, "### {scene}\n");
         let _ = writeln!(
             out,
-            "| rate asked | mesher | triangles | rate met | ms | ms per further rate | PSNR dB | disparity MSE px^2 | coverage |"
+            "| rate asked | mesher | knob | triangles | rate met | ms | ms per further rate | PSNR dB, own mask | coverage | PSNR dB, common mask | disparity MSE px^2, common mask | bad pixels, common mask |"
         );
-        let _ = writeln!(out, "|---|---|---|---|---|---|---|---|---|");
+        let _ = writeln!(out, "|---|---|---|---|---|---|---|---|---|---|---|---|");
         let of_scene: Vec<&Row> = rows.iter().filter(|r| r.scene == scene).collect();
         let mut rates: Vec<f64> = of_scene.iter().map(|r| r.rate).collect();
         rates.sort_by(f64::total_cmp);
@@ -274,8 +342,20 @@ pub fn markdown(rows: &[Row]) -> String {
                 let again = r.per_level_ms.unwrap_or(r.ms);
                 let _ = writeln!(
                     out,
-                    "| {} | {} | {} | {:.1} | {:.1} | {:.1} | {:.2} | {:.3} | {:.3} |",
-                    r.rate, r.mesher, r.triangles, r.achieved_rate, r.ms, again, r.psnr, r.disparity_mse, r.coverage
+                    "| {} | {} | {} {:.3e} | {} | {:.1} | {:.1} | {:.1} | {:.2} | {:.3} | {:.2} | {:.3} | {:.4} |",
+                    r.rate,
+                    r.mesher,
+                    r.knob_name,
+                    r.knob,
+                    r.triangles,
+                    r.achieved_rate,
+                    r.ms,
+                    again,
+                    r.psnr,
+                    r.coverage,
+                    r.psnr_common,
+                    r.disparity_mse_common,
+                    r.bad_pixels_common
                 );
             }
         }
@@ -288,40 +368,61 @@ pub fn markdown(rows: &[Row]) -> String {
     let _ = writeln!(out, "### The RQT against the plane-fit quadtree and QEM\n");
     let _ = writeln!(
         out,
-        "| scene | rate | RQT PSNR - quadtree_plane PSNR, dB | RQT coverage - quadtree_plane coverage | QEM ms / RQT ms | QEM ms / RQT extraction ms | QEM triangles / RQT triangles |"
+        "| scene | rate | RQT | common mask | RQT PSNR - quadtree_plane PSNR, common mask, dB | the same, own masks | RQT coverage - quadtree_plane coverage | QEM ms / RQT ms | QEM ms / RQT extraction ms | QEM triangles / RQT triangles |"
     );
-    let _ = writeln!(out, "|---|---|---|---|---|---|---|");
+    let _ = writeln!(out, "|---|---|---|---|---|---|---|---|---|---|");
     for scene in scenes(rows) {
         let mut rates: Vec<f64> = rows
             .iter()
-            .filter(|r| r.scene == scene && r.mesher == "rqt")
+            .filter(|r| r.scene == scene && r.mesher != FULL)
             .map(|r| r.rate)
             .collect();
+        rates.sort_by(f64::total_cmp);
         rates.dedup();
         for rate in rates {
-            let Some(rqt) = find(scene, "rqt", rate) else { continue };
-            let (plane, cover) = find(scene, "quadtree_plane", rate)
-                .map_or((f64::NAN, f64::NAN), |p| (rqt.psnr - p.psnr, rqt.coverage - p.coverage));
-            let extract = rqt.per_level_ms.unwrap_or(rqt.ms).max(1e-9);
-            let (speed, speed_again, tris) = find(scene, "qem", rate).map_or((f64::NAN, f64::NAN, f64::NAN), |q| {
-                (
-                    q.ms / rqt.ms.max(1e-9),
-                    q.ms / extract,
-                    q.triangles as f64 / rqt.triangles.max(1) as f64,
-                )
-            });
-            let _ = writeln!(
-                out,
-                "| {scene} | {rate} | {plane:+.2} | {cover:+.3} | {speed:.1} | {speed_again:.0} | {tris:.2} |"
-            );
+            for variant in ["rqt", "rqt_refined"] {
+                let Some(rqt) = find(scene, variant, rate) else {
+                    continue;
+                };
+                let (plane, own, cover) =
+                    find(scene, "quadtree_plane", rate).map_or((f64::NAN, f64::NAN, f64::NAN), |p| {
+                        (
+                            rqt.psnr_common - p.psnr_common,
+                            rqt.psnr - p.psnr,
+                            rqt.coverage - p.coverage,
+                        )
+                    });
+                let extract = rqt.per_level_ms.unwrap_or(rqt.ms).max(1e-9);
+                let (speed, speed_again, tris) = find(scene, "qem", rate).map_or((f64::NAN, f64::NAN, f64::NAN), |q| {
+                    (
+                        q.ms / rqt.ms.max(1e-9),
+                        q.ms / extract,
+                        q.triangles as f64 / rqt.triangles.max(1) as f64,
+                    )
+                });
+                let _ = writeln!(
+                    out,
+                    "| {scene} | {rate} | {variant} | {:.3} | {plane:+.2} | {own:+.2} | {cover:+.3} | {speed:.1} | {speed_again:.0} | {tris:.2} |",
+                    rqt.common_mask
+                );
+            }
         }
     }
     out
 }
 
+/// The rows of a comparison written by [`write`] (`baselines.json` in `out`).
+pub fn read(out: &Path) -> anyhow::Result<Vec<Row>> {
+    let path = out.join("baselines.json");
+    let text = std::fs::read_to_string(&path)
+        .with_context(|| format!("cannot read {}: run report --baselines first", path.display()))?;
+    serde_json::from_str(&text).with_context(|| format!("{} is not a comparison's rows", path.display()))
+}
+
 /// Writes `baselines.md`, `baselines.json` and per scene the thesis's two
 /// plots, `psnr-<scene>` (PSNR against reduction rate) and `time-<scene>`
-/// (meshing time against reduction rate), SVG and PNG, into `out`.
+/// (meshing time against reduction rate), SVG and PNG, into `out`. The
+/// plots show the rows that met their rate within [`MET`].
 pub fn write(rows: &[Row], out: &Path) -> anyhow::Result<()> {
     std::fs::create_dir_all(out)?;
     std::fs::write(out.join("baselines.md"), markdown(rows))?;
@@ -331,9 +432,12 @@ pub fn write(rows: &[Row], out: &Path) -> anyhow::Result<()> {
             meshers(rows)
                 .into_iter()
                 .map(|m| {
+                    // A rate the mesher could not reach (its row says
+                    // where it stopped) is not a point of its curve.
                     let pts = rows
                         .iter()
                         .filter(|r| r.scene == scene && r.mesher == m)
+                        .filter(|r| (r.achieved_rate / r.rate - 1.0).abs() <= MET)
                         .map(|r| (r.achieved_rate, y(r)))
                         .collect();
                     (m.to_string(), pts)
@@ -343,10 +447,11 @@ pub fn write(rows: &[Row], out: &Path) -> anyhow::Result<()> {
         plot::Chart {
             title: &format!("{scene}: PSNR of the warped view against reduction rate"),
             x_label: "reduction rate (full-resolution triangles / triangles)",
-            y_label: "PSNR dB (valid mask)",
+            y_label: "PSNR dB (pixels every mesher covers)",
             linear_x: true,
             log_y: false,
-            series: series(|r| r.psnr),
+            legend: plotters::prelude::SeriesLabelPosition::LowerLeft,
+            series: series(|r| r.psnr_common),
         }
         .write(&out.join(format!("psnr-{scene}")))?;
         plot::Chart {
@@ -355,6 +460,7 @@ pub fn write(rows: &[Row], out: &Path) -> anyhow::Result<()> {
             y_label: "ms, one thread (log)",
             linear_x: true,
             log_y: true,
+            legend: plotters::prelude::SeriesLabelPosition::MiddleRight,
             series: series(|r| r.ms),
         }
         .write(&out.join(format!("time-{scene}")))?;

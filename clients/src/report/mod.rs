@@ -333,6 +333,7 @@ pub fn write(rows: &[Row], out: &std::path::Path) -> anyhow::Result<()> {
         y_label: "PSNR dB (valid mask)",
         linear_x: false,
         log_y: false,
+        legend: plotters::prelude::SeriesLabelPosition::LowerRight,
         series: scenes
             .iter()
             .map(|s| (s.to_string(), curve(s, Sweep::Tau, |r| r.extract_ms)))
@@ -345,6 +346,7 @@ pub fn write(rows: &[Row], out: &std::path::Path) -> anyhow::Result<()> {
         y_label: "PSNR dB (valid mask)",
         linear_x: false,
         log_y: false,
+        legend: plotters::prelude::SeriesLabelPosition::LowerRight,
         series: scenes
             .iter()
             .flat_map(|s| {

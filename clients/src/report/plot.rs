@@ -11,7 +11,7 @@ use plotters::prelude::*;
 
 const FONT: &[u8] = include_bytes!("../../assets/DejaVuSansMono.ttf");
 const SIZE: (u32, u32) = (800, 520);
-const COLOURS: [RGBColor; 7] = [
+const COLOURS: [RGBColor; 8] = [
     RGBColor(31, 119, 180),
     RGBColor(214, 39, 40),
     RGBColor(44, 160, 44),
@@ -19,6 +19,7 @@ const COLOURS: [RGBColor; 7] = [
     RGBColor(255, 127, 14),
     RGBColor(23, 190, 207),
     RGBColor(120, 80, 40),
+    RGBColor(60, 60, 60),
 ];
 
 /// Series with at most this many points get a marker on each.
@@ -40,6 +41,8 @@ pub struct Chart<'a> {
     pub linear_x: bool,
     /// A log y axis (non-positive y left out).
     pub log_y: bool,
+    /// Where the legend goes (where the curves leave room).
+    pub legend: SeriesLabelPosition,
 }
 
 fn register_font() -> anyhow::Result<()> {
@@ -134,7 +137,7 @@ impl Chart<'_> {
         }
         chart
             .configure_series_labels()
-            .position(SeriesLabelPosition::LowerRight)
+            .position(self.legend.clone())
             .label_font(("sans-serif", 13))
             .background_style(WHITE.mix(0.85))
             .border_style(BLACK)

@@ -232,6 +232,7 @@ pub fn write(dir: &Path, name: &str, title: &str, walks: &[(String, Vec<Frame>)]
             series,
             linear_x: true,
             log_y: false,
+            legend: plotters::prelude::SeriesLabelPosition::LowerRight,
         }
         .write(&dir.join(format!("{name}-{suffix}")))
     };

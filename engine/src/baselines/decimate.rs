@@ -19,6 +19,10 @@ impl Mesher for Decimate {
         "decimate"
     }
 
+    fn knob_name(&self) -> String {
+        "step (samples)".into()
+    }
+
     /// The step between kept samples, 1 (every sample) up to the image size.
     fn knob(&self, depth: &DepthImage) -> Knob {
         Knob::Coarser {
@@ -43,7 +47,7 @@ mod tests {
 
     #[test]
     fn meets_rates_is_valid_and_exact_on_planes() {
-        super::super::tests::check_mesher(&Decimate, true);
+        super::super::tests::check_mesher(&Decimate, true, &[5.0, 20.0]);
     }
 
     #[test]

@@ -38,6 +38,10 @@ impl Mesher for MedianDecimate {
         "median_decimate"
     }
 
+    fn knob_name(&self) -> String {
+        "step (samples)".into()
+    }
+
     /// The step between kept samples, as in `decimate.rs`.
     fn knob(&self, depth: &DepthImage) -> Knob {
         Knob::Coarser {
@@ -73,7 +77,7 @@ mod tests {
 
     #[test]
     fn meets_rates_is_valid_and_exact_on_planes() {
-        super::super::tests::check_mesher(&MedianDecimate, false);
+        super::super::tests::check_mesher(&MedianDecimate, false, &[5.0, 20.0]);
     }
 
     #[test]

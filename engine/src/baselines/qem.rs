@@ -32,6 +32,10 @@ impl Mesher for Qem {
         "qem"
     }
 
+    fn knob_name(&self) -> String {
+        "triangles".into()
+    }
+
     fn knob(&self, _depth: &DepthImage) -> Knob {
         Knob::Triangles
     }
@@ -63,6 +67,6 @@ mod tests {
 
     #[test]
     fn meets_rates_is_valid_and_exact_on_planes() {
-        super::super::tests::check_mesher(&Qem, true);
+        super::super::tests::check_mesher(&Qem, true, &[5.0, 20.0]);
     }
 }

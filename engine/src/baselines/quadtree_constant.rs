@@ -43,6 +43,10 @@ impl Mesher for QuadtreeConstant {
         "quadtree_constant"
     }
 
+    fn knob_name(&self) -> String {
+        "spread (1/m)".into()
+    }
+
     /// The largest inverse-depth spread of a kept block, 1/m.
     fn knob(&self, depth: &DepthImage) -> Knob {
         let range = inverse_depth_range(depth);
@@ -101,7 +105,7 @@ mod tests {
     fn meets_rates_is_valid_and_exact_on_planes() {
         // Constant blocks are exact on a fronto-parallel plane only: on a
         // tilted one every block larger than a cell is off by half its spread.
-        super::super::tests::check_mesher(&QuadtreeConstant, false);
+        super::super::tests::check_mesher(&QuadtreeConstant, false, &[5.0, 20.0]);
     }
 
     #[test]

@@ -57,6 +57,10 @@ impl Mesher for QuadtreePlane {
         "quadtree_plane"
     }
 
+    fn knob_name(&self) -> String {
+        "plane distance (1/m)".into()
+    }
+
     /// The largest inverse-depth distance of a sample from its plane, 1/m.
     fn knob(&self, depth: &DepthImage) -> Knob {
         let range = inverse_depth_range(depth);
@@ -121,7 +125,7 @@ mod tests {
 
     #[test]
     fn meets_rates_is_valid_and_exact_on_planes() {
-        super::super::tests::check_mesher(&QuadtreePlane, true);
+        super::super::tests::check_mesher(&QuadtreePlane, true, &[5.0, 20.0]);
     }
 
     #[test]

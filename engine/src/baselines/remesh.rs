@@ -176,6 +176,10 @@ impl Mesher for Remesh {
         "remesh"
     }
 
+    fn knob_name(&self) -> String {
+        "triangles".into()
+    }
+
     fn knob(&self, _depth: &DepthImage) -> Knob {
         Knob::Triangles
     }
@@ -256,7 +260,7 @@ mod tests {
 
     #[test]
     fn meets_rates_is_valid_and_exact_on_planes() {
-        super::super::tests::check_mesher(&Remesh, true);
+        super::super::tests::check_mesher(&Remesh, true, &[5.0, 20.0]);
     }
 
     #[test]

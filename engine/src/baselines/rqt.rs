@@ -10,6 +10,11 @@
 //! distance in the image (on cones at rate 5, 26.5 dB with `epsilon`
 //! against 27.2 dB with `tau`, `docs/baselines`).
 //!
+//! With the eye at the reference camera, a coarse vertex whose nested
+//! sphere holds the eye is always selected (Eq. 4 with nested spheres), so
+//! `tau` has a floor of triangles it cannot go below; where a rate asks for
+//! fewer, the comparison falls back to `epsilon` ([`Mesher::fallback`]).
+//!
 //! The knob is `tau`, searched like the other meshers' thresholds. The
 //! triangle budget (`budget.rs`) resolves to the tolerance whose mesh
 //! *provably* fits: its bound ignores segmentation and rounds errors to 6 %
@@ -22,36 +27,91 @@ use crate::error::Result;
 use crate::image::DepthImage;
 use crate::mesh::{DepthMesh, Lod, Segmentation, Threads};
 
-/// The restricted quadtree at an image-space tolerance.
+/// The restricted quadtree at an image-space tolerance (or, as its
+/// fallback, an object-space one).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Rqt {
     /// Its segmentation (DMesh's default).
     pub segmentation: Segmentation,
+    /// Extract at `epsilon` metres instead of `tau` reference pixels.
+    pub object_space: bool,
+    /// Refine triangles that a discontinuity crosses down to this many
+    /// samples from their split vertex to their hypotenuse's ends (1: to the
+    /// cells) rather than drop them whole
+    /// ([`DepthMesh::extract_refining_edges`]); `None` extracts as the
+    /// service does.
+    pub refine_edges: Option<u32>,
 }
+
+/// The coarsest refinement of edges the comparison falls back to (triangles
+/// 64 samples across) before it gives up refining.
+const COARSEST_REFINEMENT: u32 = 32;
 
 impl Mesher for Rqt {
     fn name(&self) -> &'static str {
-        "rqt"
+        if self.refine_edges.is_some() {
+            "rqt_refined"
+        } else {
+            "rqt"
+        }
     }
 
-    /// `tau` in reference pixels, from a thousandth of a pixel to the image size.
+    fn knob_name(&self) -> String {
+        let knob = if self.object_space { "epsilon (m)" } else { "tau (px)" };
+        match self.refine_edges {
+            Some(finest) => format!("{knob}, edges to {finest}"),
+            None => knob.to_string(),
+        }
+    }
+
+    /// `tau` in reference pixels, from a thousandth of a pixel to the image
+    /// size; `epsilon` from a millionth of the largest depth to it.
     fn knob(&self, depth: &DepthImage) -> Knob {
+        if self.object_space {
+            let far = f64::from(depth.z.iter().fold(0f32, |a, &z| a.max(z))).max(1e-6);
+            return Knob::Coarser {
+                lo: far * 1e-6,
+                hi: far,
+            };
+        }
         Knob::Coarser {
             lo: 1e-3,
             hi: f64::from(depth.width.max(depth.height)),
         }
     }
 
-    fn mesh(&self, depth: &DepthImage, camera: &Camera, tau: f64) -> Result<TriMesh> {
-        Self::extract(&self.hierarchy(depth, camera)?, camera, tau)
+    fn mesh(&self, depth: &DepthImage, camera: &Camera, knob: f64) -> Result<TriMesh> {
+        self.extract(&self.hierarchy(depth, camera)?, camera, knob)
     }
 
     /// The extraction alone, from a hierarchy built beforehand.
-    fn per_level_ms(&self, depth: &DepthImage, camera: &Camera, tau: f64) -> Result<Option<f64>> {
+    fn per_level_ms(&self, depth: &DepthImage, camera: &Camera, knob: f64) -> Result<Option<f64>> {
         let hierarchy = self.hierarchy(depth, camera)?;
         let start = std::time::Instant::now();
-        Self::extract(&hierarchy, camera, tau)?;
+        self.extract(&hierarchy, camera, knob)?;
         Ok(Some(start.elapsed().as_secs_f64() * 1e3))
+    }
+
+    /// For the rates a refinement cannot reach (its edges alone take more
+    /// triangles), the next coarser refinement, then none; for those `tau`
+    /// cannot reach, `epsilon`.
+    fn fallback(&self) -> Option<Box<dyn Mesher>> {
+        let next = match (self.refine_edges, self.object_space) {
+            (Some(finest), _) if finest < COARSEST_REFINEMENT => Rqt {
+                refine_edges: Some(2 * finest),
+                ..*self
+            },
+            (Some(_), _) => Rqt {
+                refine_edges: None,
+                ..*self
+            },
+            (None, false) => Rqt {
+                object_space: true,
+                ..*self
+            },
+            (None, true) => return None,
+        };
+        Some(Box::new(next))
     }
 }
 
@@ -60,7 +120,7 @@ impl Rqt {
     /// reference camera.
     pub fn budgeted(&self, depth: &DepthImage, camera: &Camera, max: u64) -> Result<TriMesh> {
         let hierarchy = self.hierarchy(depth, camera)?;
-        Self::mesh_of(
+        self.mesh_of(
             &hierarchy,
             Lod::Triangles {
                 max,
@@ -75,14 +135,26 @@ impl Rqt {
         DepthMesh::build_with(depth, camera, &self.segmentation, Threads::Single)
     }
 
-    /// The mesh at `tau` reference pixels from a built hierarchy: the part
-    /// of [`Mesher::mesh`] done per level of detail.
-    pub fn extract(hierarchy: &DepthMesh, camera: &Camera, tau: f64) -> Result<TriMesh> {
-        Self::mesh_of(hierarchy, Lod::Tau { tau, view: camera })
+    /// The mesh at knob setting `knob` (`tau` reference pixels, or
+    /// `epsilon` metres) from a built hierarchy: the part of
+    /// [`Mesher::mesh`] done per level of detail.
+    pub fn extract(&self, hierarchy: &DepthMesh, camera: &Camera, knob: f64) -> Result<TriMesh> {
+        let lod = if self.object_space {
+            Lod::Epsilon(knob)
+        } else {
+            Lod::Tau {
+                tau: knob,
+                view: camera,
+            }
+        };
+        self.mesh_of(hierarchy, lod)
     }
 
-    fn mesh_of(hierarchy: &DepthMesh, lod: Lod<'_>) -> Result<TriMesh> {
-        let mesh = hierarchy.extract(lod)?;
+    fn mesh_of(&self, hierarchy: &DepthMesh, lod: Lod<'_>) -> Result<TriMesh> {
+        let mesh = match self.refine_edges {
+            Some(finest) => hierarchy.extract_refining_edges(lod, finest)?,
+            None => hierarchy.extract(lod)?,
+        };
         Ok(TriMesh {
             vertices: mesh
                 .vertices
@@ -100,7 +172,20 @@ mod tests {
 
     #[test]
     fn meets_rates_is_valid_and_exact_on_planes() {
-        super::super::tests::check_mesher(&Rqt::default(), true);
+        super::super::tests::check_mesher(&Rqt::default(), true, &[5.0, 20.0]);
+        let object_space = Rqt {
+            object_space: true,
+            ..Rqt::default()
+        };
+        super::super::tests::check_mesher(&object_space, true, &[5.0, 20.0]);
+        let refined = Rqt {
+            refine_edges: Some(1),
+            ..Rqt::default()
+        };
+        // Rate 20 is below the floor of fully refined edges (the boxes'
+        // outlines at full resolution, about 2,500 triangles): drive()
+        // falls back to coarser refinements.
+        super::super::tests::check_mesher(&refined, true, &[5.0, 20.0]);
     }
 
     #[test]

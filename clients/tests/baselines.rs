@@ -1,0 +1,151 @@
+//! The thesis's comparison (`report --baselines`): the scenes load with
+//! their published geometry, every mesher meets its rate and scores, the
+//! files are written, the committed results are whole, and bad options are
+//! refused clearly.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use dmesh_client::report::baselines::{compare_case, markdown, write, Options, FULL, RATES, SCENES};
+use dmesh_client::report::cases;
+use dmesh_engine::baselines;
+
+fn data() -> PathBuf {
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data");
+    assert!(data.is_dir(), "the Middlebury data must be at {}", data.display());
+    data
+}
+
+/// Art (2005, half size) warped at full resolution: with `dmin` and the
+/// published focal length the right view is matched (a wrong offset or
+/// disparity scale shifts every pixel and the PSNR falls below 15 dB).
+#[test]
+fn a_2005_scene_warps_onto_its_right_view() {
+    let case = cases::middlebury(&data(), "art").unwrap();
+    let r = &case.references[0];
+    assert_eq!((r.camera.width, r.camera.height), (695, 555));
+    let fb = case.focal_baseline.unwrap();
+    assert!((fb - 1870.0 * 0.16).abs() < 1e-9, "{fb}");
+    // The nearest valid disparity is at least dmin / 2 = 100 half-size pixels.
+    let far = r.depth.z.iter().fold(0f32, |a, &z| a.max(z));
+    assert!(f64::from(far) <= fb / 100.0 + 1e-6, "{far}");
+    let options = Options {
+        scenes: vec![],
+        rates: vec![],
+        repeats: 1,
+    };
+    let rows = compare_case(&case, &[], &options).unwrap();
+    assert_eq!(rows.len(), 1);
+    assert_eq!(rows[0].mesher, FULL);
+    assert!(rows[0].psnr > 24.0, "{:?}", rows[0]);
+    assert!((rows[0].coverage - 1.0).abs() < 1e-12);
+}
+
+/// Every mesher on cones at rate 10: the rate met within 10 %, scores that
+/// make sense, and the tables and plots written.
+#[test]
+fn every_mesher_meets_the_rate_on_cones_and_the_files_are_written() {
+    let case = cases::middlebury(&data(), "cones").unwrap();
+    let meshers = baselines::all();
+    let options = Options {
+        scenes: vec![],
+        rates: vec![10.0],
+        repeats: 1,
+    };
+    let rows = compare_case(&case, &meshers, &options).unwrap();
+    assert_eq!(rows.len(), 1 + meshers.len());
+    let full = &rows[0];
+    for m in &meshers {
+        let r = rows.iter().find(|r| r.mesher == m.name()).unwrap();
+        assert!((r.achieved_rate / 10.0 - 1.0).abs() <= 0.1, "{r:?}");
+        assert!(r.psnr.is_finite() && r.psnr > 20.0, "{r:?}");
+        assert!(r.disparity_mse.is_finite() && r.disparity_mse >= 0.0, "{r:?}");
+        assert!(r.coverage > 0.5 && r.coverage <= 1.0 + 1e-12, "{r:?}");
+        // The common mask is inside every mesher's own.
+        assert!(r.common_mask > 0.3 && r.common_mask <= r.coverage + 1e-12, "{r:?}");
+        assert!(r.psnr_common.is_finite() && r.disparity_mse_common.is_finite(), "{r:?}");
+        assert!((0.0..0.5).contains(&r.bad_pixels_common), "{r:?}");
+        assert!(r.ms > 0.0, "{r:?}");
+        // A tenth of the triangles cannot be much better than all of them
+        // (each on its own mask; the common mask leaves out the hard pixels).
+        assert!(r.psnr < full.psnr + 1.0, "{r:?} against {full:?}");
+        assert!(r.psnr_common >= r.psnr - 1.0, "{r:?}");
+    }
+    let rqt = rows.iter().find(|r| r.mesher == "rqt").unwrap();
+    let per_level = rqt.per_level_ms.unwrap();
+    assert!(per_level > 0.0 && per_level < rqt.ms, "{rqt:?}");
+    let dir = tempfile::tempdir().unwrap();
+    write(&rows, dir.path()).unwrap();
+    for name in ["psnr-cones", "time-cones"] {
+        let png = image::open(dir.path().join(format!("{name}.png"))).unwrap();
+        assert_eq!((png.width(), png.height()), (800, 520));
+        let svg = std::fs::read_to_string(dir.path().join(format!("{name}.svg"))).unwrap();
+        assert!(svg.contains("<svg") && svg.contains("quadtree_plane"), "{name}.svg");
+    }
+    let md = std::fs::read_to_string(dir.path().join("baselines.md")).unwrap();
+    assert_eq!(md, markdown(&rows));
+    assert!(md.contains("### cones") && md.contains("| 10 | qem |"));
+}
+
+/// The committed comparison (`docs/baselines`, regenerated with the
+/// README's command) holds every scene, mesher and rate, with finite scores.
+#[test]
+fn the_committed_comparison_is_whole() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/baselines/baselines.json");
+    let rows: Vec<serde_json::Value> = serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    let meshers: Vec<&str> = baselines::all().iter().map(|m| m.name()).collect();
+    for scene in SCENES {
+        let of_scene: Vec<&serde_json::Value> = rows.iter().filter(|r| r["scene"] == scene).collect();
+        assert!(of_scene.iter().any(|r| r["mesher"] == FULL), "{scene}");
+        for mesher in &meshers {
+            for rate in RATES {
+                let r = of_scene
+                    .iter()
+                    .find(|r| r["mesher"] == *mesher && r["rate"].as_f64() == Some(rate))
+                    .unwrap_or_else(|| panic!("{scene} {mesher} {rate} is missing"));
+                for key in [
+                    "psnr",
+                    "disparity_mse",
+                    "coverage",
+                    "psnr_common",
+                    "disparity_mse_common",
+                    "common_mask",
+                    "bad_pixels_common",
+                    "ms",
+                    "achieved_rate",
+                ] {
+                    assert!(
+                        r[key].as_f64().is_some_and(f64::is_finite),
+                        "{scene} {mesher} {rate}: {key}"
+                    );
+                }
+            }
+        }
+        for name in ["psnr", "time"] {
+            for ext in ["png", "svg"] {
+                let file =
+                    Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../docs/baselines/{name}-{scene}.{ext}"));
+                assert!(file.is_file(), "{} is missing", file.display());
+            }
+        }
+    }
+}
+
+#[test]
+fn bad_options_are_refused_clearly() {
+    let run = |args: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_dmesh-client"))
+            .args(args)
+            .output()
+            .unwrap();
+        (out.status.success(), String::from_utf8_lossy(&out.stderr).into_owned())
+    };
+    let (ok, err) = run(&["report", "--baselines"]);
+    assert!(!ok && err.contains("--baselines needs --data"), "{err}");
+    let data = data();
+    let data = data.to_str().unwrap();
+    let (ok, err) = run(&["report", "--baselines", "--data", data, "--rates", "0.5"]);
+    assert!(!ok && err.contains("--rates"), "{err}");
+    let (ok, err) = run(&["report", "--baselines", "--data", data, "--scenes", "nowhere"]);
+    assert!(!ok && err.contains("nowhere"), "{err}");
+}
