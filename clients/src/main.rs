@@ -10,6 +10,7 @@
 // The command-line glue both binaries share, kept out of the libraries.
 #[path = "../../src/cli.rs"]
 mod cli;
+mod commands;
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -114,92 +115,11 @@ enum Command {
     /// Sweep tau, epsilon, residual bits and triangle budgets over scenes with
     /// ground truth (simulated, and Middlebury with --data): tables and curves.
     /// With --baselines, compare the thesis's meshers with the RQT instead.
-    Report {
-        /// Output folder [default: docs/report, docs/baselines with --baselines].
-        #[arg(long)]
-        out: Option<PathBuf>,
-        /// Folder of the Middlebury scenes (cones, teddy; with --baselines art,
-        /// aloe, reindeer, cones); left out of the sweeps when not given.
-        #[arg(long)]
-        data: Option<PathBuf>,
-        /// Naik's comparison: every baseline mesher and the RQT at reduction
-        /// rates on Middlebury scenes (needs --data): baselines.md,
-        /// baselines.json, PSNR and time against rate per scene.
-        #[arg(long)]
-        baselines: bool,
-        /// Scenes of --baselines, comma-separated.
-        #[arg(long, value_delimiter = ',', default_value = "art,aloe,reindeer,cones")]
-        scenes: Vec<String>,
-        /// Reduction rates of --baselines, comma-separated.
-        #[arg(long, value_delimiter = ',', default_value = "5,10,20,30,45,70")]
-        rates: Vec<f64>,
-        /// With --baselines: redraw the tables and plots from the output
-        /// folder's baselines.json without meshing again.
-        #[arg(long)]
-        replot: bool,
-        /// Timings are the median of this many runs.
-        #[arg(long, default_value_t = 3)]
-        repeats: usize,
-        /// A few settings on the exact simulated scene only.
-        #[arg(long)]
-        quick: bool,
-    },
+    Report(commands::report::ReportArgs),
     /// Move along a camera path, drawing every frame from held meshes and
     /// fetching by strategy (Qu et al.'s workload balancing); prints the
     /// frame-time comparison of the strategies run.
-    Walkthrough {
-        /// Server base URL.
-        #[arg(long, default_value = "http://127.0.0.1:8080")]
-        server: String,
-        /// Scene id.
-        #[arg(long)]
-        scene: String,
-        /// The path file (JSON: key cameras and a frame count).
-        #[arg(long)]
-        path: PathBuf,
-        /// Strategies, comma separated: full, keyframe, balanced (or all).
-        #[arg(long, default_value = "all")]
-        strategy: String,
-        /// Frames between keyframes of the keyframe strategy.
-        #[arg(long, default_value_t = 10)]
-        keyframe_every: u32,
-        /// Balanced refresh budget per frame in triangles (default: one held view's worth).
-        #[arg(long, conflicts_with_all = ["budget_ms", "budget_bytes"])]
-        budget_triangles: Option<f64>,
-        /// Balanced refresh budget per frame in request milliseconds.
-        #[arg(long, conflicts_with = "budget_bytes")]
-        budget_ms: Option<f64>,
-        /// Balanced refresh budget per frame in response bytes.
-        #[arg(long)]
-        budget_bytes: Option<f64>,
-        /// View-dependent tolerance, pixels.
-        #[arg(long, default_value_t = dmesh_client::walkthrough::policy::DEFAULT_TAU)]
-        tau: f64,
-        /// A held mesh is refetched once its error bound passes tau times this.
-        #[arg(long, default_value_t = dmesh_client::walkthrough::policy::DEFAULT_STALE_FACTOR)]
-        stale_factor: f64,
-        /// Guard band: request a frustum wider by this fraction of the image on each side.
-        #[arg(long, default_value_t = 0.15)]
-        guard: f64,
-        /// Residual bit-depth of the depths (0-16; default exact).
-        #[arg(long)]
-        bits: Option<u8>,
-        /// Most views a frame draws.
-        #[arg(long, default_value_t = 5)]
-        max_views: usize,
-        /// Write every frame's image under DIR/STRATEGY/.
-        #[arg(long)]
-        frames_out: Option<PathBuf>,
-        /// The scene file (or `demo`) to render ground truth from: PSNR, inverse-depth RMSE, coverage per frame.
-        #[arg(long)]
-        truth: Option<String>,
-        /// Write NAME.csv, NAME.json and the frame-time and PSNR plots here (NAME: the path file's stem).
-        #[arg(long)]
-        out: Option<PathBuf>,
-        /// Print the summaries as JSON instead of a table.
-        #[arg(long)]
-        json: bool,
-    },
+    Walkthrough(commands::walkthrough::WalkthroughArgs),
     /// PSNR (valid mask) and inverse-depth RMSE between two images.
     Compare {
         /// First image (PNG).
@@ -485,158 +405,8 @@ fn run(cli: Cli) -> Result<()> {
             }
             Ok(())
         }
-        Command::Report {
-            out,
-            data,
-            baselines,
-            scenes,
-            rates,
-            replot,
-            repeats,
-            quick,
-        } => {
-            if replot {
-                anyhow::ensure!(
-                    baselines,
-                    "--replot redraws a --baselines comparison: give --baselines too"
-                );
-                let out = out.unwrap_or_else(|| PathBuf::from("docs/baselines"));
-                let rows = dmesh_client::report::baselines::read(&out)?;
-                dmesh_client::report::baselines::write(&rows, &out)?;
-                print!("{}", dmesh_client::report::baselines::markdown(&rows));
-                eprintln!("redrew {}", out.display());
-                return Ok(());
-            }
-            if baselines {
-                let data = data.ok_or_else(|| {
-                    anyhow::anyhow!(
-                        "--baselines needs --data, the folder of the Middlebury scenes (art, aloe, reindeer, cones)"
-                    )
-                })?;
-                anyhow::ensure!(
-                    rates.iter().all(|r| r.is_finite() && *r >= 1.0),
-                    "--rates must be numbers of at least 1 (full-resolution triangles over triangles kept)"
-                );
-                let out = out.unwrap_or_else(|| PathBuf::from("docs/baselines"));
-                let options = dmesh_client::report::baselines::Options { scenes, rates, repeats };
-                let rows = dmesh_client::report::baselines::run(&data, &options)?;
-                dmesh_client::report::baselines::write(&rows, &out)?;
-                print!("{}", dmesh_client::report::baselines::markdown(&rows));
-                eprintln!("wrote {}", out.display());
-                return Ok(());
-            }
-            let out = out.unwrap_or_else(|| PathBuf::from("docs/report"));
-            let options = dmesh_client::report::Options { quick, data, repeats };
-            let mut rows = Vec::new();
-            for case in dmesh_client::report::cases(&options)? {
-                eprintln!("sweeping {} ({} reference views)", case.name, case.references.len());
-                rows.extend(dmesh_client::report::sweep(&case, &options)?);
-            }
-            dmesh_client::report::write(&rows, &out)?;
-            print!("{}", dmesh_client::report::markdown(&rows));
-            eprintln!("wrote {}", out.display());
-            Ok(())
-        }
-        Command::Walkthrough {
-            server,
-            scene,
-            path,
-            strategy,
-            keyframe_every,
-            budget_triangles,
-            budget_ms,
-            budget_bytes,
-            tau,
-            stale_factor,
-            guard,
-            bits,
-            max_views,
-            frames_out,
-            truth,
-            out,
-            json,
-        } => {
-            use dmesh_client::walkthrough::{self, policy};
-            if !(tau.is_finite() && tau > 0.0) {
-                bail!("--tau is {tau}; it must be a positive number of pixels");
-            }
-            if !(stale_factor.is_finite() && stale_factor >= 1.0) {
-                bail!("--stale-factor is {stale_factor}; it must be at least 1");
-            }
-            if !(guard.is_finite() && (0.0..=1.0).contains(&guard)) {
-                bail!("--guard is {guard}; it must be between 0 and 1");
-            }
-            if keyframe_every == 0 {
-                bail!("--keyframe-every must be at least 1");
-            }
-            if bits.is_some_and(|b| b > 16) {
-                bail!("--bits must be 0 to 16");
-            }
-            let budget = match (budget_triangles, budget_ms, budget_bytes) {
-                (Some(n), _, _) => policy::Budget::Triangles(n),
-                (_, Some(ms), _) => policy::Budget::Millis(ms),
-                (_, _, Some(b)) => policy::Budget::Bytes(b),
-                _ => policy::Budget::OneView,
-            };
-            if let policy::Budget::Triangles(v) | policy::Budget::Millis(v) | policy::Budget::Bytes(v) = budget {
-                if !(v.is_finite() && v >= 0.0) {
-                    bail!("the budget is {v}; it must be a number >= 0");
-                }
-            }
-            let strategies = policy::Strategy::parse_list(&strategy, keyframe_every)?;
-            let walk_path = walkthrough::path::Path::from_json(&String::from_utf8(read(&path)?)?)
-                .with_context(|| format!("path {}", path.display()))?;
-            let truth = truth.as_deref().map(scene_spec).transpose()?;
-            let name = path.file_stem().and_then(|s| s.to_str()).unwrap_or("walk").to_string();
-            let walks = rt.block_on(async {
-                let s = Server::new(&server, None);
-                let loaded = walkthrough::Scene::load(&s, &scene).await?;
-                let mut walks = Vec::new();
-                for strategy in strategies {
-                    let policy = policy::Policy {
-                        strategy,
-                        budget,
-                        tau,
-                        stale_factor,
-                    };
-                    let options = walkthrough::Options {
-                        guard,
-                        bits,
-                        max_views,
-                        frames_out: frames_out.as_ref().map(|d| d.join(strategy.name())),
-                        truth: truth.clone(),
-                        ..walkthrough::Options::default()
-                    };
-                    let total = walk_path.frames;
-                    let frames = walkthrough::run(&s, &loaded, &walk_path, &policy, &options, |f| {
-                        progress(strategy.name(), f.frame + 1, total, f.frame_ms);
-                    })
-                    .await?;
-                    if std::io::IsTerminal::is_terminal(&std::io::stderr()) {
-                        eprintln!();
-                    }
-                    walks.push((strategy.name().to_string(), frames));
-                }
-                anyhow::Ok(walks)
-            })?;
-            let summaries = match &out {
-                Some(dir) => {
-                    let written = walkthrough::summary::write(dir, &name, &name, &walks)?;
-                    eprintln!("wrote {}/{name}.{{csv,json}} and plots", dir.display());
-                    written
-                }
-                None => walks
-                    .iter()
-                    .map(|(s, f)| walkthrough::summary::Summary::of(s, f))
-                    .collect(),
-            };
-            if json {
-                println!("{}", serde_json::to_string_pretty(&summaries)?);
-            } else {
-                print!("{}", walkthrough::summary::markdown(&name, &summaries));
-            }
-            Ok(())
-        }
+        Command::Report(args) => commands::report::run(args),
+        Command::Walkthrough(args) => commands::walkthrough::run(args, &rt),
         Command::Compare {
             a,
             b,
