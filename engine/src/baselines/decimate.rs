@@ -25,10 +25,7 @@ impl Mesher for Decimate {
 
     /// The step between kept samples, 1 (every sample) up to the image size.
     fn knob(&self, depth: &DepthImage) -> Knob {
-        Knob::Coarser {
-            lo: 1.0,
-            hi: f64::from(depth.width.max(depth.height)),
-        }
+        Knob::step(depth)
     }
 
     fn mesh(&self, depth: &DepthImage, _camera: &Camera, step: f64) -> Result<TriMesh> {

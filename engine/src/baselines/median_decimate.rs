@@ -44,10 +44,7 @@ impl Mesher for MedianDecimate {
 
     /// The step between kept samples, as in `decimate.rs`.
     fn knob(&self, depth: &DepthImage) -> Knob {
-        Knob::Coarser {
-            lo: 1.0,
-            hi: f64::from(depth.width.max(depth.height)),
-        }
+        Knob::step(depth)
     }
 
     fn mesh(&self, depth: &DepthImage, _camera: &Camera, step: f64) -> Result<TriMesh> {

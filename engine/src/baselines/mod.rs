@@ -168,11 +168,10 @@ const SEARCH_STEPS: usize = 40;
 /// by more than [`FALLBACK_MISS`], the closer of it and its fallback's.
 pub fn drive(mesher: &dyn Mesher, depth: &DepthImage, camera: &Camera, triangles: usize) -> Result<Driven> {
     let first = drive_knob(mesher, depth, camera, triangles)?;
-    let miss = |d: &Driven| (d.mesh.triangles.len() as f64 / triangles.max(1) as f64 - 1.0).abs();
     match mesher.fallback() {
-        Some(other) if miss(&first) > FALLBACK_MISS => {
+        Some(other) if miss(&first.mesh, triangles) > FALLBACK_MISS => {
             let second = drive(other.as_ref(), depth, camera, triangles)?;
-            if miss(&second) >= miss(&first) {
+            if miss(&second.mesh, triangles) >= miss(&first.mesh, triangles) {
                 return Ok(first);
             }
             let Driven { mesh, knob, ms, runner } = second;
@@ -187,9 +186,13 @@ pub fn drive(mesher: &dyn Mesher, depth: &DepthImage, camera: &Camera, triangles
     }
 }
 
+/// Relative distance of `mesh`'s triangle count from `triangles`.
+fn miss(mesh: &TriMesh, triangles: usize) -> f64 {
+    (mesh.triangles.len() as f64 / triangles.max(1) as f64 - 1.0).abs()
+}
+
 fn drive_knob(mesher: &dyn Mesher, depth: &DepthImage, camera: &Camera, triangles: usize) -> Result<Driven> {
     let target = triangles.max(1) as f64;
-    let miss = |m: &TriMesh| (m.triangles.len() as f64 / target - 1.0).abs();
     let timed = |knob: f64| -> Result<Driven> {
         let start = std::time::Instant::now();
         let mesh = mesher.mesh(depth, camera, knob)?;
@@ -216,8 +219,10 @@ fn drive_knob(mesher: &dyn Mesher, depth: &DepthImage, camera: &Camera, triangle
                 let knob = (0.5 * (a + b)).exp();
                 let run = timed(knob)?;
                 let n = run.mesh.triangles.len() as f64;
-                let better = best.as_ref().is_none_or(|d| miss(&run.mesh) < miss(&d.mesh));
-                let done = miss(&run.mesh) <= GOOD_ENOUGH;
+                let better = best
+                    .as_ref()
+                    .is_none_or(|d| miss(&run.mesh, triangles) < miss(&d.mesh, triangles));
+                let done = miss(&run.mesh, triangles) <= GOOD_ENOUGH;
                 if n > target {
                     a = knob.ln();
                 } else {
@@ -393,22 +398,34 @@ pub(crate) fn quadtree(
     }
 }
 
-/// Largest minus smallest inverse depth over the valid samples, the scale
-/// of the quadtrees' thresholds (Naik's thresholds are fractions of the
-/// disparity range).
-pub(crate) fn inverse_depth_range(depth: &DepthImage) -> f64 {
-    let (lo, hi) = depth
-        .z
-        .iter()
-        .filter(|&&z| z > 0.0)
-        .fold((f64::INFINITY, 0f64), |(lo, hi), &z| {
-            let d = 1.0 / f64::from(z);
-            (lo.min(d), hi.max(d))
-        });
-    if hi > lo {
-        hi - lo
-    } else {
-        1.0
+impl Knob {
+    /// A step between kept samples, from 1 (every sample) to the image
+    /// size: the two decimations' knob.
+    pub(crate) fn step(depth: &DepthImage) -> Self {
+        Self::Coarser {
+            lo: 1.0,
+            hi: f64::from(depth.width.max(depth.height)),
+        }
+    }
+
+    /// An inverse-depth threshold, 1/m, from a ten-millionth of the largest
+    /// minus the smallest inverse depth of the valid samples to all of it
+    /// (Naik's thresholds are fractions of the disparity range): the two
+    /// quadtrees' knob.
+    pub(crate) fn inverse_depth(depth: &DepthImage) -> Self {
+        let (lo, hi) = depth
+            .z
+            .iter()
+            .filter(|&&z| z > 0.0)
+            .fold((f64::INFINITY, 0f64), |(lo, hi), &z| {
+                let d = 1.0 / f64::from(z);
+                (lo.min(d), hi.max(d))
+            });
+        let range = if hi > lo { hi - lo } else { 1.0 };
+        Self::Coarser {
+            lo: range * 1e-7,
+            hi: range,
+        }
     }
 }
 

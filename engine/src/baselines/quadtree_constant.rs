@@ -11,7 +11,9 @@
 //! edges still connected". Neighbouring blocks at different depths leave
 //! cracks between them, the method's holes.
 
-use super::{inverse_depth_range, quad, quadtree, Cuts, Knob, Mesher, TriMesh};
+use std::cell::Cell;
+
+use super::{quad, quadtree, Cuts, Knob, Mesher, TriMesh};
 use crate::camera::Camera;
 use crate::error::Result;
 use crate::image::DepthImage;
@@ -49,22 +51,22 @@ impl Mesher for QuadtreeConstant {
 
     /// The largest inverse-depth spread of a kept block, 1/m.
     fn knob(&self, depth: &DepthImage) -> Knob {
-        let range = inverse_depth_range(depth);
-        Knob::Coarser {
-            lo: range * 1e-7,
-            hi: range,
-        }
+        Knob::inverse_depth(depth)
     }
 
     fn mesh(&self, depth: &DepthImage, _camera: &Camera, threshold: f64) -> Result<TriMesh> {
         let cuts = Cuts::new(depth);
         let w = depth.width as usize;
         let mut out = TriMesh::default();
+        // accept() scans a block it keeps to the end, so leaf() takes the
+        // block's spread from it rather than scanning again.
+        let kept = Cell::new((0.0, 0.0));
         quadtree(
             depth,
             &cuts,
             |x0, y0, x1, y1| {
                 let (lo, hi) = spread(depth, x0, y0, x1, y1, threshold);
+                kept.set((lo, hi));
                 hi - lo <= threshold
             },
             |x0, y0, x1, y1| {
@@ -84,7 +86,7 @@ impl Mesher for QuadtreeConstant {
                         );
                     }
                 } else {
-                    let (lo, hi) = spread(depth, x0, y0, x1, y1, f64::INFINITY);
+                    let (lo, hi) = kept.get();
                     let z = (2.0 / (lo + hi)) as f32;
                     out.vertices
                         .extend(corners.iter().map(|&(x, y)| [x as f32, y as f32, z]));

@@ -14,7 +14,7 @@
 
 use std::cell::Cell;
 
-use super::{inverse_depth_range, quad, quadtree, Cuts, Knob, Mesher, TriMesh};
+use super::{quad, quadtree, Cuts, Knob, Mesher, TriMesh};
 use crate::camera::Camera;
 use crate::error::Result;
 use crate::image::DepthImage;
@@ -63,11 +63,7 @@ impl Mesher for QuadtreePlane {
 
     /// The largest inverse-depth distance of a sample from its plane, 1/m.
     fn knob(&self, depth: &DepthImage) -> Knob {
-        let range = inverse_depth_range(depth);
-        Knob::Coarser {
-            lo: range * 1e-7,
-            hi: range,
-        }
+        Knob::inverse_depth(depth)
     }
 
     fn mesh(&self, depth: &DepthImage, _camera: &Camera, threshold: f64) -> Result<TriMesh> {
