@@ -10,7 +10,8 @@
 //! - [`strips`]: one view's extracted mesh: vertices and strip indices;
 //! - [`view`]: the summary of a stored reference view;
 //! - [`render`]: a novel-view request and its per-view answer;
-//! - [`error`]: the one error body.
+//! - [`error`]: the one error body;
+//! - [`compact`]: protocol 6, the compact mesh stream (`application/vnd.dmesh.mesh`).
 //!
 //! These types check shape only; the engine validates values. Binary bodies
 //! use [`to_bincode`] / [`from_bincode`]: bincode 2 with fixed-size
@@ -18,6 +19,7 @@
 //! response carries `version` = [`PROTOCOL_VERSION`].
 
 pub mod camera;
+pub mod compact;
 pub mod error;
 pub mod render;
 pub mod residual;
@@ -25,6 +27,7 @@ pub mod strips;
 pub mod view;
 
 pub use camera::{Camera, Pose, Projection};
+pub use compact::{MeshBody, MeshStream, RenderStream, COMPACT_VERSION, MESH_MEDIA_TYPE};
 pub use error::{ErrorBody, ErrorDetail};
 pub use render::{RenderRequest, RenderResponse, RenderedView, Selection, Timings};
 pub use residual::{RawGrid, ResidualDepths, ResidualError};

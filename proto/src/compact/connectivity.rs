@@ -1,0 +1,264 @@
+//! Connectivity of a restricted-quadtree mesh as split and leaf bits
+//! (PROTOCOL.md, "Protocol 6: connectivity"; DESIGN.md "The compact stream").
+//!
+//! The [`Forest::walk`] asks about every triangle whose fate the dependency
+//! rules leave open. A triangle larger than a cell answers with a *split
+//! bit* (1: split); one that is not split, and every cell triangle, with a
+//! *leaf bit* (1: drawn, 0: left out, because it is segmented or outside
+//! the requesting view). A triangle whose split vertex the rules force is
+//! split without a bit; if the mesh left it out whole, its children are
+//! left out one by one, which draws the same triangles.
+//!
+//! The decoder numbers the vertices as the engine does: in order of first
+//! use by the drawn triangles, then stably by level, coarse to fine.
+
+use super::bits::{BitReader, BitWriter};
+use super::forest::{Decide, Forest, Node, Pt, Symbol};
+
+/// The two bit fields.
+#[derive(Clone, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct Connectivity {
+    /// Split bits, one per asked triangle larger than a cell.
+    pub split: Vec<u8>,
+    /// Leaf bits, one per triangle that is not split.
+    pub leaf: Vec<u8>,
+}
+
+/// A decoded mesh's shape: vertices coarse to fine, triangles indexing them.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Shape {
+    /// Grid coordinates of the vertices.
+    pub vertices: Vec<Pt>,
+    /// Triangles in walk order, corners oriented to face the camera.
+    pub triangles: Vec<[u32; 3]>,
+}
+
+fn set(bits: &mut [u64], i: usize) -> bool {
+    let was = bits[i / 64] >> (i % 64) & 1 == 1;
+    bits[i / 64] |= 1 << (i % 64);
+    was
+}
+
+fn get(bits: &[u64], i: usize) -> bool {
+    bits[i / 64] >> (i % 64) & 1 == 1
+}
+
+/// The node key of a triangle (its hypotenuse's midpoint and half), or an
+/// error when it is no triangle of the forest.
+fn node_of(forest: &Forest, t: [Pt; 3]) -> Result<Node, String> {
+    let d2 = |p: Pt, q: Pt| {
+        let (dx, dy) = (i64::from(p.0) - i64::from(q.0), i64::from(p.1) - i64::from(q.1));
+        dx * dx + dy * dy
+    };
+    let sides = [d2(t[1], t[2]), d2(t[0], t[2]), d2(t[0], t[1])];
+    let apex = (0..3).max_by_key(|&k| sides[k]).unwrap_or(0);
+    let (l, r, a) = (t[(apex + 1) % 3], t[(apex + 2) % 3], t[apex]);
+    let node = Node { l, r, a };
+    let bad = || format!("triangle {t:?} is not a triangle of the restricted quadtree");
+    if node.is_cell() {
+        let c = node.mid();
+        let ok = (a.0 == c.0 || a.0 == c.0 + 1) && (a.1 == c.1 || a.1 == c.1 + 1) && {
+            // The cell's diagonal runs through its corner with both coordinates odd.
+            let odd = |p: Pt| p.0 % 2 == 1 && p.1 % 2 == 1;
+            odd(l) || odd(r)
+        };
+        return if ok { Ok(node) } else { Err(bad()) };
+    }
+    if (l.0 + r.0) % 2 != 0 || (l.1 + r.1) % 2 != 0 {
+        return Err(bad());
+    }
+    let m = node.mid();
+    let d = forest.diamond(m).ok_or_else(bad)?;
+    let p = |q: (i64, i64)| (q.0 as u32, q.1 as u32);
+    let hyp = (p(d.a) == l && p(d.b) == r) || (p(d.a) == r && p(d.b) == l);
+    if !hyp || !d.apex.iter().any(|&q| q.0 >= 0 && q.1 >= 0 && p(q) == a) {
+        return Err(bad());
+    }
+    Ok(node)
+}
+
+/// The parent of a triangle: the triangle whose split made it.
+fn parent(forest: &Forest, node: &Node) -> Option<Node> {
+    let m = node.a;
+    let d = forest.diamond(m)?;
+    let p = |q: (i64, i64)| (q.0 as u32, q.1 as u32);
+    let apex = [node.l, node.r]
+        .into_iter()
+        .find(|&c| d.apex.iter().any(|&q| q.0 >= 0 && q.1 >= 0 && p(q) == c))?;
+    Some(Node { l: p(d.a), r: p(d.b), a: apex })
+}
+
+struct Encoder<'a> {
+    forest: &'a Forest,
+    /// Drawn cell triangles, by cell and half.
+    cells: Vec<u64>,
+    /// Drawn larger triangles, by split vertex and half.
+    drawn: Vec<u64>,
+    /// Triangles with a drawn triangle inside, by split vertex and half.
+    inside: Vec<u64>,
+    split: BitWriter,
+    leaf: BitWriter,
+    emitted: usize,
+}
+
+impl Decide for Encoder<'_> {
+    type Error = String;
+
+    fn decide(&mut self, node: &Node, implied: bool) -> Result<Symbol, String> {
+        let key = 2 * self.forest.index(node.mid()) + node.half();
+        if node.is_cell() {
+            let drawn = get(&self.cells, key);
+            self.leaf.bit(drawn);
+            return Ok(if drawn { Symbol::Emit } else { Symbol::Skip });
+        }
+        let drawn = get(&self.drawn, key);
+        if implied {
+            if drawn {
+                return Err(format!(
+                    "triangle {node:?} is drawn but its split vertex is forced: the mesh does not conform"
+                ));
+            }
+            return Ok(Symbol::Split);
+        }
+        let split = !drawn && get(&self.inside, key);
+        self.split.bit(split);
+        if split {
+            return Ok(Symbol::Split);
+        }
+        self.leaf.bit(drawn);
+        Ok(if drawn { Symbol::Emit } else { Symbol::Skip })
+    }
+
+    fn emit(&mut self, _: [Pt; 3]) -> Result<(), String> {
+        self.emitted += 1;
+        Ok(())
+    }
+}
+
+/// Codes the triangles `triangles` (grid coordinates of their corners) of a
+/// mesh on `forest`. Fails when a triangle is not one of the forest's, or
+/// the triangles are not the leaves of one conforming walk.
+pub fn encode(forest: &Forest, triangles: &[[Pt; 3]]) -> Result<Connectivity, String> {
+    forest.check()?;
+    let words = (2 * forest.len()).div_ceil(64);
+    let mut enc = Encoder {
+        forest,
+        cells: vec![0; words],
+        drawn: vec![0; words],
+        inside: vec![0; words],
+        split: BitWriter::default(),
+        leaf: BitWriter::default(),
+        emitted: 0,
+    };
+    let (gw, gh) = (forest.gw(), forest.gh());
+    for t in triangles {
+        if t.iter().any(|p| p.0 >= gw || p.1 >= gh) {
+            return Err(format!("triangle {t:?} lies outside the {gw} x {gh} grid"));
+        }
+        let node = node_of(forest, *t)?;
+        let key = 2 * forest.index(node.mid()) + node.half();
+        let fresh = !set(if node.is_cell() { &mut enc.cells } else { &mut enc.drawn }, key);
+        if !fresh {
+            return Err(format!("triangle {t:?} appears twice"));
+        }
+        let mut up = parent(forest, &node);
+        while let Some(p) = up {
+            if set(&mut enc.inside, 2 * forest.index(p.mid()) + p.half()) {
+                break;
+            }
+            up = parent(forest, &p);
+        }
+    }
+    forest.walk(&mut enc)?;
+    if enc.emitted != triangles.len() {
+        return Err(format!(
+            "{} of {} triangles lie under triangles the walk drew or left out: the mesh does not conform",
+            triangles.len() - enc.emitted,
+            triangles.len()
+        ));
+    }
+    Ok(Connectivity {
+        split: enc.split.finish(),
+        leaf: enc.leaf.finish(),
+    })
+}
+
+struct Decoder<'a> {
+    split: BitReader<'a>,
+    leaf: BitReader<'a>,
+    corners: Vec<[Pt; 3]>,
+    /// At most this many triangles (from the header).
+    limit: usize,
+}
+
+impl Decide for Decoder<'_> {
+    type Error = &'static str;
+
+    fn decide(&mut self, node: &Node, implied: bool) -> Result<Symbol, &'static str> {
+        if implied {
+            return Ok(Symbol::Split);
+        }
+        if !node.is_cell() && self.split.bit()? {
+            return Ok(Symbol::Split);
+        }
+        Ok(if self.leaf.bit()? { Symbol::Emit } else { Symbol::Skip })
+    }
+
+    fn emit(&mut self, corners: [Pt; 3]) -> Result<(), &'static str> {
+        if self.corners.len() >= self.limit {
+            return Err("connectivity draws more triangles than the header says");
+        }
+        self.corners.push(corners);
+        Ok(())
+    }
+}
+
+/// Rebuilds the mesh that [`encode`] coded, expecting `triangles` of them.
+pub fn decode(forest: &Forest, bits: &Connectivity, triangles: usize) -> Result<Shape, &'static str> {
+    forest.check()?;
+    let mut dec = Decoder {
+        split: BitReader::new(&bits.split, "split bits end early or run on"),
+        leaf: BitReader::new(&bits.leaf, "leaf bits end early or run on"),
+        corners: Vec::with_capacity(triangles.min(1 << 24)),
+        limit: triangles,
+    };
+    forest.walk(&mut dec)?;
+    dec.split.end()?;
+    dec.leaf.end()?;
+    if dec.corners.len() != triangles {
+        return Err("connectivity draws fewer triangles than the header says");
+    }
+    Ok(assemble(forest, &dec.corners))
+}
+
+/// Numbers the vertices of `corners` by first use, then stably by level,
+/// and indexes the triangles by that numbering.
+pub fn assemble(forest: &Forest, corners: &[[Pt; 3]]) -> Shape {
+    let mut slot = vec![u32::MAX; forest.len()];
+    let mut used: Vec<(Pt, usize)> = Vec::with_capacity(corners.len() / 2 + 8);
+    let mut per_level = vec![0u32; forest.levels() + 1];
+    for &p in corners.iter().flatten() {
+        let i = forest.index(p);
+        if slot[i] == u32::MAX {
+            slot[i] = 0;
+            let level = forest.level(p) as usize;
+            per_level[level + 1] += 1;
+            used.push((p, level));
+        }
+    }
+    for l in 1..per_level.len() {
+        per_level[l] += per_level[l - 1];
+    }
+    let mut vertices = vec![(0, 0); used.len()];
+    for &(p, level) in &used {
+        let at = &mut per_level[level];
+        vertices[*at as usize] = p;
+        slot[forest.index(p)] = *at;
+        *at += 1;
+    }
+    let triangles = corners
+        .iter()
+        .map(|t| t.map(|p| slot[forest.index(p)]))
+        .collect();
+    Shape { vertices, triangles }
+}

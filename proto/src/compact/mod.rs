@@ -1,0 +1,405 @@
+//! Protocol 6, the compact mesh stream (`application/vnd.dmesh.mesh`):
+//! only the information a restricted-quadtree mesh holds (DESIGN.md "The
+//! compact stream"; PROTOCOL.md lays it out bit by bit).
+//!
+//! - [`connectivity`]: split and leaf bits of the one canonical walk of the
+//!   forest ([`forest`]); the rules' implications cost nothing;
+//! - [`bitplanes`]: depths as nested bit planes of parent-edge residuals,
+//!   anchors exact;
+//! - the rest (ids, tolerance, camera, reach) in a small bincode header.
+//!
+//! Positions, texture coordinates, normals and rho are not sent: a client
+//! derives them from `(i, j)`, depth and the reference camera. Fields are
+//! byte-aligned and grouped so HTTP content coding (zstd, br, gzip) does the
+//! entropy coding.
+
+pub mod bitplanes;
+pub mod bits;
+pub mod connectivity;
+pub mod forest;
+
+use serde::{Deserialize, Serialize};
+
+pub use bitplanes::{DepthCode, LevelCode};
+pub use connectivity::{Connectivity, Shape};
+pub use forest::Forest;
+
+use crate::camera::Camera;
+use crate::render::Timings;
+use crate::residual::RawGrid;
+use crate::strips::Lod;
+
+/// Media type of the compact stream.
+pub const MESH_MEDIA_TYPE: &str = "application/vnd.dmesh.mesh";
+
+/// Version of the compact stream, in every body.
+pub const COMPACT_VERSION: u16 = 6;
+
+/// Largest number of culled spheres a compact reach carries (the engine's
+/// are merged down to this, staying conservative).
+pub const MAX_COMPACT_CULLED: usize = 32;
+
+/// A body of the compact stream on the strip routes: a whole mesh, or the
+/// planes a client holding the same mesh lacks.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MeshBody {
+    /// A whole mesh.
+    Mesh(Box<MeshStream>),
+    /// Further depth planes of a mesh the client holds.
+    Planes(PlaneUpdate),
+}
+
+/// One view's mesh in the compact stream.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MeshStream {
+    /// [`COMPACT_VERSION`].
+    pub version: u16,
+    /// Scene id.
+    pub scene: String,
+    /// View id.
+    pub view: String,
+    /// The tolerance the mesh meets (`epsilon` or `tau`).
+    pub lod: Lod,
+    /// The reference camera.
+    pub camera: Camera,
+    /// Server-side extraction time in milliseconds.
+    pub extract_ms: f64,
+    /// Root quad side of the view's grid (a power of two).
+    pub root_side: u32,
+    /// Root quads across.
+    pub roots_x: u32,
+    /// Root quads down.
+    pub roots_y: u32,
+    /// Triangles the mesh draws.
+    pub triangles: u32,
+    /// How the connectivity is coded.
+    pub connectivity: Connectivity,
+    /// The integer lattice depths are coded on, if any.
+    pub lattice: Option<RawGrid>,
+    /// Per level of the forest, coarse to fine: step and planes.
+    pub levels: Vec<LevelCode>,
+    /// Exact anchor depths, byte-shuffled `f32`.
+    pub anchors: Vec<u8>,
+    /// Depth planes `1..=planes.len()` (of [`Self::max_error`]`.len() - 1`).
+    pub planes: Vec<Vec<u8>>,
+    /// Largest depth error in metres holding `b` planes, at index `b`, for
+    /// every plane count up to all of them.
+    pub max_error: Vec<f32>,
+    /// For a view-dependent mesh, how far its camera may move.
+    pub reach: Option<CompactReach>,
+    /// Names this mesh (and its planes) for a later request that holds it:
+    /// the response's ETag.
+    pub etag: String,
+}
+
+/// Planes a client lacks of a mesh it holds (named by `held`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PlaneUpdate {
+    /// [`COMPACT_VERSION`].
+    pub version: u16,
+    /// The ETag of the mesh the planes extend.
+    pub held: String,
+    /// Index (0-based) of the first plane sent: the number already held.
+    pub first: u8,
+    /// The planes.
+    pub planes: Vec<Vec<u8>>,
+    /// The ETag of the extended mesh.
+    pub etag: String,
+}
+
+/// [`crate::Reach`] in a few bytes: the requesting camera is the request's,
+/// and the culled spheres are quantised inside a box, radii rounded up.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CompactReach {
+    /// As [`crate::Reach::clearance`].
+    pub clearance: Option<f64>,
+    /// Box corner of the quantised centres (world frame).
+    pub lo: [f64; 3],
+    /// Metres per unit of a quantised centre coordinate or radius.
+    pub unit: f64,
+    /// Spheres `[x, y, z, r]` in units from `lo`.
+    pub culled: Vec<[u16; 4]>,
+}
+
+/// One selected view of a compact render response.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CompactView {
+    /// Angular x positional weight.
+    pub weight: f64,
+    /// Its mesh.
+    pub mesh: MeshStream,
+    /// Where its colour texture is served.
+    pub color_url: String,
+}
+
+/// A render response in the compact stream.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RenderStream {
+    /// [`COMPACT_VERSION`].
+    pub version: u16,
+    /// Selected views, heaviest first.
+    pub views: Vec<CompactView>,
+    /// Server timings.
+    pub timings: Timings,
+}
+
+/// Why a compact body does not decode.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("compact mesh stream: {0}")]
+pub struct CompactError(pub String);
+
+impl From<&'static str> for CompactError {
+    fn from(s: &'static str) -> Self {
+        Self(s.to_string())
+    }
+}
+
+/// A mesh to encode: what the engine extracted.
+pub struct MeshInput<'a> {
+    /// Scene id.
+    pub scene: &'a str,
+    /// View id.
+    pub view: &'a str,
+    /// The tolerance it meets.
+    pub lod: Lod,
+    /// The reference camera.
+    pub camera: Camera,
+    /// Extraction time.
+    pub extract_ms: f64,
+    /// The forest of the view's grid.
+    pub forest: Forest,
+    /// Vertex grid coordinates.
+    pub ij: &'a [(u16, u16)],
+    /// Vertex depths.
+    pub depths: &'a [f32],
+    /// Triangles indexing the vertices.
+    pub triangles: &'a [[u32; 3]],
+    /// The lattice the stored depths came from, if any.
+    pub raw_grid: Option<RawGrid>,
+    /// The reach, `([x, y, z, r] world spheres, clearance)`.
+    pub reach: Option<(&'a [[f64; 4]], Option<f64>)>,
+    /// Planes to send: `None` for all.
+    pub planes: Option<u8>,
+    /// The ETag to state.
+    pub etag: String,
+}
+
+/// A decoded compact mesh.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DecodedMesh {
+    /// Vertex grid coordinates and triangles.
+    pub shape: Shape,
+    /// Vertex depths in metres.
+    pub depths: Vec<f32>,
+    /// Largest depth error of these depths, metres.
+    pub max_error: f32,
+    /// Planes decoded.
+    pub planes: usize,
+}
+
+/// Encodes a mesh.
+pub fn encode(input: MeshInput<'_>) -> Result<MeshStream, CompactError> {
+    let f = input.forest;
+    if input.ij.len() != input.depths.len() {
+        return Err(CompactError(format!(
+            "{} depths for {} vertices",
+            input.depths.len(),
+            input.ij.len()
+        )));
+    }
+    let at = |v: u32| -> Result<(u32, u32), CompactError> {
+        let (i, j) = *input
+            .ij
+            .get(v as usize)
+            .ok_or_else(|| CompactError(format!("triangle index {v} has no vertex")))?;
+        Ok((u32::from(i), u32::from(j)))
+    };
+    let corners = input
+        .triangles
+        .iter()
+        .map(|t| Ok([at(t[0])?, at(t[1])?, at(t[2])?]))
+        .collect::<Result<Vec<_>, CompactError>>()?;
+    let connectivity = connectivity::encode(&f, &corners).map_err(CompactError)?;
+    // The decoder's numbering, and the depths in it.
+    let shape = connectivity::decode(&f, &connectivity, corners.len())?;
+    let mut depth_at = std::collections::HashMap::with_capacity(input.ij.len());
+    for (&(i, j), &z) in input.ij.iter().zip(input.depths) {
+        depth_at.insert((u32::from(i), u32::from(j)), z);
+    }
+    let depths = shape
+        .vertices
+        .iter()
+        .map(|p| depth_at.get(p).copied().ok_or("a drawn vertex has no depth"))
+        .collect::<Result<Vec<f32>, _>>()?;
+    let code = bitplanes::encode(&f, &shape.vertices, &depths, input.raw_grid).map_err(CompactError)?;
+    let sent = input.planes.map_or(code.planes.len(), |p| code.planes.len().min(usize::from(p)));
+    Ok(MeshStream {
+        version: COMPACT_VERSION,
+        scene: input.scene.to_string(),
+        view: input.view.to_string(),
+        lod: input.lod,
+        camera: input.camera,
+        extract_ms: input.extract_ms,
+        root_side: f.side,
+        roots_x: f.m,
+        roots_y: f.n,
+        triangles: u32::try_from(corners.len()).map_err(|_| "too many triangles")?,
+        connectivity,
+        lattice: code.lattice,
+        levels: code.levels,
+        anchors: code.anchors,
+        planes: code.planes[..sent].to_vec(),
+        max_error: code.max_error,
+        reach: input.reach.map(|(s, c)| compact_reach(s, c)),
+        etag: input.etag,
+    })
+}
+
+impl MeshStream {
+    /// The forest it is coded on.
+    pub fn forest(&self) -> Forest {
+        Forest {
+            side: self.root_side,
+            m: self.roots_x,
+            n: self.roots_y,
+        }
+    }
+
+    /// Decodes the mesh. Vertices must lie inside the reference image.
+    pub fn decode(&self) -> Result<DecodedMesh, CompactError> {
+        if self.version != COMPACT_VERSION {
+            return Err(CompactError(format!("version {} is not {COMPACT_VERSION}", self.version)));
+        }
+        let f = self.forest();
+        f.check()?;
+        if self.max_error.len() < self.planes.len() + 1 {
+            return Err("fewer error bounds than planes".into());
+        }
+        if self.max_error.iter().any(|e| !(e.is_finite() && *e >= 0.0)) {
+            return Err("error bounds must be finite and not negative".into());
+        }
+        let shape = connectivity::decode(&f, &self.connectivity, self.triangles as usize)?;
+        let (w, h) = (self.camera.width, self.camera.height);
+        if shape.vertices.iter().any(|&(i, j)| i >= w || j >= h) {
+            return Err("a vertex lies outside the reference image".into());
+        }
+        let code = DepthCode {
+            lattice: self.lattice,
+            levels: self.levels.clone(),
+            anchors: self.anchors.clone(),
+            planes: self.planes.clone(),
+            max_error: Vec::new(),
+        };
+        let depths = bitplanes::decode(&f, &shape.vertices, &code, self.planes.len())?;
+        Ok(DecodedMesh {
+            shape,
+            depths,
+            max_error: self.max_error[self.planes.len()],
+            planes: self.planes.len(),
+        })
+    }
+
+    /// Appends the planes of `update`, which must extend this mesh.
+    pub fn apply(&mut self, update: PlaneUpdate) -> Result<(), CompactError> {
+        if update.held != self.etag {
+            return Err("the planes extend another mesh".into());
+        }
+        if usize::from(update.first) != self.planes.len() {
+            return Err("the planes do not start where the held ones end".into());
+        }
+        if self.planes.len() + update.planes.len() >= self.max_error.len() {
+            return Err("more planes than the mesh has".into());
+        }
+        self.planes.extend(update.planes);
+        self.etag = update.etag;
+        Ok(())
+    }
+
+    /// The planes the mesh has in all (sent or not).
+    pub fn total_planes(&self) -> usize {
+        self.max_error.len().saturating_sub(1)
+    }
+
+    /// The reach's culled spheres in the world frame, `[x, y, z, r]`.
+    pub fn culled(&self) -> Vec<[f64; 4]> {
+        self.reach.as_ref().map_or_else(Vec::new, |r| {
+            r.culled
+                .iter()
+                .map(|q| {
+                    let c = |k: usize| r.lo[k] + f64::from(q[k]) * r.unit;
+                    [c(0), c(1), c(2), f64::from(q[3]) * r.unit]
+                })
+                .collect()
+        })
+    }
+}
+
+/// The sphere holding two spheres.
+fn merge([a, b]: [[f64; 4]; 2]) -> [f64; 4] {
+    let d = ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2) + (b[2] - a[2]).powi(2)).sqrt();
+    if d + b[3] <= a[3] {
+        return a;
+    }
+    if d + a[3] <= b[3] {
+        return b;
+    }
+    let r = (d + a[3] + b[3]) / 2.0;
+    let t = (r - a[3]) / d;
+    [
+        a[0] + (b[0] - a[0]) * t,
+        a[1] + (b[1] - a[1]) * t,
+        a[2] + (b[2] - a[2]) * t,
+        r * (1.0 + 1e-12) + 1e-12,
+    ]
+}
+
+/// Merges neighbouring spheres down to [`MAX_COMPACT_CULLED`] and quantises
+/// them so every decoded sphere holds its source.
+fn compact_reach(spheres: &[[f64; 4]], clearance: Option<f64>) -> CompactReach {
+    let mut s: Vec<[f64; 4]> = spheres
+        .iter()
+        .copied()
+        .filter(|s| s.iter().all(|v| v.is_finite()))
+        .collect();
+    while s.len() > MAX_COMPACT_CULLED {
+        s = s
+            .chunks(2)
+            .map(|p| if p.len() == 2 { merge([p[0], p[1]]) } else { p[0] })
+            .collect();
+    }
+    let lo = [0, 1, 2].map(|k| s.iter().map(|v| v[k] - v[3]).fold(f64::INFINITY, f64::min));
+    let hi = [0, 1, 2].map(|k| s.iter().map(|v| v[k] + v[3]).fold(f64::NEG_INFINITY, f64::max));
+    let extent = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
+    if s.is_empty() || !(extent.is_finite() && extent > 0.0) {
+        return CompactReach {
+            clearance,
+            lo: [0.0; 3],
+            unit: 1.0,
+            culled: Vec::new(),
+        };
+    }
+    let unit = extent / 32767.0;
+    let culled = s
+        .iter()
+        .map(|v| {
+            let q = |k: usize| ((v[k] - lo[k]) / unit).round().clamp(0.0, 65535.0);
+            let (x, y, z) = (q(0), q(1), q(2));
+            let moved = ((lo[0] + x * unit - v[0]).powi(2)
+                + (lo[1] + y * unit - v[1]).powi(2)
+                + (lo[2] + z * unit - v[2]).powi(2))
+            .sqrt();
+            let r = ((v[3] + moved) / unit * (1.0 + 1e-9)).ceil() + 1.0;
+            [x as u16, y as u16, z as u16, r.min(65535.0) as u16]
+        })
+        .collect();
+    CompactReach {
+        clearance,
+        lo,
+        unit,
+        culled,
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,262 @@
+//! Round trips of the compact stream over random conforming meshes: a walk
+//! that splits at random (the rules' implications respected, as a server's
+//! monotone selection does) and leaves leaves out at random.
+
+use proptest::prelude::*;
+
+use super::forest::{Decide, Forest, Node, Pt, Symbol};
+use super::*;
+use crate::camera::{Pose, Projection};
+
+/// A random walk's decisions from a seed: split with probability `split`
+/// (coarse triangles more often), skip a leaf with probability `skip`.
+struct Random {
+    state: u64,
+    split: f64,
+    skip: f64,
+    corners: Vec<[Pt; 3]>,
+}
+
+impl Random {
+    fn next(&mut self) -> f64 {
+        self.state ^= self.state << 13;
+        self.state ^= self.state >> 7;
+        self.state ^= self.state << 17;
+        (self.state >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+impl Decide for Random {
+    type Error = ();
+    fn decide(&mut self, node: &Node, implied: bool) -> Result<Symbol, ()> {
+        if implied {
+            return Ok(Symbol::Split);
+        }
+        let span = node.l.0.abs_diff(node.r.0).max(node.l.1.abs_diff(node.r.1));
+        if !node.is_cell() && self.next() < self.split + 0.05 * f64::from(span.ilog2()) {
+            return Ok(Symbol::Split);
+        }
+        Ok(if self.next() < self.skip { Symbol::Skip } else { Symbol::Emit })
+    }
+    fn emit(&mut self, corners: [Pt; 3]) -> Result<(), ()> {
+        self.corners.push(corners);
+        Ok(())
+    }
+}
+
+fn random_mesh(f: &Forest, seed: u64, split: f64, skip: f64) -> Vec<[Pt; 3]> {
+    let mut r = Random {
+        state: seed | 1,
+        split,
+        skip,
+        corners: Vec::new(),
+    };
+    f.walk(&mut r).unwrap();
+    r.corners
+}
+
+fn camera(width: u32, height: u32) -> Camera {
+    Camera {
+        width,
+        height,
+        projection: Projection::Perspective {
+            fx: 100.0,
+            fy: 100.0,
+            cx: f64::from(width) / 2.0,
+            cy: f64::from(height) / 2.0,
+        },
+        pose: Pose::default(),
+    }
+}
+
+fn input<'a>(
+    f: Forest,
+    ij: &'a [(u16, u16)],
+    depths: &'a [f32],
+    triangles: &'a [[u32; 3]],
+    raw: Option<RawGrid>,
+) -> MeshInput<'a> {
+    MeshInput {
+        scene: "s",
+        view: "v",
+        lod: Lod::Epsilon(0.01),
+        camera: camera(f.gw(), f.gh()),
+        extract_ms: 0.5,
+        forest: f,
+        ij,
+        depths,
+        triangles,
+        raw_grid: raw,
+        reach: None,
+        planes: None,
+        etag: "\"x\"".into(),
+    }
+}
+
+/// A smooth surface with a step, in metres, or on a millimetre lattice.
+fn depth_at((x, y): Pt, lattice: bool) -> f32 {
+    let z = 2.0 + 0.3 * (f64::from(x) * 0.21).sin() + 0.002 * f64::from(y) + if x > 9 { 1.5 } else { 0.0 };
+    if lattice {
+        ((z * 1000.0).round() / 1000.0) as f32
+    } else {
+        z as f32
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+
+    #[test]
+    fn decode_of_encode_is_the_mesh(
+        side_log in 1u32..5, m in 1u32..4, n in 1u32..3, seed in any::<u64>(),
+        split in 0.0f64..0.9, skip in 0.0f64..0.4, lattice in any::<bool>(), planes in 0u8..20,
+    ) {
+        let f = Forest { side: 1 << side_log, m, n };
+        let corners = random_mesh(&f, seed, split, skip);
+        let want = connectivity::assemble(&f, &corners);
+        let ij: Vec<(u16, u16)> = want.vertices.iter().map(|&(x, y)| (x as u16, y as u16)).collect();
+        let depths: Vec<f32> = want.vertices.iter().map(|&p| depth_at(p, lattice)).collect();
+        let raw = lattice.then_some(RawGrid { scale: 0.001, offset: 0.0 });
+        let mut inp = input(f, &ij, &depths, &want.triangles, raw);
+        inp.planes = Some(planes);
+        let stream = encode(inp).unwrap();
+        // Through bincode, as it travels.
+        let bytes = crate::to_bincode(&MeshBody::Mesh(Box::new(stream.clone()))).unwrap();
+        let MeshBody::Mesh(back) = crate::from_bincode::<MeshBody>(&bytes).unwrap() else { panic!("not a mesh") };
+        let got = back.decode().unwrap();
+        prop_assert_eq!(&got.shape, &want);
+        let bound = got.max_error;
+        for (a, b) in got.depths.iter().zip(&depths) {
+            prop_assert!(a.is_finite() && *a > 0.0);
+            prop_assert!((a - b).abs() <= bound, "{} vs {} beyond {}", a, b, bound);
+        }
+        // All planes: lossless on the lattice, within f32 rounding otherwise.
+        let full = {
+            let mut i = input(f, &ij, &depths, &want.triangles, raw);
+            i.planes = None;
+            encode(i).unwrap().decode().unwrap()
+        };
+        if lattice {
+            prop_assert_eq!(&full.depths, &depths);
+        } else {
+            for (a, b) in full.depths.iter().zip(&depths) {
+                prop_assert!((a - b).abs() <= 1e-5 * b.abs(), "{} vs {}", a, b);
+            }
+        }
+        // The first b planes of the full stream are the b-plane stream.
+        let all = { let mut i = input(f, &ij, &depths, &want.triangles, raw); i.planes = None; encode(i).unwrap() };
+        let mut cut = all.clone();
+        cut.planes.truncate(usize::from(planes));
+        prop_assert_eq!(cut.decode().unwrap().depths, got.depths);
+    }
+}
+
+#[test]
+fn errors_shrink_as_planes_arrive() {
+    let f = Forest { side: 16, m: 2, n: 1 };
+    let corners = random_mesh(&f, 7, 0.7, 0.0);
+    let shape = connectivity::assemble(&f, &corners);
+    let ij: Vec<(u16, u16)> = shape.vertices.iter().map(|&(x, y)| (x as u16, y as u16)).collect();
+    let depths: Vec<f32> = shape.vertices.iter().map(|&p| depth_at(p, false) + 0.01 * (p.1 % 3) as f32).collect();
+    let s = encode(input(f, &ij, &depths, &shape.triangles, None)).unwrap();
+    assert!(s.planes.len() >= 16, "{} planes", s.planes.len());
+    let e = &s.max_error;
+    assert!(e[0] > 0.0);
+    assert!(e[10] < e[2] / 64.0, "{e:?}");
+    assert!(*e.last().unwrap() < 1e-5, "{e:?}");
+}
+
+#[test]
+fn planes_extend_a_held_mesh_to_the_whole_one() {
+    let f = Forest { side: 8, m: 1, n: 1 };
+    let corners = random_mesh(&f, 3, 0.6, 0.1);
+    let shape = connectivity::assemble(&f, &corners);
+    let ij: Vec<(u16, u16)> = shape.vertices.iter().map(|&(x, y)| (x as u16, y as u16)).collect();
+    let depths: Vec<f32> = shape.vertices.iter().map(|&p| depth_at(p, false)).collect();
+    let all = encode(input(f, &ij, &depths, &shape.triangles, None)).unwrap();
+    let mut held = all.clone();
+    held.planes.truncate(4);
+    held.etag = "\"four\"".into();
+    let update = PlaneUpdate {
+        version: COMPACT_VERSION,
+        held: "\"four\"".into(),
+        first: 4,
+        planes: all.planes[4..].to_vec(),
+        etag: all.etag.clone(),
+    };
+    let mut wrong = update.clone();
+    wrong.held = "\"other\"".into();
+    assert!(held.clone().apply(wrong).is_err());
+    let mut late = update.clone();
+    late.first = 5;
+    assert!(held.clone().apply(late).is_err());
+    held.apply(update).unwrap();
+    assert_eq!(held, all);
+}
+
+#[test]
+fn meshes_that_are_no_walk_are_refused() {
+    let f = Forest { side: 4, m: 1, n: 1 };
+    let ij = [(0, 0), (4, 0), (0, 4), (1, 1)];
+    let depths = [1.0f32; 4];
+    // A triangle that is no bintree triangle.
+    let bad = [[0, 1, 3]];
+    assert!(encode(input(f, &ij, &depths, &bad, None)).is_err());
+    // A root triangle drawn with a piece of itself.
+    let ij = [(0, 0), (4, 0), (4, 4), (2, 2), (2, 0)];
+    let overlap = [[0, 1, 2], [0, 3, 4]];
+    let e = encode(input(f, &ij, &[1.0; 5], &overlap, None)).unwrap_err();
+    assert!(e.0.contains("conform") || e.0.contains("not a triangle"), "{e}");
+}
+
+#[test]
+fn garbage_fails_with_a_reason_never_a_panic() {
+    let f = Forest { side: 8, m: 2, n: 1 };
+    let corners = random_mesh(&f, 11, 0.5, 0.2);
+    let shape = connectivity::assemble(&f, &corners);
+    let ij: Vec<(u16, u16)> = shape.vertices.iter().map(|&(x, y)| (x as u16, y as u16)).collect();
+    let depths: Vec<f32> = shape.vertices.iter().map(|&p| depth_at(p, false)).collect();
+    let good = encode(input(f, &ij, &depths, &shape.triangles, None)).unwrap();
+    let mut s = good.clone();
+    s.triangles += 1;
+    assert!(s.decode().is_err());
+    let mut s = good.clone();
+    s.connectivity.split.pop();
+    assert!(s.decode().is_err());
+    let mut s = good.clone();
+    s.anchors.push(0);
+    assert!(s.decode().is_err());
+    let mut s = good.clone();
+    s.root_side = 6;
+    assert!(s.decode().is_err());
+    let mut s = good.clone();
+    s.levels[3].step = f64::NAN;
+    assert!(s.decode().is_err());
+    let mut s = good;
+    s.roots_x = 1 << 20;
+    assert!(s.decode().is_err());
+}
+
+#[test]
+fn culled_spheres_stay_within_their_quantised_ones() {
+    let spheres: Vec<[f64; 4]> = (0..100)
+        .map(|k| {
+            let t = f64::from(k);
+            [t.sin() * 3.0, t * 0.01, 2.0 + t.cos(), 0.05 + 0.001 * t]
+        })
+        .collect();
+    let r = compact_reach(&spheres, Some(1.5));
+    assert!(r.culled.len() <= MAX_COMPACT_CULLED);
+    let stream_culled = MeshStream {
+        reach: Some(r),
+        ..encode(input(Forest { side: 2, m: 1, n: 1 }, &[], &[], &[], None)).unwrap()
+    }
+    .culled();
+    for s in &spheres {
+        let held = stream_culled.iter().any(|c| {
+            let d = ((c[0] - s[0]).powi(2) + (c[1] - s[1]).powi(2) + (c[2] - s[2]).powi(2)).sqrt();
+            d + s[3] <= c[3]
+        });
+        assert!(held, "{s:?} is in no decoded sphere");
+    }
+}
