@@ -13,7 +13,8 @@
 //! - [`scene`]: reference-view selection and weights for a novel camera;
 //! - [`sim`]: the scene simulator with ground truth;
 //! - [`synthetic`]: built-in synthetic depth maps;
-//! - [`wire`]: extracted meshes as `dmesh-proto` strip responses.
+//! - [`wire`]: extracted meshes as `dmesh-proto` strip responses;
+//! - [`wire_compact`]: extracted meshes as protocol 6, the compact stream, and back.
 //!
 //! ```
 //! use dmesh_engine::{camera::Camera, image::DepthImage, mesh::{DepthMesh, Lod, Segmentation}};
@@ -36,5 +37,6 @@ pub mod scene;
 pub mod sim;
 pub mod synthetic;
 pub mod wire;
+pub mod wire_compact;
 
 pub use error::{Error, Result};

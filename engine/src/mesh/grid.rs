@@ -309,6 +309,22 @@ mod tests {
     }
 
     #[test]
+    fn the_compact_stream_forest_is_this_grid() {
+        for (w, h) in [(17, 9), (33, 33), (40, 7), (2, 2)] {
+            let g = Grid::for_image(w, h);
+            let f = crate::wire_compact::forest(&g);
+            assert_eq!((f.gw(), f.gh(), f.levels()), (g.gw(), g.gh(), 2 * g.k as usize + 1));
+            for y in 0..g.gh() {
+                for x in 0..g.gw() {
+                    let d = f.diamond((x, y)).map(|d| (d.a, d.b, d.apex));
+                    assert_eq!(d, g.diamond((x, y)).map(|d| (d.a, d.b, d.apex)), "({x}, {y})");
+                    assert_eq!(f.level((x, y)), g.level((x, y)));
+                }
+            }
+        }
+    }
+
+    #[test]
     fn sub_square_diagonals_run_through_the_parent_centre() {
         let g = Grid::for_image(9, 9);
         // Square of side 2 around (1, 1) lies in the root square centred (4, 4)?

@@ -7,6 +7,7 @@
 //! - [`error_metric`]: Eq. 1 and Eq. 2, squared and division-safe;
 //! - `deviation`: the exact depth deviation of a hierarchy triangle;
 //! - [`normals`]: per-vertex normals and quality rho (Sec. 4.2);
+//! - [`derived_normals`]: the same, derived from a decoded mesh where the compact stream lands;
 //! - [`segmentation`]: orthogonality, disparity, connectedness, gated by lambda (Sec. 5.2);
 //! - `flags`: segmentation flags and their OR/AND propagation (Sec. 5.3);
 //! - [`hierarchy`]: the build, on one thread or two (Sec. 4.2, 5.3);
@@ -22,6 +23,7 @@
 mod backproject;
 pub mod border;
 pub mod budget;
+pub mod derived_normals;
 mod deviation;
 pub mod error_metric;
 pub mod extract;
