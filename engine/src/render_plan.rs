@@ -151,8 +151,7 @@ pub fn extract(
     ask: &Ask,
     triangles_for_ms: impl FnOnce(f64) -> f64,
 ) -> Result<Extracted> {
-    let (lod, allowed) = ask.lod(hierarchy, triangles_for_ms);
-    let mesh = hierarchy.extract(lod)?;
+    let (mesh, allowed) = extract_mesh(hierarchy, ask, triangles_for_ms)?;
     let coding = DepthCoding {
         bits: ask.bits,
         root_side: hierarchy.grid().side(),
@@ -161,6 +160,17 @@ pub fn extract(
     let response =
         strip_response(&mesh, scene, view, hierarchy.camera(), coding).map_err(|e| Error::invalid(e.to_string()))?;
     Ok(Extracted { response, allowed })
+}
+
+/// Extracts `hierarchy` for `ask` (`triangles_for_ms` as in [`Ask::lod`]),
+/// with what a time budget allowed.
+pub fn extract_mesh(
+    hierarchy: &DepthMesh,
+    ask: &Ask,
+    triangles_for_ms: impl FnOnce(f64) -> f64,
+) -> Result<(crate::mesh::Mesh, Option<u64>)> {
+    let (lod, allowed) = ask.lod(hierarchy, triangles_for_ms);
+    Ok((hierarchy.extract(lod)?, allowed))
 }
 
 #[cfg(test)]

@@ -84,9 +84,15 @@ pub struct StripRequest {
     /// (view-dependent then), refused with `epsilon`.
     #[serde(default)]
     pub camera: Option<Camera>,
-    /// Residual bit-depth of the depths, `0..=16`; absent: exact `f32`.
+    /// Residual bit-depth of the depths, `0..=16`; absent: exact `f32`. In
+    /// the compact stream, the number of depth planes; absent: all.
     #[serde(default)]
     pub bits: Option<u8>,
+    /// Compact stream only: the ETag of a response to the same request the
+    /// client holds (fewer planes); the answer is then only the planes it
+    /// lacks. Ignored when it names another view version, tolerance or camera.
+    #[serde(default)]
+    pub held: Option<String>,
 }
 
 impl Indices {
@@ -267,7 +273,12 @@ mod tests {
             (Lod::MaxTriangles(5000), None, None),
             (Lod::BudgetMs(2.5), Some(sample().camera), None),
         ] {
-            crate::round_trip::both(&StripRequest { lod, camera, bits });
+            crate::round_trip::both(&StripRequest {
+                lod,
+                camera,
+                bits,
+                held: None,
+            });
         }
         let r: StripRequest = serde_json::from_str(r#"{"lod": {"epsilon": 0.5}}"#).unwrap();
         assert_eq!(r.lod, Lod::Epsilon(0.5));

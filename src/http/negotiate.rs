@@ -1,15 +1,31 @@
-//! Content negotiation: bincode when the client's `Accept` names
-//! `application/x-bincode`, JSON otherwise.
+//! Content negotiation: the compact stream (protocol 6) when the client's
+//! `Accept` names `application/vnd.dmesh.mesh` (mesh routes only), bincode
+//! when it names `application/x-bincode`, JSON otherwise.
 
 use axum::http::{header, HeaderMap};
 use axum::response::{IntoResponse, Response};
-use dmesh_proto::BINCODE_MEDIA_TYPE;
+use dmesh_proto::{BINCODE_MEDIA_TYPE, MESH_MEDIA_TYPE};
 use serde::Serialize;
 
 use crate::service::AppError;
 
 /// True when the request asks for bincode.
 pub fn wants_bincode(headers: &HeaderMap) -> bool {
+    accepts(headers, BINCODE_MEDIA_TYPE)
+}
+
+/// True when the request asks for the compact mesh stream.
+pub fn wants_compact(headers: &HeaderMap) -> bool {
+    accepts(headers, MESH_MEDIA_TYPE)
+}
+
+/// Encodes a compact body (bincode framing, PROTOCOL.md "Protocol 6").
+pub fn encode_compact<T: Serialize>(value: &T) -> Result<Response, AppError> {
+    let body = dmesh_proto::to_bincode(value).map_err(|e| AppError::Internal(format!("compact stream: {e}")))?;
+    Ok(([(header::CONTENT_TYPE, MESH_MEDIA_TYPE)], body).into_response())
+}
+
+fn accepts(headers: &HeaderMap, media: &str) -> bool {
     headers
         .get_all(header::ACCEPT)
         .iter()
@@ -19,7 +35,7 @@ pub fn wants_bincode(headers: &HeaderMap) -> bool {
             t.trim()
                 .split(';')
                 .next()
-                .is_some_and(|m| m.trim().eq_ignore_ascii_case(BINCODE_MEDIA_TYPE))
+                .is_some_and(|m| m.trim().eq_ignore_ascii_case(media))
         })
 }
 

@@ -7,6 +7,10 @@ use axum::extract::{Path, Query, State};
 use axum::http::{header, HeaderMap, StatusCode};
 use axum::response::{IntoResponse, Response};
 use axum::Json;
+use dmesh_engine::mesh::Mesh;
+use dmesh_engine::wire::{strip_response, DepthCoding};
+use dmesh_engine::wire_compact;
+use dmesh_proto::compact::{CompactView, MeshBody, PlaneUpdate, RenderStream};
 use dmesh_proto::{
     Lod as WireLod, RenderRequest, RenderResponse, RenderedView, StripRequest, StripResponse, Timings, PROTOCOL_VERSION,
 };
@@ -16,9 +20,10 @@ use crate::camera::{camera_from_json, Camera};
 use crate::render_plan::{self, Ask};
 use crate::store::validate_id;
 
-use super::negotiate::encode;
+use super::negotiate::{encode, encode_compact, wants_compact};
 use super::views::{color_url, load};
 use crate::service::AppError;
+use crate::service::stream_tag::StreamTag;
 use crate::service::{AppState, Loaded};
 
 /// Query of `GET .../strips`: `epsilon`, or `tau` with the requesting
@@ -33,6 +38,7 @@ pub struct StripQuery {
     max_triangles: Option<u32>,
     budget_ms: Option<f64>,
     bits: Option<u8>,
+    held: Option<String>,
 }
 
 impl StripQuery {
@@ -53,44 +59,123 @@ impl StripQuery {
     }
 }
 
-/// One view's strips for `ask`, with the server's measured extraction rate
+/// One view's mesh for `ask`, with the server's measured extraction rate
 /// turning a time budget into triangles (blocking).
-fn extract(state: &AppState, scene: &str, view: &str, loaded: &Loaded, ask: &Ask) -> Result<StripResponse, AppError> {
+fn extract_mesh(state: &AppState, loaded: &Loaded, ask: &Ask) -> Result<Mesh, AppError> {
     // A time budget allows as many more triangles as meshes have recently
     // fallen short of their allowance.
     let (rate, fill) = (state.metrics.ms_per_triangle(), state.metrics.budget_fill());
-    let out = render_plan::extract(&loaded.hierarchy, loaded.raw_grid, scene, view, ask, |ms| {
-        ms / rate / fill
-    })?;
-    let triangles = out.response.triangles as usize;
-    state.metrics.extraction(out.response.extract_ms, triangles);
-    if let Some(allowed) = out.allowed {
+    let (mesh, allowed) = render_plan::extract_mesh(&loaded.hierarchy, ask, |ms| ms / rate / fill)?;
+    let triangles = mesh.triangles.len();
+    state.metrics.extraction(mesh.extract_ms, triangles);
+    if let Some(allowed) = allowed {
         state.metrics.budget_filled(triangles as f64 / allowed as f64);
     }
-    Ok(out.response)
+    Ok(mesh)
 }
+
+/// One view's strips for `ask` (protocol 5).
+fn extract(state: &AppState, scene: &str, view: &str, loaded: &Loaded, ask: &Ask) -> Result<StripResponse, AppError> {
+    let mesh = extract_mesh(state, loaded, ask)?;
+    let coding = DepthCoding {
+        bits: ask.bits,
+        root_side: loaded.hierarchy.grid().side(),
+        raw_grid: loaded.raw_grid,
+    };
+    strip_response(&mesh, scene, view, loaded.hierarchy.camera(), coding)
+        .map_err(|e| AppError::Internal(format!("encoding the mesh: {e}")))
+}
+
+/// One view's mesh for `ask` in the compact stream (protocol 6), named by
+/// `tag`: the whole mesh with the planes asked for, or, when the client
+/// holds the same mesh with fewer planes (`held`), only the planes it lacks.
+fn extract_compact(
+    state: &AppState,
+    (scene, view): (&str, &str),
+    loaded: &Loaded,
+    ask: &Ask,
+    tag: Option<&StreamTag>,
+    held: Option<StreamTag>,
+) -> Result<MeshBody, AppError> {
+    let mesh = extract_mesh(state, loaded, ask)?;
+    let etag = tag.map(StreamTag::etag).unwrap_or_default();
+    let h = &loaded.hierarchy;
+    let mut stream = wire_compact::mesh_stream(&mesh, h.grid(), scene, view, h.camera(), loaded.raw_grid, None, etag)
+        .map_err(|e| AppError::Internal(format!("encoding the mesh: {e}")))?;
+    let wanted = ask.bits.map_or(stream.planes.len(), |b| stream.planes.len().min(usize::from(b)));
+    let first = held.as_ref().and_then(|h| h.planes).map(usize::from);
+    if let (Some(held), Some(first)) = (held, first.filter(|&f| f < wanted)) {
+        return Ok(MeshBody::Planes(PlaneUpdate {
+            version: dmesh_proto::COMPACT_VERSION,
+            held: held.etag(),
+            first: first as u8,
+            planes: stream.planes.drain(first..wanted).collect(),
+            etag: stream.etag,
+        }));
+    }
+    stream.planes.truncate(wanted);
+    Ok(MeshBody::Mesh(Box::new(stream)))
+}
+
+/// True when `If-None-Match` names `tag`.
+fn none_match(headers: &HeaderMap, tag: &str) -> bool {
+    headers
+        .get(header::IF_NONE_MATCH)
+        .and_then(|v| v.to_str().ok())
+        .is_some_and(|v| v.split(',').any(|t| t.trim() == tag))
+}
+
+fn not_modified(tag: String) -> Response {
+    (StatusCode::NOT_MODIFIED, [(header::ETAG, tag)]).into_response()
+}
+
+/// A strip request as the handlers read it: level of detail, camera, bits, held ETag.
+type StripAsk = (WireLod, Option<Camera>, Option<u8>, Option<String>);
 
 async fn strips(
     state: Arc<AppState>,
     scene: String,
     view: String,
     headers: HeaderMap,
-    (lod, camera, bits): (WireLod, Option<Camera>, Option<u8>),
+    (lod, camera, bits, held): StripAsk,
 ) -> Result<Response, AppError> {
     let ask = Ask::new(lod, camera, bits)?;
     let loaded = load(&state, &scene, &view).await?;
+    if wants_compact(&headers) {
+        // Every compact mesh but a time budget's is a function of the stored
+        // view and the request, named by its tag.
+        let tag = StreamTag::new(&loaded.etag, &ask);
+        if let Some(t) = tag.as_ref().map(StreamTag::etag).filter(|t| none_match(&headers, t)) {
+            return Ok(not_modified(t));
+        }
+        let held = held
+            .as_deref()
+            .and_then(StreamTag::parse)
+            .filter(|h| tag.as_ref().is_some_and(|t| t.same_mesh(h)));
+        let st = state.clone();
+        let start = Instant::now();
+        let body = tokio::task::spawn_blocking(move || {
+            extract_compact(&st, (&scene, &view), &loaded, &ask, tag.as_ref(), held)
+        })
+        .await??;
+        let ms = start.elapsed().as_secs_f64() * 1e3;
+        let etag = match &body {
+            MeshBody::Mesh(m) => m.etag.clone(),
+            MeshBody::Planes(p) => p.etag.clone(),
+        };
+        let mut out = encode_compact(&body)?;
+        server_timing(&mut out, ms, ms);
+        if let Ok(v) = etag.parse() {
+            out.headers_mut().insert(header::ETAG, v);
+        }
+        return Ok(out);
+    }
     // Static meshes are a function of the stored view and the request: cacheable.
     let etag = ask
         .cache_key()
         .map(|key| format!("{}-{key}\"", loaded.etag.trim_end_matches('"')));
-    if let Some(tag) = &etag {
-        let matches = headers
-            .get(header::IF_NONE_MATCH)
-            .and_then(|v| v.to_str().ok())
-            .is_some_and(|v| v.split(',').any(|t| t.trim() == tag));
-        if matches {
-            return Ok((StatusCode::NOT_MODIFIED, [(header::ETAG, tag.clone())]).into_response());
-        }
+    if let Some(tag) = etag.as_ref().filter(|t| none_match(&headers, t)) {
+        return Ok(not_modified(tag.clone()));
     }
     let st = state.clone();
     let response = tokio::task::spawn_blocking(move || extract(&st, &scene, &view, &loaded, &ask)).await??;
@@ -105,7 +190,8 @@ async fn strips(
 }
 
 /// `GET /v1/scenes/{scene}/views/{view}/strips?epsilon=E`, `?tau=T&camera=JSON`,
-/// `?max_triangles=N[&camera=JSON]` or `?budget_ms=MS[&camera=JSON]`, each with optional `&bits=B`.
+/// `?max_triangles=N[&camera=JSON]` or `?budget_ms=MS[&camera=JSON]`, each with optional `&bits=B`
+/// (and, for the compact stream, `&held=ETAG`).
 pub async fn get_strips(
     State(state): State<Arc<AppState>>,
     Path((scene, view)): Path<(String, String)>,
@@ -115,7 +201,7 @@ pub async fn get_strips(
     let Query(q) = query.map_err(|e| AppError::BadRequest(format!("query: {}", e.body_text())))?;
     let lod = q.lod()?;
     let camera = q.camera.as_deref().map(camera_from_json).transpose()?;
-    strips(state, scene, view, headers, (lod, camera, q.bits)).await
+    strips(state, scene, view, headers, (lod, camera, q.bits, q.held)).await
 }
 
 /// `POST /v1/scenes/{scene}/views/{view}/strips` with a [`StripRequest`] body.
@@ -127,7 +213,7 @@ pub async fn post_strips(
 ) -> Result<Response, AppError> {
     let Json(b) = body.map_err(json_rejection)?;
     let camera = b.camera.as_ref().map(Camera::try_from).transpose()?;
-    strips(state, scene, view, headers, (b.lod, camera, b.bits)).await
+    strips(state, scene, view, headers, (b.lod, camera, b.bits, b.held)).await
 }
 
 pub(crate) fn json_rejection(e: axum::extract::rejection::JsonRejection) -> AppError {
@@ -155,42 +241,79 @@ pub async fn render(
     // The novel camera is the requesting one, except for a static tolerance.
     let requesting = (!matches!(req.lod, WireLod::Epsilon(_))).then_some(novel);
     let ask = Ask::new(req.lod, requesting, req.bits)?;
+    let compact = wants_compact(&headers);
     let st = state.clone();
-    let response = tokio::task::spawn_blocking(move || -> Result<RenderResponse, AppError> {
+    let response = tokio::task::spawn_blocking(move || -> Result<Rendered, AppError> {
         // Select from the cameras alone; only the selected views are loaded.
         let candidates = st.scene_cameras(&scene)?;
         let cameras: Vec<Camera> = candidates.iter().map(|l| l.camera).collect();
         let selected = render_plan::select(&novel, &cameras, req.selection, req.max_views, req.max_angle_deg)?;
         let select_ms = start.elapsed().as_secs_f64() * 1e3;
         let t = Instant::now();
-        let views = selected
+        let loaded = selected
             .iter()
             .map(|w| {
                 let listed = &candidates[w.index];
-                let name = &listed.name;
-                let loaded = st.load_listed(&scene, listed)?;
+                Ok((w.weight, &listed.name, st.load_listed(&scene, listed)?))
+            })
+            .collect::<Result<Vec<_>, AppError>>()?;
+        let timings = |t: Instant| Timings {
+            select_ms,
+            extract_ms: t.elapsed().as_secs_f64() * 1e3,
+            total_ms: start.elapsed().as_secs_f64() * 1e3,
+        };
+        if compact {
+            let views = loaded
+                .iter()
+                .map(|(weight, name, loaded)| {
+                    let ask = ask.share(*weight);
+                    let tag = StreamTag::new(&loaded.etag, &ask);
+                    let MeshBody::Mesh(mesh) = extract_compact(&st, (&scene, name), loaded, &ask, tag.as_ref(), None)?
+                    else {
+                        return Err(AppError::Internal("a render answered with planes".into()));
+                    };
+                    Ok(CompactView {
+                        weight: *weight,
+                        mesh: *mesh,
+                        color_url: color_url(&scene, name),
+                    })
+                })
+                .collect::<Result<Vec<_>, AppError>>()?;
+            return Ok(Rendered::Compact(RenderStream {
+                version: dmesh_proto::COMPACT_VERSION,
+                views,
+                timings: timings(t),
+            }));
+        }
+        let views = loaded
+            .iter()
+            .map(|(weight, name, loaded)| {
                 Ok(RenderedView {
-                    weight: w.weight,
-                    strips: extract(&st, &scene, name, &loaded, &ask.share(w.weight))?,
+                    weight: *weight,
+                    strips: extract(&st, &scene, name, loaded, &ask.share(*weight))?,
                     color_url: color_url(&scene, name),
                 })
             })
             .collect::<Result<Vec<_>, AppError>>()?;
-        let extract_ms = t.elapsed().as_secs_f64() * 1e3;
-        Ok(RenderResponse {
+        Ok(Rendered::Strips(RenderResponse {
             version: PROTOCOL_VERSION,
             views,
-            timings: Timings {
-                select_ms,
-                extract_ms,
-                total_ms: start.elapsed().as_secs_f64() * 1e3,
-            },
-        })
+            timings: timings(t),
+        }))
     })
     .await??;
-    let mut out = encode(&headers, &response)?;
-    server_timing(&mut out, response.timings.extract_ms, response.timings.total_ms);
+    let (mut out, timings) = match &response {
+        Rendered::Compact(r) => (encode_compact(r)?, r.timings),
+        Rendered::Strips(r) => (encode(&headers, r)?, r.timings),
+    };
+    server_timing(&mut out, timings.extract_ms, timings.total_ms);
     Ok(out)
+}
+
+/// A render answer in the encoding the client asked for.
+enum Rendered {
+    Strips(RenderResponse),
+    Compact(RenderStream),
 }
 
 /// `Server-Timing: extract;dur=MS, total;dur=MS`, which load generators read

@@ -8,12 +8,14 @@
 //! - [`state`]: the store, the cache, revalidation, changes;
 //! - [`ingest`]: decode, mask, check, build and store one view;
 //! - [`metrics`]: Prometheus counters and the extraction-rate estimate;
+//! - [`stream_tag`]: the self-describing ETags of compact responses;
 //! - [`error`]: the one error type.
 
 pub mod error;
 pub mod ingest;
 pub mod metrics;
 pub mod state;
+pub mod stream_tag;
 
 pub use error::AppError;
 pub use state::{AppState, Loaded, Settings};

@@ -231,6 +231,7 @@ pub async fn run(
             lod: dmesh_proto::Lod::Tau(policy.tau),
             camera: Some((&widened(&camera, options.guard)?).into()),
             bits: options.bits,
+            held: None,
         };
         let mut tasks = tokio::task::JoinSet::new();
         for v in plan.fetches() {

@@ -237,7 +237,7 @@ pub fn encode(forest: &Forest, vertices: &[Pt], depths: &[f32], raw: Option<RawG
         max_error: Vec::new(),
     };
     for b in 0..=usize::from(total) {
-        let got = decode(forest, vertices, &code, b).map_err(|e| format!("the encoder's own decode failed: {e}"))?;
+        let got = decode_with(&parents, &level, &code, b).map_err(|e| format!("the encoder's own decode failed: {e}"))?;
         let err = got.iter().zip(depths).map(|(a, b)| (a - b).abs()).fold(0f32, f32::max);
         code.max_error.push(err);
     }
@@ -256,7 +256,6 @@ pub fn decode(forest: &Forest, vertices: &[Pt], code: &DepthCode, held: usize) -
     if code.levels.iter().any(|l| l.planes > MAX_PLANES) {
         return Err("a level has more than 24 planes");
     }
-    let units = Units(code.lattice);
     match code.lattice {
         Some(g) => {
             if !(g.scale.is_finite() && g.scale != 0.0 && g.offset.is_finite()) {
@@ -274,6 +273,13 @@ pub fn decode(forest: &Forest, vertices: &[Pt], code: &DepthCode, held: usize) -
     }
     let parents = parents(forest, vertices);
     let level: Vec<usize> = vertices.iter().map(|&v| forest.level(v) as usize).collect();
+    decode_with(&parents, &level, code, held)
+}
+
+/// [`decode`] with each vertex's parents and level.
+fn decode_with(parents: &[Option<(u32, u32)>], level: &[usize], code: &DepthCode, held: usize) -> Result<Vec<f32>, Error> {
+    let units = Units(code.lattice);
+    let vertices = parents;
     let anchor_count = parents.iter().filter(|p| p.is_none()).count();
     let anchors = unshuffle(&code.anchors, anchor_count)?;
     let mut mb = vec![0u32; vertices.len()];

@@ -1,0 +1,119 @@
+//! Names of compact responses (protocol 6) that a server can act on
+//! without remembering clients (DESIGN.md "The compact stream": stateless).
+//!
+//! A compact response's ETag states what determines it: the stored view's
+//! version, the request's level of detail and a hash of its camera, and the
+//! depth planes it carries:
+//! `"<view etag>.<lod><camera>.p<planes>"`, with `<lod>` one of `e<bits>`,
+//! `t<bits>` (the f64 bits of epsilon or tau, hex) or `n<max triangles>`,
+//! `<camera>` empty or `c<hash>`, and `<planes>` a count or `a` for all. A
+//! request naming a held ETag of the same view version, level of detail and
+//! camera gets only the planes it lacks; any other held ETag is ignored and
+//! the whole mesh is sent. A time budget (`budget_ms`) depends on the
+//! server's measured rate, so its answers have no ETag.
+
+use dmesh_engine::render_plan::Ask;
+use dmesh_proto::Lod as WireLod;
+
+/// What a compact response is, parsed from or written to its ETag.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct StreamTag {
+    /// The stored view's ETag without its quotes.
+    view: String,
+    /// Level of detail and camera.
+    mesh: String,
+    /// Depth planes carried: `None` for all.
+    pub planes: Option<u8>,
+}
+
+impl StreamTag {
+    /// The tag of the answer to `ask` from the view stored as `view_etag`;
+    /// `None` for a time budget.
+    pub fn new(view_etag: &str, ask: &Ask) -> Option<Self> {
+        let lod = match ask.lod {
+            WireLod::Epsilon(e) => format!("e{:x}", e.to_bits()),
+            WireLod::Tau(t) => format!("t{:x}", t.to_bits()),
+            WireLod::MaxTriangles(n) => format!("n{n}"),
+            WireLod::BudgetMs(_) => return None,
+        };
+        let camera = ask.camera.map_or(String::new(), |c| {
+            let wire: dmesh_proto::Camera = (&c).into();
+            let bytes = dmesh_proto::to_bincode(&wire).unwrap_or_default();
+            format!("c{:016x}", fnv1a(&bytes))
+        });
+        Some(Self {
+            view: view_etag.trim_matches('"').to_string(),
+            mesh: format!("{lod}{camera}"),
+            planes: ask.bits,
+        })
+    }
+
+    /// Parses an ETag this module wrote; `None` for anything else.
+    pub fn parse(etag: &str) -> Option<Self> {
+        let inner = etag.trim().strip_prefix('"')?.strip_suffix('"')?;
+        let (rest, planes) = inner.rsplit_once(".p")?;
+        let (view, mesh) = rest.rsplit_once('.')?;
+        let planes = match planes {
+            "a" => None,
+            n => Some(n.parse().ok()?),
+        };
+        (!view.is_empty() && !mesh.is_empty()).then(|| Self {
+            view: view.to_string(),
+            mesh: mesh.to_string(),
+            planes,
+        })
+    }
+
+    /// The ETag, quoted.
+    pub fn etag(&self) -> String {
+        let planes = self.planes.map_or("a".to_string(), |p| p.to_string());
+        format!("\"{}.{}.p{planes}\"", self.view, self.mesh)
+    }
+
+    /// The same tag with `planes`.
+    pub fn with_planes(&self, planes: Option<u8>) -> Self {
+        Self { planes, ..self.clone() }
+    }
+
+    /// True when `held` names the same mesh (view version, level of detail, camera).
+    pub fn same_mesh(&self, held: &Self) -> bool {
+        self.view == held.view && self.mesh == held.mesh
+    }
+}
+
+/// 64-bit FNV-1a: a stable hash of the camera's bytes (not for security:
+/// a forged tag only gets its sender the planes of another camera's mesh
+/// of the same view, which it could have asked for).
+fn fnv1a(bytes: &[u8]) -> u64 {
+    bytes
+        .iter()
+        .fold(0xcbf2_9ce4_8422_2325, |h, &b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use dmesh_engine::camera::Camera;
+
+    #[test]
+    fn tags_round_trip_and_name_their_mesh() {
+        let cam = Camera::perspective(8, 6, 8.0, 8.0, 3.5, 2.5).unwrap();
+        let tau = Ask::new(WireLod::Tau(1.5), Some(cam), Some(4)).unwrap();
+        let t = StreamTag::new("\"abc-1\"", &tau).unwrap();
+        assert_eq!(StreamTag::parse(&t.etag()), Some(t.clone()));
+        let all = t.with_planes(None);
+        assert!(all.etag().ends_with(".pa\""), "{}", all.etag());
+        assert_eq!(StreamTag::parse(&all.etag()), Some(all.clone()));
+        assert!(t.same_mesh(&all));
+        let mut moved = cam;
+        moved.translation.x += 0.01;
+        let other = StreamTag::new("\"abc-1\"", &Ask::new(WireLod::Tau(1.5), Some(moved), Some(4)).unwrap()).unwrap();
+        assert!(!t.same_mesh(&other));
+        let newer = StreamTag::new("\"abc-2\"", &tau).unwrap();
+        assert!(!t.same_mesh(&newer));
+        assert!(StreamTag::new("\"v\"", &Ask::new(WireLod::BudgetMs(1.0), None, None).unwrap()).is_none());
+        for bad in ["", "\"\"", "abc", "\"v.e1.px\"", "\".e1.p3\"", "\"v.p3\""] {
+            assert_eq!(StreamTag::parse(bad), None, "{bad}");
+        }
+    }
+}
