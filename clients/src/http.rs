@@ -14,6 +14,17 @@ pub struct Server {
     base: String,
     client: Client<HttpConnector, Full<Bytes>>,
     cache: Option<PathBuf>,
+    wire: Wire,
+}
+
+/// How meshes travel.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum Wire {
+    /// Protocol 6, the compact stream, zstd-coded (the default).
+    #[default]
+    Compact,
+    /// Protocol 5, bincode vertex records and strips, uncompressed.
+    Bincode,
 }
 
 /// A failed call, with the server's error body when it sent one.
@@ -40,7 +51,14 @@ impl Server {
             base: base.trim_end_matches('/').to_string(),
             client: Client::builder(TokioExecutor::new()).build_http(),
             cache,
+            wire: Wire::Compact,
         }
+    }
+
+    /// The same client asking for meshes in `wire`.
+    pub fn with_wire(mut self, wire: Wire) -> Self {
+        self.wire = wire;
+        self
     }
 
     async fn call(
@@ -50,6 +68,18 @@ impl Server {
         headers: &[(header::HeaderName, String)],
         body: Vec<u8>,
     ) -> anyhow::Result<(StatusCode, hyper::HeaderMap, Bytes)> {
+        let (status, headers, body, _) = self.call_sized(method, path, headers, body).await?;
+        Ok((status, headers, body))
+    }
+
+    /// [`Self::call`], with the body's size as it travelled (before content decoding).
+    async fn call_sized(
+        &self,
+        method: Method,
+        path: &str,
+        headers: &[(header::HeaderName, String)],
+        body: Vec<u8>,
+    ) -> anyhow::Result<(StatusCode, hyper::HeaderMap, Bytes, usize)> {
         let mut req = Request::builder()
             .method(method.clone())
             .uri(format!("{}{path}", self.base));
@@ -60,6 +90,15 @@ impl Server {
         let status = resp.status();
         let headers = resp.headers().clone();
         let body = resp.into_body().collect().await?.to_bytes();
+        let zstd = headers
+            .get(header::CONTENT_ENCODING)
+            .is_some_and(|v| v.as_bytes().eq_ignore_ascii_case(b"zstd"));
+        let travelled = body.len();
+        let body = if zstd {
+            Bytes::from(zstd::stream::decode_all(&body[..])?)
+        } else {
+            body
+        };
         if !(status.is_success() || status == StatusCode::NOT_MODIFIED) {
             let message = serde_json::from_slice::<dmesh_proto::ErrorBody>(&body).map_or_else(
                 |_| String::from_utf8_lossy(&body).into_owned(),
@@ -73,7 +112,7 @@ impl Server {
             }
             .into());
         }
-        Ok((status, headers, body))
+        Ok((status, headers, body, travelled))
     }
 
     /// Uploads one view (multipart): camera JSON, depth bytes, colour bytes.
@@ -124,25 +163,42 @@ impl Server {
         Ok(serde_json::from_slice(&bytes)?)
     }
 
-    /// Asks for a novel view's views, weights and strips (bincode on the wire).
+    /// Asks for a novel view's views, weights and strips.
     pub async fn render(
         &self,
         scene: &str,
         request: &dmesh_proto::RenderRequest,
     ) -> anyhow::Result<dmesh_proto::RenderResponse> {
-        let (_, _, bytes) = self
+        let (_, _, bytes, _) = self
             .post_json(&format!("/v1/scenes/{scene}/render"), serde_json::to_vec(request)?)
             .await?;
-        Ok(dmesh_proto::from_bincode(&bytes)?)
+        match self.wire {
+            Wire::Bincode => Ok(dmesh_proto::from_bincode(&bytes)?),
+            Wire::Compact => {
+                let stream: dmesh_proto::RenderStream = dmesh_proto::from_bincode(&bytes)?;
+                let novel = dmesh_engine::camera::Camera::try_from(&request.camera)?;
+                Ok(dmesh_engine::wire_compact::render_response(&stream, &novel)?)
+            }
+        }
     }
 
-    /// POSTs a JSON body asking for a bincode answer.
-    async fn post_json(&self, path: &str, body: Vec<u8>) -> anyhow::Result<(StatusCode, hyper::HeaderMap, Bytes)> {
-        let headers = [
-            (header::CONTENT_TYPE, "application/json".to_string()),
-            (header::ACCEPT, dmesh_proto::BINCODE_MEDIA_TYPE.to_string()),
-        ];
-        self.call(Method::POST, path, &headers, body).await
+    /// POSTs a JSON body asking for a mesh in this client's wire; the
+    /// answer's body as it travelled (zstd-coded for the compact stream) is
+    /// decoded by [`Self::call`].
+    async fn post_json(
+        &self,
+        path: &str,
+        body: Vec<u8>,
+    ) -> anyhow::Result<(StatusCode, hyper::HeaderMap, Bytes, usize)> {
+        let mut headers = vec![(header::CONTENT_TYPE, "application/json".to_string())];
+        match self.wire {
+            Wire::Bincode => headers.push((header::ACCEPT, dmesh_proto::BINCODE_MEDIA_TYPE.to_string())),
+            Wire::Compact => {
+                headers.push((header::ACCEPT, dmesh_proto::MESH_MEDIA_TYPE.to_string()));
+                headers.push((header::ACCEPT_ENCODING, "zstd".to_string()));
+            }
+        }
+        self.call_sized(Method::POST, path, &headers, body).await
     }
 
     /// The reference cameras of a scene's views.
@@ -175,20 +231,53 @@ impl Server {
         Ok(out)
     }
 
-    /// One view's mesh (bincode on the wire), with the response's size in bytes.
+    /// One view's mesh, with the response's size in bytes as it travelled.
     pub async fn strips(
         &self,
         scene: &str,
         view: &str,
         request: &dmesh_proto::StripRequest,
     ) -> anyhow::Result<(dmesh_proto::StripResponse, usize)> {
-        let (_, _, bytes) = self
+        let (_, _, bytes, size) = self
             .post_json(
                 &format!("/v1/scenes/{scene}/views/{view}/strips"),
                 serde_json::to_vec(request)?,
             )
             .await?;
-        Ok((dmesh_proto::from_bincode(&bytes)?, bytes.len()))
+        match self.wire {
+            Wire::Bincode => Ok((dmesh_proto::from_bincode(&bytes)?, size)),
+            Wire::Compact => {
+                let body: dmesh_proto::MeshBody = dmesh_proto::from_bincode(&bytes)?;
+                let dmesh_proto::MeshBody::Mesh(stream) = body else {
+                    anyhow::bail!("the server sent planes for a request that held no mesh");
+                };
+                let camera = request
+                    .camera
+                    .as_ref()
+                    .map(dmesh_engine::camera::Camera::try_from)
+                    .transpose()?;
+                Ok((dmesh_engine::wire_compact::strip_response(&stream, camera.as_ref())?, size))
+            }
+        }
+    }
+
+    /// One view's mesh in the compact stream as it arrived: the whole mesh,
+    /// or the planes a held one lacks (`request.held`), with its size as it travelled.
+    pub async fn mesh_body(
+        &self,
+        scene: &str,
+        view: &str,
+        request: &dmesh_proto::StripRequest,
+    ) -> anyhow::Result<(dmesh_proto::MeshBody, usize)> {
+        let (_, _, bytes, size) = self
+            .clone()
+            .with_wire(Wire::Compact)
+            .post_json(
+                &format!("/v1/scenes/{scene}/views/{view}/strips"),
+                serde_json::to_vec(request)?,
+            )
+            .await?;
+        Ok((dmesh_proto::from_bincode(&bytes)?, size))
     }
 
     /// Sends a render request without decoding the answer: its size and the
@@ -198,14 +287,14 @@ impl Server {
     pub async fn render_timed(&self, scene: &str, request: &dmesh_proto::RenderRequest) -> Result<(u64, f64), u16> {
         let body = serde_json::to_vec(request).map_err(|_| 0u16)?;
         match self.post_json(&format!("/v1/scenes/{scene}/render"), body).await {
-            Ok((_, resp_headers, bytes)) => {
+            Ok((_, resp_headers, _, size)) => {
                 let extract_ms = resp_headers
                     .get("server-timing")
                     .and_then(|v| v.to_str().ok())
                     .and_then(|v| v.split(',').find_map(|m| m.trim().strip_prefix("extract;dur=")))
                     .and_then(|ms| ms.parse().ok())
                     .ok_or(0u16)?;
-                Ok((bytes.len() as u64, extract_ms))
+                Ok((size as u64, extract_ms))
             }
             Err(e) => Err(e.downcast_ref::<CallError>().map_or(0, |c| c.status.as_u16())),
         }

@@ -39,6 +39,8 @@ pub struct Detail {
     pub bits: Option<u8>,
     /// Most views per answer (server default when absent).
     pub max_views: Option<u32>,
+    /// How meshes travel.
+    pub wire: crate::http::Wire,
 }
 
 impl Default for Detail {
@@ -47,6 +49,7 @@ impl Default for Detail {
             lod: dmesh_proto::Lod::Tau(1.0),
             bits: None,
             max_views: None,
+            wire: crate::http::Wire::Compact,
         }
     }
 }

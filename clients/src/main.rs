@@ -246,7 +246,7 @@ async fn render(
     options: &BlendOptions,
     cache: &Path,
 ) -> Result<dmesh_client::blend::Blended> {
-    let s = Server::new(server, Some(cache.to_path_buf()));
+    let s = Server::new(server, Some(cache.to_path_buf())).with_wire(detail.wire);
     let wire: dmesh_proto::Camera = serde_json::from_slice(&read(camera)?).context("camera JSON")?;
     render_novel(&s, scene, &detail.request(wire), options).await
 }
@@ -273,6 +273,9 @@ struct DetailArgs {
     /// Most views per answer (server default 5).
     #[arg(long)]
     max_views: Option<u32>,
+    /// How meshes travel: the compact stream (protocol 6, zstd) or protocol 5 bincode.
+    #[arg(long, value_enum, default_value = "compact")]
+    wire: dmesh_client::http::Wire,
 }
 
 impl DetailArgs {
@@ -287,6 +290,7 @@ impl DetailArgs {
             lod,
             bits: self.bits,
             max_views: self.max_views,
+            wire: self.wire,
         }
     }
 }
@@ -382,7 +386,7 @@ fn run(cli: Cli) -> Result<()> {
                 _ => bail!("give --requests N or --duration S (seconds, at most a day)"),
             };
             let report = rt.block_on(async {
-                let s = Server::new(&server, None);
+                let s = Server::new(&server, None).with_wire(detail.wire);
                 let cameras = dmesh_client::loadtest::orbit(&s.cameras(&scene).await?, viewpoints)?;
                 dmesh_client::loadtest::run(&s, &scene, &cameras, detail, concurrency, stop).await
             })?;

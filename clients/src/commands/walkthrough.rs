@@ -47,6 +47,9 @@ pub struct WalkthroughArgs {
     /// Residual bit-depth of the depths (0-16; default exact).
     #[arg(long)]
     pub bits: Option<u8>,
+    /// How meshes travel: the compact stream (protocol 6, zstd) or protocol 5 bincode.
+    #[arg(long, value_enum, default_value = "compact")]
+    pub wire: dmesh_client::http::Wire,
     /// Most views a frame draws.
     #[arg(long, default_value_t = 5)]
     pub max_views: usize,
@@ -79,6 +82,7 @@ pub fn run(args: WalkthroughArgs, rt: &tokio::runtime::Runtime) -> Result<()> {
         stale_factor,
         guard,
         bits,
+        wire,
         max_views,
         frames_out,
         truth,
@@ -118,7 +122,7 @@ pub fn run(args: WalkthroughArgs, rt: &tokio::runtime::Runtime) -> Result<()> {
     let truth = truth.as_deref().map(scene_spec).transpose()?;
     let name = path.file_stem().and_then(|s| s.to_str()).unwrap_or("walk").to_string();
     let walks = rt.block_on(async {
-        let s = Server::new(&server, None);
+        let s = Server::new(&server, None).with_wire(wire);
         let loaded = walkthrough::Scene::load(&s, &scene).await?;
         let mut walks = Vec::new();
         for strategy in strategies {

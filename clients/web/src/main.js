@@ -3,7 +3,7 @@
 // blends them on the GPU (renderer.js). The page state lives in the URL:
 //   ?scene=ID&camera=<camera JSON>&tau=1 (or epsilon, max_triangles, budget_ms)
 //   &bits=B&cos_k=K&relight=1|x,y,z&mode=blend|coverage|wireframe&fill=0..2&w=W&h=H
-//   &policy=render|balanced
+//   &policy=render|balanced&wire=compact|bincode
 // At most one round of requests is in flight: while it runs, camera moves
 // only mark the state stale, and the latest camera goes out when it returns.
 // Between answers every frame redraws the held meshes from the current
@@ -13,6 +13,7 @@
 // the strips of the frame's holes plus the oldest held meshes that fit one
 // view's worth of triangles, and the held meshes' ages show in the overlay.
 
+import { MESH } from './compact.js';
 import { BINCODE } from './protocol.js';
 import { checkCamera, firstCamera, lookedAt, resized } from './camera.js';
 import { Navigator, distanceTo } from './controls.js';
@@ -100,7 +101,10 @@ function readUrl() {
   }
   let policy = q.get('policy') || 'render';
   if (!['render', 'balanced'].includes(policy)) { problems.push(`policy=${policy}: use render or balanced`); policy = 'render'; }
-  return { scene: q.get('scene'), camera, lodKind, lodValue, bits, cosK, light, mode, w, h, fill: fill ?? 2, policy, problems };
+  // Meshes travel in the compact stream (protocol 6) unless the URL asks for protocol 5.
+  let wire = q.get('wire') || 'compact';
+  if (!['compact', 'bincode'].includes(wire)) { problems.push(`wire=${wire}: use compact or bincode`); wire = 'compact'; }
+  return { scene: q.get('scene'), camera, lodKind, lodValue, bits, cosK, light, mode, w, h, fill: fill ?? 2, policy, wire, problems };
 }
 
 const url = readUrl();
@@ -120,6 +124,8 @@ const state = {
   intrinsics: /** @type {CameraJson | null} */ (url.camera),
   /** How rounds of requests are made. */
   policy: /** @type {'render' | 'balanced'} */ (url.policy),
+  /** How meshes travel. */
+  wire: /** @type {'compact' | 'bincode'} */ (url.wire),
 };
 
 /** The figures the overlay shows; also `window.dmeshStats`. */
@@ -214,6 +220,7 @@ function writeUrl() {
     if (state.w !== null) q.set('w', String(state.w));
     if (state.h !== null) q.set('h', String(state.h));
     if (state.policy !== 'render') q.set('policy', state.policy);
+    if (state.wire !== 'compact') q.set('wire', state.wire);
     history.replaceState(null, '', `${location.pathname}?${q}`);
   }, 150);
 }
@@ -233,24 +240,39 @@ worker.onmessage = (/** @type {MessageEvent} */ e) => {
 };
 worker.onerror = (/** @type {ErrorEvent} */ e) => fail(`The decoder could not start: ${e.message}`);
 
-/** @param {ArrayBuffer} body @param {boolean} json @param {boolean} lines
+/** A render answer, decoded in the worker: the compact stream (for the
+ * novel camera `camera`), bincode or JSON.
+ * @param {ArrayBuffer} body @param {'compact' | 'bincode' | 'json'} format @param {boolean} lines @param {CameraJson} camera
  * @returns {Promise<{response: RenderResponse, lines: (Uint32Array | null)[], decodeMs: number}>} */
-function decode(body, json, lines) {
+function decode(body, format, lines, camera) {
   const id = nextId++;
   return new Promise((resolve, reject) => {
     pending.set(id, { resolve, reject });
-    worker.postMessage({ id, body, json, lines }, [body]);
+    worker.postMessage({ id, body, json: format === 'json', compact: format === 'compact', camera, lines }, [body]);
   });
 }
 
-/** One strip response, decoded in the worker. @param {ArrayBuffer} body @param {boolean} lines
+/** One strip answer, decoded in the worker: the compact stream (requested
+ * for `camera`) or bincode. @param {ArrayBuffer} body @param {boolean} compact
+ * @param {boolean} lines @param {CameraJson} camera
  * @returns {Promise<{strips: any, lines: Uint32Array | null}>} */
-function decodeStrips(body, lines) {
+function decodeStrips(body, compact, lines, camera) {
   const id = nextId++;
   return new Promise((resolve, reject) => {
     pending.set(id, { resolve, reject });
-    worker.postMessage({ id, body, json: false, lines, kind: 'strips' }, [body]);
+    worker.postMessage({ id, body, json: false, lines, kind: compact ? 'mesh' : 'strips', camera }, [body]);
   });
+}
+
+/** The Accept header of a mesh request in the page's wire. */
+function acceptMeshes() {
+  return state.wire === 'compact' ? MESH : `${BINCODE}, application/json;q=0.5`;
+}
+
+/** The format of an answer, by its content type. @param {Response} r @returns {'compact' | 'bincode' | 'json'} */
+function answerFormat(r) {
+  const type = r.headers.get('content-type') || '';
+  return type.startsWith(MESH) ? 'compact' : type.startsWith(BINCODE) ? 'bincode' : 'json';
 }
 
 /** An answer the viewer cannot use, in the server's words. */
@@ -375,7 +397,7 @@ async function update() {
     const path = `/v1/scenes/${encodeURIComponent(/** @type {string} */ (state.scene))}/render`;
     const r = await fetch(path, {
       method: 'POST',
-      headers: { 'content-type': 'application/json', accept: `${BINCODE}, application/json;q=0.5` },
+      headers: { 'content-type': 'application/json', accept: acceptMeshes() },
       body: JSON.stringify(requestBody(cam)),
     });
     if (r.status === 503) {
@@ -387,12 +409,12 @@ async function update() {
     }
     if (!r.ok) throw new HttpError(r.status, await serverMessage(r));
     const timing = serverTiming(r.headers.get('server-timing'));
-    const json = !(r.headers.get('content-type') || '').startsWith(BINCODE);
+    const format = answerFormat(r);
     const body = await r.arrayBuffer();
     const bytes = body.byteLength;
     const entries = performance.getEntriesByName(new URL(path, location.href).href);
     const last = /** @type {PerformanceResourceTiming | undefined} */ (entries[entries.length - 1]);
-    const { response, lines, decodeMs } = await decode(body, json, state.mode === 'wireframe');
+    const { response, lines, decodeMs } = await decode(body, format, state.mode === 'wireframe', cam);
     if (response.views.length === 0) throw new Error('The server selected no reference view for this camera: turn towards the scene.');
     for (const v of response.views) await texture(v.color_url);
     if (!renderer || renderer.lost) return;
@@ -463,19 +485,20 @@ const STALE_FACTOR = 1.5;
 /** Requests a round sends at once: the server reads as many as its cores at a time. */
 const ROUND_CONCURRENCY = 2;
 
-/** One view's strips for `cam` (bincode), decoded in the worker. @param {number} v @param {CameraJson} cam */
+/** One view's mesh for `cam` (the page's wire), decoded in the worker. @param {number} v @param {CameraJson} cam */
 async function fetchStrips(v, cam) {
   const ref = refs[v];
   const path = `/v1/scenes/${encodeURIComponent(/** @type {string} */ (state.scene))}/views/${encodeURIComponent(ref.view)}/strips`;
   const r = await fetchPatiently(path, {
     method: 'POST',
-    headers: { 'content-type': 'application/json', accept: BINCODE },
+    headers: { 'content-type': 'application/json', accept: state.wire === 'compact' ? MESH : BINCODE },
     body: JSON.stringify(requestBody(cam)),
   }, Infinity);
   if (!r.ok) throw new HttpError(r.status, await serverMessage(r));
+  const compact = answerFormat(r) === 'compact';
   const buffer = await r.arrayBuffer();
   const bytes = buffer.byteLength;
-  const { strips, lines } = await decodeStrips(buffer, state.mode === 'wireframe');
+  const { strips, lines } = await decodeStrips(buffer, compact, state.mode === 'wireframe', cam);
   return { v, strips, lines, bytes, extract: serverTiming(r.headers.get('server-timing')).extract ?? strips.extract_ms };
 }
 

@@ -30,7 +30,8 @@
  * @property {Uint8Array} normal      2 per vertex: octahedral normal
  * @property {Uint8Array} rho         1 per vertex: quality in 1/255
  * @property {Float32Array} depth     1 per vertex: z in metres
- * @property {Uint16Array | Uint32Array} indices  strips, restart = largest value
+ * @property {Uint16Array | Uint32Array} indices  strips, restart = largest value (or a triangle list, see mode)
+ * @property {'strips' | 'triangles'} [mode]  'triangles' for the compact stream's indexed triangle lists
  * @property {number} triangles
  * @property {number} extract_ms
  * @property {number} maxDepthError   0 for exact depths

@@ -1,14 +1,24 @@
-// Decodes render responses off the main thread (bincode, or the JSON
-// fallback) and hands back the typed arrays, transferred, not copied.
+// Decodes answers off the main thread (the compact stream, bincode, or the
+// JSON fallback) and hands back the typed arrays, transferred, not copied.
 
+import { decodeCompactRender, decodeMesh, readMeshBody } from './compact.js';
 import { decodeRender, readStrips, Reader, renderFromJson, stripTriangles } from './protocol.js';
 
-/** Edges of the strips' triangles, each once, for the wireframe view.
- * @param {Uint16Array | Uint32Array} indices */
-function edges(indices) {
+/** The triangles of a decoded mesh: strips, or an indexed list.
+ * @param {{indices: Uint16Array | Uint32Array, mode?: string}} s */
+function triangles(s) {
+  if (s.mode !== 'triangles') return stripTriangles(s.indices);
+  const out = [];
+  for (let k = 0; k + 2 < s.indices.length; k += 3) out.push([s.indices[k], s.indices[k + 1], s.indices[k + 2]]);
+  return out;
+}
+
+/** Edges of a mesh's triangles, each once, for the wireframe view.
+ * @param {{indices: Uint16Array | Uint32Array, mode?: string}} s */
+function edges(s) {
   const seen = new Set();
   const out = [];
-  for (const [a, b, c] of stripTriangles(indices)) {
+  for (const [a, b, c] of triangles(s)) {
     for (const [p, q] of [[a, b], [b, c], [c, a]]) {
       const key = p < q ? p * 4294967296 + q : q * 4294967296 + p;
       if (!seen.has(key)) { seen.add(key); out.push(p, q); }
@@ -18,23 +28,44 @@ function edges(indices) {
 }
 
 self.onmessage = (/** @type {MessageEvent} */ e) => {
-  const { id, body, json, lines, kind } = e.data;
+  const { id, body, json, lines, kind, compact, camera, held, keep } = e.data;
   const start = performance.now();
   try {
+    if (kind === 'mesh') {
+      // A strip route's compact body: a whole mesh, or planes for the held stream.
+      const b = readMeshBody(body);
+      let stream = b.mesh;
+      if (b.planes) {
+        if (!held || held.etag !== b.planes.held) throw new Error('planes arrived for a mesh this viewer does not hold');
+        stream = { ...held, planes: [...held.planes, ...b.planes.planes], etag: b.planes.etag };
+        if (b.planes.first !== held.planes.length) throw new Error('the planes do not start where the held ones end');
+      }
+      const s = decodeMesh(/** @type {import('./compact.js').MeshStream} */ (stream), camera);
+      const wire = lines ? edges(s) : null;
+      /** @type {Transferable[]} */
+      const transfer = [s.ij.buffer, s.normal.buffer, s.rho.buffer, s.depth.buffer, s.indices.buffer];
+      if (wire) transfer.push(wire.buffer);
+      // The stream itself goes back only to a caller that will ask for its further planes.
+      self.postMessage({ id, strips: s, stream: keep ? stream : null, lines: wire, decodeMs: performance.now() - start }, { transfer });
+      return;
+    }
     if (kind === 'strips') {
       const r = new Reader(body);
       const s = readStrips(r);
       r.end();
-      const wire = lines ? edges(s.indices) : null;
+      const wire = lines ? edges(s) : null;
       /** @type {Transferable[]} */
       const transfer = [s.ij.buffer, s.normal.buffer, s.rho.buffer, s.depth.buffer, s.indices.buffer];
       if (wire) transfer.push(wire.buffer);
       self.postMessage({ id, strips: s, lines: wire, decodeMs: performance.now() - start }, { transfer });
       return;
     }
-    const r = json ? renderFromJson(JSON.parse(new TextDecoder().decode(body))) : decodeRender(body);
+    /** @type {any} */
+    const r = compact
+      ? decodeCompactRender(body, camera)
+      : json ? renderFromJson(JSON.parse(new TextDecoder().decode(body))) : decodeRender(body);
     const decodeMs = performance.now() - start;
-    const wire = r.views.map((v) => (lines ? edges(v.strips.indices) : null));
+    const wire = r.views.map((/** @type {any} */ v) => (lines ? edges(v.strips) : null));
     /** @type {Transferable[]} */
     const transfer = [];
     for (const v of r.views) {

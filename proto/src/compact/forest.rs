@@ -7,9 +7,12 @@
 //! diagonal, every triangle split at the midpoint of its hypotenuse into the
 //! child on its entry side first (Sierpinski order). The walk asks a
 //! [`Decide`] what each triangle is (split, emitted, skipped) unless the
-//! dependency rules already say it: a vertex that is split, or that a split
-//! vertex depends on (the apexes of its diamond, transitively), is split
-//! wherever the walk meets it again. The encoder and the decoder run this
+//! dependency rules already say it: a vertex that is split, or the apex
+//! opposite a split triangle's (`2m - a`: the other triangle of the split
+//! vertex's diamond exists, so its parent split there), is split wherever
+//! the walk meets it again. (The dependency closure is transitive; the
+//! stream marks one step of it, which every client can do with two stores,
+//! and the next step is marked when the walk splits that vertex.) The encoder and the decoder run this
 //! same walk, so whatever it does not ask for costs no bits.
 //!
 //! The geometry is the engine's (`engine/src/mesh/grid.rs`), restated here
@@ -280,7 +283,7 @@ impl Forest {
         let implied = get(split, self.index(m));
         match decide.decide(&node, implied)? {
             Symbol::Split => {
-                self.mark(m, split);
+                self.mark(m, node.a, split);
                 self.visit(Node { l: node.l, r: node.a, a: m }, split, decide)?;
                 self.visit(Node { l: node.a, r: node.r, a: m }, split, decide)
             }
@@ -289,22 +292,14 @@ impl Forest {
         }
     }
 
-    /// Marks `v` split with every vertex it depends on.
-    fn mark(&self, v: Pt, split: &mut [u64]) {
-        let mut stack = vec![v];
-        while let Some(p) = stack.pop() {
-            let i = self.index(p);
-            if get(split, i) {
-                continue;
-            }
-            split[i / 64] |= 1 << (i % 64);
-            if let Some(d) = self.diamond(p) {
-                for q in d.apex {
-                    if self.contains(q) && self.kind((q.0 as u32, q.1 as u32)).is_some() {
-                        stack.push((q.0 as u32, q.1 as u32));
-                    }
-                }
-            }
+    /// Marks `m` split, and the apex opposite `a` across it.
+    fn mark(&self, m: Pt, a: Pt, split: &mut [u64]) {
+        let i = self.index(m);
+        split[i / 64] |= 1 << (i % 64);
+        let (ox, oy) = (2 * i64::from(m.0) - i64::from(a.0), 2 * i64::from(m.1) - i64::from(a.1));
+        if self.contains((ox, oy)) {
+            let o = self.index((ox as u32, oy as u32));
+            split[o / 64] |= 1 << (o % 64);
         }
     }
 }

@@ -1,0 +1,544 @@
+// Protocol 6, the compact mesh stream, in the browser (proto/PROTOCOL.md,
+// "Protocol 6"; dmesh_proto::compact is the reference). A body carries split
+// and leaf bits of the forest's one canonical walk, depths as nested bit
+// planes of parent-edge residuals and a small header; this module rebuilds
+// the vertices, an indexed triangle list, the depths and, as
+// engine/src/mesh/derived_normals.rs does with the same operations in the
+// same order, the normals and rho. Pure functions, for the worker and Node.
+
+import { Reader, WireError, readCamera } from './protocol.js';
+
+export const COMPACT_VERSION = 6;
+export const MESH = 'application/vnd.dmesh.mesh';
+
+/** Largest grid a stream may describe (as the Rust decoder). */
+const MAX_GRID_VERTICES = 2 ** 26;
+/** Largest number of planes a level may have. */
+const MAX_PLANES = 24;
+/** Raw lattice values stay below this. */
+const MAX_RAW = 2 ** 50;
+
+/** Rust's `f64::round`: halves away from zero. @param {number} x */
+const round = (x) => Math.sign(x) * Math.round(Math.abs(x));
+
+/** Trailing zeros of a positive integer below 2^31. @param {number} c */
+const ctz = (c) => 31 - Math.clz32(c & -c);
+
+/** @param {Reader} r @param {string} what */
+function bytes(r, what) {
+  const n = r.len(1, what);
+  const at = r.need(n, what);
+  return new Uint8Array(r.buffer, at, n);
+}
+
+/**
+ * @typedef {object} MeshStream
+ * @property {number} version
+ * @property {string} scene
+ * @property {string} view
+ * @property {{epsilon?: number, tau?: number}} lod
+ * @property {import('./protocol.js').CameraJson} camera
+ * @property {number} extract_ms
+ * @property {number} rootSide
+ * @property {number} rootsX
+ * @property {number} rootsY
+ * @property {number} triangles
+ * @property {Uint8Array} split
+ * @property {Uint8Array} leaf
+ * @property {{scale: number, offset: number} | null} lattice
+ * @property {{step: number, planes: number}[]} levels
+ * @property {Uint8Array} anchors
+ * @property {Uint8Array[]} planes
+ * @property {Float32Array} maxError
+ * @property {{clearance: number | null, lo: number[], unit: number, culled: number[][]} | null} reach
+ * @property {string} etag
+ */
+
+/** @param {Reader} r @returns {MeshStream} */
+export function readMeshStream(r) {
+  const version = r.u16('version');
+  if (version !== COMPACT_VERSION) throw new WireError(`compact stream version ${version}; this viewer reads ${COMPACT_VERSION}`);
+  const scene = r.string('scene');
+  const view = r.string('view');
+  const lodKind = r.tag('lod', 4);
+  if (lodKind > 1) throw new WireError('a served mesh states epsilon or tau');
+  const lodValue = r.f64('lod');
+  const lod = lodKind === 0 ? { epsilon: lodValue } : { tau: lodValue };
+  const camera = readCamera(r);
+  const extract_ms = r.f64('extract_ms');
+  const rootSide = r.u32('root_side');
+  const rootsX = r.u32('roots_x');
+  const rootsY = r.u32('roots_y');
+  const triangles = r.u32('triangles');
+  const split = bytes(r, 'split bits');
+  const leaf = bytes(r, 'leaf bits');
+  const tag = r.u8('lattice');
+  if (tag > 1) throw new WireError(`lattice option tag ${tag}`);
+  const lattice = tag === 1 ? { scale: r.f64('lattice scale'), offset: r.f64('lattice offset') } : null;
+  const nLevels = r.len(9, 'levels');
+  const levels = [];
+  for (let k = 0; k < nLevels; k++) levels.push({ step: r.f64('step'), planes: r.u8('planes') });
+  const anchors = bytes(r, 'anchors');
+  const nPlanes = r.len(8, 'planes');
+  const planes = [];
+  for (let k = 0; k < nPlanes; k++) planes.push(bytes(r, 'plane'));
+  const maxError = r.array(Float32Array, r.len(4, 'max_error'), 'max_error');
+  const rt = r.u8('reach');
+  if (rt > 1) throw new WireError(`reach option tag ${rt}`);
+  let reach = null;
+  if (rt === 1) {
+    const some = r.u8('clearance');
+    if (some > 1) throw new WireError(`clearance option tag ${some}`);
+    const clearance = some === 1 ? r.f64('clearance') : null;
+    const lo = [r.f64('lo'), r.f64('lo'), r.f64('lo')];
+    const unit = r.f64('unit');
+    const count = r.len(8, 'culled');
+    const culled = [];
+    for (let k = 0; k < count; k++) culled.push([r.u16(), r.u16(), r.u16(), r.u16()]);
+    reach = { clearance, lo, unit, culled };
+  }
+  const etag = r.string('etag');
+  return {
+    version, scene, view, lod, camera, extract_ms, rootSide, rootsX, rootsY, triangles,
+    split, leaf, lattice, levels, anchors, planes, maxError, reach, etag,
+  };
+}
+
+/** A strip route's compact body: `{mesh}` or `{planes}` (an update of a held mesh).
+ * @param {ArrayBuffer} buffer */
+export function readMeshBody(buffer) {
+  const r = new Reader(buffer);
+  const kind = r.tag('mesh body', 2);
+  if (kind === 0) {
+    const mesh = readMeshStream(r);
+    r.end();
+    return { mesh };
+  }
+  const version = r.u16('version');
+  if (version !== COMPACT_VERSION) throw new WireError(`compact stream version ${version}`);
+  const held = r.string('held');
+  const first = r.u8('first');
+  const n = r.len(8, 'planes');
+  const planes = [];
+  for (let k = 0; k < n; k++) planes.push(bytes(r, 'plane'));
+  const etag = r.string('etag');
+  r.end();
+  return { planes: { held, first, planes, etag } };
+}
+
+/** The planes of an update appended to the stream it extends.
+ * @param {MeshStream} s @param {{held: string, first: number, planes: Uint8Array[], etag: string}} u
+ * @returns {MeshStream} */
+export function applyPlanes(s, u) {
+  if (u.held !== s.etag) throw new WireError('the planes extend another mesh');
+  if (u.first !== s.planes.length) throw new WireError('the planes do not start where the held ones end');
+  if (s.planes.length + u.planes.length >= s.maxError.length) throw new WireError('more planes than the mesh has');
+  return { ...s, planes: [...s.planes, ...u.planes], etag: u.etag };
+}
+
+/** The forest's geometry (engine/src/mesh/grid.rs). */
+class Forest {
+  /** @param {number} side @param {number} m @param {number} n */
+  constructor(side, m, n) {
+    if (!(side >= 2 && side <= 32768 && (side & (side - 1)) === 0)) throw new WireError(`root side ${side} is not a power of two in 2..=32768`);
+    if (m === 0 || n === 0) throw new WireError('the forest needs at least one root quad');
+    this.side = side; this.m = m; this.n = n;
+    /** Set by `kind`: the last vertex asked about is a centre, or a horizontal edge's midpoint. */
+    this.centre = false;
+    this.horizontal = false;
+    this.k = ctz(side);
+    this.gw = m * side + 1;
+    this.gh = n * side + 1;
+    if (this.gw > 65536 || this.gh > 65536 || this.gw * this.gh > MAX_GRID_VERTICES) throw new WireError('the forest is larger than any image a server stores');
+  }
+  /** h, or 0 for a root corner; sets this.centre and this.horizontal. @param {number} x @param {number} y */
+  kind(x, y) {
+    const s = this.side;
+    if (x % s === 0 && y % s === 0) return 0;
+    const tx = x === 0 ? this.k : Math.min(ctz(x), this.k);
+    const ty = y === 0 ? this.k : Math.min(ctz(y), this.k);
+    this.centre = tx === ty;
+    this.horizontal = tx < ty;
+    return 1 << Math.min(tx, ty);
+  }
+  /** @param {number} x @param {number} y */
+  level(x, y) {
+    const h = this.kind(x, y);
+    if (h === 0) return 0;
+    return 2 * (this.k - 1 - ctz(h)) + (this.centre ? 1 : 2);
+  }
+  /** The diamond of (x, y) into `out` = [ax, ay, bx, by, p0x, p0y, p1x, p1y]; false for a root corner.
+   * @param {number} x @param {number} y @param {Float64Array | number[]} out */
+  diamond(x, y, out) {
+    const h = this.kind(x, y);
+    if (h === 0) return false;
+    if (this.centre) {
+      // Of c - h and c + h, the odd multiple of 2h.
+      const px = Math.floor((x - h) / (2 * h)) % 2 === 1 ? x - h : x + h;
+      const py = Math.floor((y - h) / (2 * h)) % 2 === 1 ? y - h : y + h;
+      const qx = 2 * x - px; const qy = 2 * y - py;
+      out[0] = px; out[1] = py; out[2] = qx; out[3] = qy;
+      if (px < qx) { out[4] = px; out[5] = qy; out[6] = qx; out[7] = py; } else { out[4] = qx; out[5] = py; out[6] = px; out[7] = qy; }
+    } else if (this.horizontal) {
+      out[0] = x - h; out[1] = y; out[2] = x + h; out[3] = y;
+      out[4] = x; out[5] = y - h; out[6] = x; out[7] = y + h;
+    } else {
+      out[0] = x; out[1] = y - h; out[2] = x; out[3] = y + h;
+      out[4] = x - h; out[5] = y; out[6] = x + h; out[7] = y;
+    }
+    return true;
+  }
+}
+
+/**
+ * Runs the canonical walk over `split` and `leaf` bits; returns the drawn
+ * triangles' corners as grid indices (3 per triangle, oriented). Iterative,
+ * with the bit readers inlined: this loop is most of a decode.
+ * @param {Forest} f @param {Uint8Array} splitBits @param {Uint8Array} leafBits @param {number} count
+ */
+function walk(f, splitBits, leafBits, count) {
+  const gw = f.gw;
+  const gh = f.gh;
+  const split = new Uint8Array(gw * gh);
+  // One end of the edge each split vertex bisects, plus one (the other end
+  // is its mirror; 0: not split yet).
+  const parent = new Int32Array(gw * gh);
+  const out = new Uint32Array(3 * count);
+  let drawn = 0;
+  let sAt = 0;
+  let lAt = 0;
+  const sEnd = 8 * splitBits.length;
+  const lEnd = 8 * leafBits.length;
+  const d = [0, 0, 0, 0, 0, 0, 0, 0];
+  // Triangles still to visit, six coordinates each; children pushed in
+  // reverse so the entry-side child is visited first.
+  const stack = new Int32Array(6 * (4 * f.k + 8));
+  const s = f.side;
+  for (let qy = 0; qy < f.n; qy++) {
+    for (let q = 0; q < f.m; q++) {
+      const qx = qy % 2 === 0 ? q : f.m - 1 - q;
+      f.diamond(qx * s + s / 2, qy * s + s / 2, d);
+      let top = 0;
+      stack[0] = d[2]; stack[1] = d[3]; stack[2] = d[0]; stack[3] = d[1]; stack[4] = d[6]; stack[5] = d[7];
+      stack[6] = d[0]; stack[7] = d[1]; stack[8] = d[2]; stack[9] = d[3]; stack[10] = d[4]; stack[11] = d[5];
+      top = 12;
+      while (top > 0) {
+        top -= 6;
+        const lx = stack[top]; const ly = stack[top + 1];
+        const rx = stack[top + 2]; const ry = stack[top + 3];
+        const ax = stack[top + 4]; const ay = stack[top + 5];
+        let draw = false;
+        const cell = (lx - rx === 1 || rx - lx === 1) && (ly - ry === 1 || ry - ly === 1);
+        if (!cell) {
+          const mx = (lx + rx) >> 1;
+          const my = (ly + ry) >> 1;
+          let splits = split[my * gw + mx] === 1;
+          if (!splits) {
+            if (sAt >= sEnd) throw new WireError('split bits end early or run on');
+            splits = ((splitBits[sAt >> 3] >> (sAt & 7)) & 1) === 1;
+            sAt++;
+          }
+          if (splits) {
+            // Split: the vertex and the apex opposite this triangle's.
+            const m = my * gw + mx;
+            split[m] = 1;
+            if (parent[m] === 0) parent[m] = ly * gw + lx + 1;
+            const ox = 2 * mx - ax;
+            const oy = 2 * my - ay;
+            if (ox >= 0 && oy >= 0 && ox < gw && oy < gh) split[oy * gw + ox] = 1;
+            stack[top] = ax; stack[top + 1] = ay; stack[top + 2] = rx; stack[top + 3] = ry; stack[top + 4] = mx; stack[top + 5] = my;
+            stack[top + 6] = lx; stack[top + 7] = ly; stack[top + 8] = ax; stack[top + 9] = ay; stack[top + 10] = mx; stack[top + 11] = my;
+            top += 12;
+            continue;
+          }
+        }
+        if (lAt >= lEnd) throw new WireError('leaf bits end early or run on');
+        draw = ((leafBits[lAt >> 3] >> (lAt & 7)) & 1) === 1;
+        lAt++;
+        if (!draw) continue;
+        if (drawn >= count) throw new WireError('connectivity draws more triangles than the header says');
+        const cross = (rx - lx) * (ay - ly) - (ry - ly) * (ax - lx);
+        const o = 3 * drawn++;
+        if (cross > 0) { out[o] = ry * gw + rx; out[o + 1] = ly * gw + lx; } else { out[o] = ly * gw + lx; out[o + 1] = ry * gw + rx; }
+        out[o + 2] = ay * gw + ax;
+      }
+    }
+  }
+  const clear = (/** @type {Uint8Array} */ b, /** @type {number} */ at) =>
+    (at + 7) >> 3 === b.length && ((at & 7) === 0 || b[at >> 3] >> (at & 7) === 0);
+  if (!clear(splitBits, sAt)) throw new WireError('split bits end early or run on');
+  if (!clear(leafBits, lAt)) throw new WireError('leaf bits end early or run on');
+  if (drawn !== count) throw new WireError('connectivity draws fewer triangles than the header says');
+  return { corners: out, parent };
+}
+
+/**
+ * Numbers the vertices by first use, then stably by level (as the engine).
+ * @param {Forest} f @param {Uint32Array} corners grid indices
+ */
+function assemble(f, corners) {
+  const slot = new Int32Array(f.gw * f.gh).fill(-1);
+  const used = [];
+  const perLevel = new Uint32Array(2 * f.k + 2);
+  for (let c = 0; c < corners.length; c++) {
+    const g = corners[c];
+    if (slot[g] === -1) {
+      slot[g] = 0;
+      const level = f.level(g % f.gw, Math.floor(g / f.gw));
+      perLevel[level + 1]++;
+      used.push(g, level);
+    }
+  }
+  for (let l = 1; l < perLevel.length; l++) perLevel[l] += perLevel[l - 1];
+  const n = used.length / 2;
+  const ij = new Uint16Array(2 * n);
+  const level = new Uint8Array(n);
+  for (let u = 0; u < used.length; u += 2) {
+    const g = used[u];
+    const at = perLevel[used[u + 1]]++;
+    ij[2 * at] = g % f.gw;
+    ij[2 * at + 1] = Math.floor(g / f.gw);
+    level[at] = used[u + 1];
+    slot[g] = at;
+  }
+  let indices;
+  if (n < 65535) {
+    indices = new Uint16Array(corners.length);
+    for (let c = 0; c < corners.length; c++) indices[c] = slot[corners[c]];
+  } else {
+    indices = new Uint32Array(corners.length);
+    for (let c = 0; c < corners.length; c++) indices[c] = slot[corners[c]];
+  }
+  return { ij, level, indices, slot };
+}
+
+/**
+ * Depths from the first `held` planes (bitplanes.rs). `slot` numbers the
+ * grid's vertices as the mesh does (-1: not in it); a vertex's parents are
+ * coarser, so in the mesh they come before it.
+ * @param {Forest} f @param {MeshStream} s @param {Uint16Array} ij @param {Uint8Array} level
+ * @param {Int32Array} parent @param {Int32Array} slot @param {number} held
+ */
+function depths(f, s, ij, level, parent, slot, held) {
+  const { lattice, levels } = s;
+  if (levels.length !== 2 * f.k + 1) throw new WireError('depth levels do not match the forest');
+  if (held > s.planes.length) throw new WireError('fewer depth planes than stated');
+  for (const l of levels) {
+    if (l.planes > MAX_PLANES) throw new WireError('a level has more than 24 planes');
+    if (lattice ? l.step !== 1 : !(Number.isFinite(l.step) && l.step > 0)) throw new WireError('bad depth step');
+  }
+  if (lattice && !(Number.isFinite(lattice.scale) && lattice.scale !== 0 && Number.isFinite(lattice.offset))) {
+    throw new WireError('lattice scale must be finite and non-zero, offset finite');
+  }
+  const n = ij.length / 2;
+  const gw = f.gw;
+  const pa = new Int32Array(n).fill(-1);
+  const pb = new Int32Array(n).fill(-1);
+  const side = f.side;
+  let anchorCount = 0;
+  for (let k = 0; k < n; k++) {
+    const x = ij[2 * k]; const y = ij[2 * k + 1];
+    if (x % side !== 0 || y % side !== 0) {
+      // The edge it bisects: the walk's split recorded one end, the other mirrors it.
+      const e = parent[y * gw + x] - 1;
+      const ex = e % gw;
+      const ey = (e - ex) / gw;
+      const a = slot[e];
+      const b = slot[(2 * y - ey) * gw + (2 * x - ex)];
+      if (a >= 0 && b >= 0) { pa[k] = a; pb[k] = b; }
+    }
+    if (pa[k] < 0) anchorCount++;
+  }
+  if (s.anchors.length !== 4 * anchorCount) throw new WireError('anchor bytes do not match the anchors');
+  const mb = new Uint32Array(n);
+  const negative = new Uint8Array(n);
+  // Planes of each coded vertex's level (0 for anchors).
+  const lp = new Uint8Array(n);
+  for (let k = 0; k < n; k++) if (pa[k] >= 0) lp[k] = levels[level[k]].planes;
+  // Vertices a plane made non-zero, whose signs follow its bits.
+  const fresh = new Int32Array(n);
+  for (let t = 1; t <= held; t++) {
+    const plane = s.planes[t - 1];
+    const end = 8 * plane.length;
+    let at = 0;
+    let count = 0;
+    for (let k = 0; k < n; k++) {
+      if (lp[k] < t) continue;
+      if (at >= end) throw new WireError('a depth plane ends early or runs on');
+      const m = (mb[k] << 1) | ((plane[at >> 3] >> (at & 7)) & 1);
+      mb[k] = m;
+      if (m === 1) fresh[count++] = k;
+      at++;
+    }
+    for (let c = 0; c < count; c++) {
+      if (at >= end) throw new WireError('a depth plane ends early or runs on');
+      negative[fresh[c]] = (plane[at >> 3] >> (at & 7)) & 1;
+      at++;
+    }
+    if ((at + 7) >> 3 !== plane.length || ((at & 7) !== 0 && plane[at >> 3] >> (at & 7) !== 0)) {
+      throw new WireError('a depth plane ends early or runs on');
+    }
+  }
+  const units = new Float64Array(n);
+  const out = new Float32Array(n);
+  const scratch = new DataView(new ArrayBuffer(4));
+  const steps = Float64Array.from(levels, (l) => l.step);
+  const planesOf = Uint8Array.from(levels, (l) => l.planes);
+  let next = 0;
+  const valid = (/** @type {number} */ z) => Number.isFinite(z) && z > 0;
+  for (let k = 0; k < n; k++) {
+    if (pa[k] < 0) {
+      for (let b = 0; b < 4; b++) scratch.setUint8(b, s.anchors[b * anchorCount + next]);
+      next++;
+      const z = scratch.getFloat32(0, true);
+      if (!valid(z)) throw new WireError('an anchor depth is not finite and positive');
+      out[k] = z;
+      units[k] = lattice ? round((z - lattice.offset) / lattice.scale) : z;
+      if (lattice && !(Math.abs(units[k]) < MAX_RAW)) throw new WireError('an anchor lies off the lattice\'s range');
+      continue;
+    }
+    const lv = level[k];
+    const step = steps[lv];
+    const sh = planesOf[lv] - Math.min(planesOf[lv], held);
+    const mid = (units[pa[k]] + units[pb[k]]) * 0.5;
+    const pred = lattice ? Math.floor(mid) : mid;
+    const m = mb[k];
+    const mag = sh === 0 ? m : m === 0 ? 0 : m * (1 << sh) + (1 << (sh - 1));
+    const value = negative[k] ? pred - mag * step : pred + mag * step;
+    let z = lattice ? Math.fround(value * lattice.scale + lattice.offset) : Math.fround(value);
+    let u = lattice ? value : z;
+    if (!valid(z)) {
+      z = lattice ? Math.fround(pred * lattice.scale + lattice.offset) : Math.fround(pred);
+      u = lattice ? pred : z;
+      if (!valid(z)) throw new WireError('depths decode to no valid depth');
+    }
+    if (lattice && !(Math.abs(u) < MAX_RAW)) throw new WireError('depths leave the lattice\'s range');
+    out[k] = z;
+    units[k] = u;
+  }
+  return out;
+}
+
+/** Rust's `v as u8`: truncated, saturating, NaN to 0. @param {number} v */
+const asU8 = (v) => (v > 0 ? Math.min(255, Math.floor(v)) : 0);
+
+/** Octahedral encoding (engine/src/mesh/normals.rs, oct_encode) into out[o], out[o + 1].
+ * @param {number} nx @param {number} ny @param {number} nz @param {Uint8Array} out @param {number} o */
+function octEncode(nx, ny, nz, out, o) {
+  const l1 = Math.abs(nx) + Math.abs(ny) + Math.abs(nz);
+  if (!(l1 > 0 && Number.isFinite(l1))) { out[o] = 128; out[o + 1] = 128; return; }
+  const inv = 1 / l1;
+  let px = nx * inv;
+  let py = ny * inv;
+  if (nz < 0) {
+    // Rust's copysign: the sign bit, so -0 counts as negative.
+    const ax = Math.abs(px); const ay = Math.abs(py);
+    const fx = px < 0 || Object.is(px, -0) ? -(1 - ay) : 1 - ay;
+    py = py < 0 || Object.is(py, -0) ? -(1 - ax) : 1 - ax;
+    px = fx;
+  }
+  out[o] = asU8(px * 127.5 + 128);
+  out[o + 1] = asU8(py * 127.5 + 128);
+}
+
+/**
+ * Normals and rho from the decoded mesh (engine/src/mesh/derived_normals.rs).
+ * @param {import('./protocol.js').CameraJson} cam @param {Uint16Array} ij @param {Float32Array} z
+ * @param {Uint16Array | Uint32Array} tri
+ */
+export function deriveNormals(cam, ij, z, tri) {
+  const n = z.length;
+  const p = new Float64Array(3 * n);
+  const persp = cam.projection.perspective;
+  const ortho = cam.projection.orthographic;
+  for (let k = 0; k < n; k++) {
+    const u = ij[2 * k]; const v = ij[2 * k + 1]; const d = z[k];
+    let ax; let bx; let ay; let by;
+    if (persp) { ax = 0.0; bx = (u - persp.cx) / persp.fx; ay = 0.0; by = (v - persp.cy) / persp.fy; } else {
+      const o = /** @type {{sx: number, sy: number, cx: number, cy: number}} */ (ortho);
+      ax = (u - o.cx) * o.sx; bx = 0.0; ay = (v - o.cy) * o.sy; by = 0.0;
+    }
+    p[3 * k] = ax + bx * d; p[3 * k + 1] = ay + by * d; p[3 * k + 2] = d;
+  }
+  const sum = new Float64Array(3 * n);
+  for (let t = 0; t < tri.length; t += 3) {
+    const a = 3 * tri[t]; const b = 3 * tri[t + 1]; const c = 3 * tri[t + 2];
+    const e1x = p[b] - p[a]; const e1y = p[b + 1] - p[a + 1]; const e1z = p[b + 2] - p[a + 2];
+    const e2x = p[c] - p[a]; const e2y = p[c + 1] - p[a + 1]; const e2z = p[c + 2] - p[a + 2];
+    const nx = e1y * e2z - e1z * e2y;
+    const ny = e1z * e2x - e1x * e2z;
+    const nz = e1x * e2y - e1y * e2x;
+    sum[a] += nx; sum[a + 1] += ny; sum[a + 2] += nz;
+    sum[b] += nx; sum[b + 1] += ny; sum[b + 2] += nz;
+    sum[c] += nx; sum[c + 1] += ny; sum[c + 2] += nz;
+  }
+  const normal = new Uint8Array(2 * n);
+  const rho = new Uint8Array(n);
+  for (let k = 0; k < n; k++) {
+    const nx = sum[3 * k]; const ny = sum[3 * k + 1]; const nz = sum[3 * k + 2];
+    const vx = ortho ? 0.0 : p[3 * k]; const vy = ortho ? 0.0 : p[3 * k + 1]; const vz = ortho ? 1.0 : p[3 * k + 2];
+    const nv = nx * vx + ny * vy + nz * vz;
+    const nn = (nx * nx + ny * ny + nz * nz) * (vx * vx + vy * vy + vz * vz);
+    if (!(nn > 0 && nn < Infinity)) { octEncode(-vx, -vy, -vz, normal, 2 * k); rho[k] = 0; continue; }
+    const flip = nv > 0 ? -1.0 : 1.0;
+    octEncode(nx * flip, ny * flip, nz * flip, normal, 2 * k);
+    rho[k] = asU8((Math.abs(nv) / Math.sqrt(nn)) * 255 + 0.5);
+  }
+  return { normal, rho };
+}
+
+/**
+ * A compact mesh decoded into the arrays the renderer draws (the `Strips`
+ * shape of protocol.js, with `mode: 'triangles'`: an indexed triangle list).
+ * `requesting` is the camera the request named (a view-dependent mesh's
+ * reach refers to it).
+ * @param {MeshStream} s @param {import('./protocol.js').CameraJson | null} requesting
+ */
+export function decodeMesh(s, requesting) {
+  const f = new Forest(s.rootSide, s.rootsX, s.rootsY);
+  if (s.maxError.length < s.planes.length + 1) throw new WireError('fewer error bounds than planes');
+  for (const e of s.maxError) if (!(Number.isFinite(e) && e >= 0)) throw new WireError('error bounds must be finite and not negative');
+  const { corners, parent } = walk(f, s.split, s.leaf, s.triangles);
+  const { ij, level, indices, slot } = assemble(f, corners);
+  const { width, height } = s.camera;
+  for (let k = 0; k < ij.length; k += 2) {
+    if (ij[k] >= width || ij[k + 1] >= height) throw new WireError('a vertex lies outside the reference image');
+  }
+  const depth = depths(f, s, ij, level, parent, slot, s.planes.length);
+  const { normal, rho } = deriveNormals(s.camera, ij, depth, indices);
+  let reach = null;
+  if (s.reach) {
+    const { lo, unit } = s.reach;
+    reach = {
+      view: requesting ?? s.camera,
+      clearance: s.reach.clearance,
+      culled: s.reach.culled.map(([x, y, z, r]) => [lo[0] + x * unit, lo[1] + y * unit, lo[2] + z * unit, r * unit]),
+    };
+  }
+  return {
+    version: s.version, scene: s.scene, view: s.view, lod: s.lod, camera: s.camera,
+    vertexCount: ij.length / 2, ij, normal, rho, depth, indices, mode: /** @type {'triangles'} */ ('triangles'),
+    triangles: s.triangles, extract_ms: s.extract_ms, maxDepthError: s.maxError[s.planes.length], reach,
+    etag: s.etag, planes: s.planes.length, totalPlanes: s.maxError.length - 1,
+  };
+}
+
+/** A compact render response: version, views (weight, mesh, colour URL), timings.
+ * @param {ArrayBuffer} buffer @param {import('./protocol.js').CameraJson} novel */
+export function decodeCompactRender(buffer, novel) {
+  const r = new Reader(buffer);
+  const version = r.u16('version');
+  if (version !== COMPACT_VERSION) throw new WireError(`compact stream version ${version}; this viewer reads ${COMPACT_VERSION}`);
+  const count = r.len(8, 'views');
+  const streams = [];
+  for (let k = 0; k < count; k++) {
+    const weight = r.f64('weight');
+    const mesh = readMeshStream(r);
+    const color_url = r.string('color_url');
+    streams.push({ weight, mesh, color_url });
+  }
+  const timings = { select_ms: r.f64('select_ms'), extract_ms: r.f64('extract_ms'), total_ms: r.f64('total_ms') };
+  r.end();
+  const views = streams.map(({ weight, mesh, color_url }) => ({ weight, color_url, strips: decodeMesh(mesh, mesh.reach ? novel : null) }));
+  return { version, views, timings };
+}
