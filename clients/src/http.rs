@@ -256,7 +256,10 @@ impl Server {
                     .as_ref()
                     .map(dmesh_engine::camera::Camera::try_from)
                     .transpose()?;
-                Ok((dmesh_engine::wire_compact::strip_response(&stream, camera.as_ref())?, size))
+                Ok((
+                    dmesh_engine::wire_compact::strip_response(&stream, camera.as_ref())?,
+                    size,
+                ))
             }
         }
     }

@@ -116,6 +116,9 @@ enum Command {
     /// ground truth (simulated, and Middlebury with --data): tables and curves.
     /// With --baselines, compare the thesis's meshers with the RQT instead.
     Report(commands::report::ReportArgs),
+    /// Decode a compact body (protocol 6, `application/vnd.dmesh.mesh`) and
+    /// print it as protocol 5 JSON: vertices, derived normals and rho, depths, triangles.
+    Decode(commands::decode::DecodeArgs),
     /// Move along a camera path, drawing every frame from held meshes and
     /// fetching by strategy (Qu et al.'s workload balancing); prints the
     /// frame-time comparison of the strategies run.
@@ -410,6 +413,7 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
         Command::Report(args) => commands::report::run(args),
+        Command::Decode(args) => commands::decode::run(args),
         Command::Walkthrough(args) => commands::walkthrough::run(args, &rt),
         Command::Compare {
             a,

@@ -183,7 +183,11 @@ mod tests {
             .collect();
         let h = DepthMesh::build(&DepthImage::from_z(65, 40, z).unwrap(), &cam, &Segmentation::default()).unwrap();
         let novel = Camera::perspective(65, 40, 60.0, 60.0, 32.0, 20.0).unwrap();
-        for lod in [Lod::Epsilon(0.0005), Lod::Epsilon(0.05), Lod::Tau { tau: 1.0, view: &novel }] {
+        for lod in [
+            Lod::Epsilon(0.0005),
+            Lod::Epsilon(0.05),
+            Lod::Tau { tau: 1.0, view: &novel },
+        ] {
             let mesh = h.extract(lod).unwrap();
             assert!(mesh.dropped_triangles > 0);
             let s = mesh_stream(&mesh, h.grid(), "s", "v", &cam, None, None, "\"e\"".into()).unwrap();

@@ -96,7 +96,10 @@ fn a_large_full_resolution_mesh_round_trips() {
     let hier = DepthMesh::build(&d, &cam, &Segmentation::default()).unwrap();
     let mesh = hier.extract(Lod::Epsilon(0.0)).unwrap();
     assert!(mesh.triangles.len() > 500_000);
-    let raw = Some(RawGrid { scale: 0.001, offset: 0.0 });
+    let raw = Some(RawGrid {
+        scale: 0.001,
+        offset: 0.0,
+    });
     let s = mesh_stream(&mesh, hier.grid(), "s", "v", &cam, raw, None, "\"e\"".into()).unwrap();
     let decoded = s.decode().unwrap();
     assert_eq!(decoded.shape.triangles, mesh.triangles);

@@ -22,8 +22,8 @@ use crate::store::validate_id;
 
 use super::negotiate::{encode, encode_compact, wants_compact};
 use super::views::{color_url, load};
-use crate::service::AppError;
 use crate::service::stream_tag::StreamTag;
+use crate::service::AppError;
 use crate::service::{AppState, Loaded};
 
 /// Query of `GET .../strips`: `epsilon`, or `tau` with the requesting
@@ -102,7 +102,9 @@ fn extract_compact(
     let h = &loaded.hierarchy;
     let mut stream = wire_compact::mesh_stream(&mesh, h.grid(), scene, view, h.camera(), loaded.raw_grid, None, etag)
         .map_err(|e| AppError::Internal(format!("encoding the mesh: {e}")))?;
-    let wanted = ask.bits.map_or(stream.planes.len(), |b| stream.planes.len().min(usize::from(b)));
+    let wanted = ask
+        .bits
+        .map_or(stream.planes.len(), |b| stream.planes.len().min(usize::from(b)));
     let first = held.as_ref().and_then(|h| h.planes).map(usize::from);
     if let (Some(held), Some(first)) = (held, first.filter(|&f| f < wanted)) {
         return Ok(MeshBody::Planes(PlaneUpdate {

@@ -41,6 +41,11 @@ const FILES: &[(&str, &str, &[u8])] = &[
         include_bytes!("../../clients/web/src/camera.js"),
     ),
     (
+        "compact.js",
+        "text/javascript; charset=utf-8",
+        include_bytes!("../../clients/web/src/compact.js"),
+    ),
+    (
         "controls.js",
         "text/javascript; charset=utf-8",
         include_bytes!("../../clients/web/src/controls.js"),

@@ -496,6 +496,13 @@ export function deriveNormals(cam, ij, z, tri) {
  */
 export function decodeMesh(s, requesting) {
   const f = new Forest(s.rootSide, s.rootsX, s.rootsY);
+  // The forest is the reference image's: the fewest roots of this side covering it.
+  const covers = (/** @type {number} */ roots, /** @type {number} */ size) =>
+    size >= 2 && (roots - 1) * f.side < size - 1 && roots * f.side >= size - 1;
+  if (!(covers(f.m, s.camera.width) && covers(f.n, s.camera.height))) {
+    throw new WireError(`${f.m} x ${f.n} roots of side ${f.side} do not cover the ${s.camera.width} x ${s.camera.height} reference image`);
+  }
+  if (s.triangles > 2 * (f.gw - 1) * (f.gh - 1)) throw new WireError(`${s.triangles} triangles is more than the forest holds`);
   if (s.maxError.length < s.planes.length + 1) throw new WireError('fewer error bounds than planes');
   for (const e of s.maxError) if (!(Number.isFinite(e) && e >= 0)) throw new WireError('error bounds must be finite and not negative');
   const { corners, parent } = walk(f, s.split, s.leaf, s.triangles);

@@ -109,7 +109,11 @@ export class Reader {
   string(what) {
     const n = this.len(1, what);
     const at = this.need(n, what);
-    return new TextDecoder('utf-8', { fatal: true }).decode(new Uint8Array(this.buffer, at, n));
+    try {
+      return new TextDecoder('utf-8', { fatal: true }).decode(new Uint8Array(this.buffer, at, n));
+    } catch {
+      throw new WireError(`${what} is not UTF-8`);
+    }
   }
   /** @param {string} what @param {number} count */
   tag(what, count) {

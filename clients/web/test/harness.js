@@ -220,6 +220,14 @@ export async function uploadView(server, scene, view, camera, z, rgb) {
   return r.json();
 }
 
+/**
+ * Runs `dmesh-client ARGS` and returns its standard output.
+ * @param {string[]} args */
+export async function client(args) {
+  const { stdout } = await run(binary('dmesh-client'), args, { maxBuffer: 1 << 28 });
+  return stdout;
+}
+
 /** POSTs a render request; `accept` picks the encoding. @param {string} server @param {string} scene
  * @param {object} body @param {string} [accept] */
 export async function render(server, scene, body, accept = 'application/x-bincode') {

@@ -81,7 +81,10 @@ mod tests {
         }
         // A vertex of no triangle faces the camera with no quality.
         let (n, rho) = derive(&cam, &[(1, 1)], &[2.0], &[]);
-        assert!(oct_decode(n[0]).dot(glam::DVec3::NEG_Z) > 0.999 && rho[0] == 0, "{n:?} {rho:?}");
+        assert!(
+            oct_decode(n[0]).dot(glam::DVec3::NEG_Z) > 0.999 && rho[0] == 0,
+            "{n:?} {rho:?}"
+        );
     }
 
     #[test]

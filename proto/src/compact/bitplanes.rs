@@ -237,7 +237,8 @@ pub fn encode(forest: &Forest, vertices: &[Pt], depths: &[f32], raw: Option<RawG
         max_error: Vec::new(),
     };
     for b in 0..=usize::from(total) {
-        let got = decode_with(&parents, &level, &code, b).map_err(|e| format!("the encoder's own decode failed: {e}"))?;
+        let got =
+            decode_with(&parents, &level, &code, b).map_err(|e| format!("the encoder's own decode failed: {e}"))?;
         let err = got.iter().zip(depths).map(|(a, b)| (a - b).abs()).fold(0f32, f32::max);
         code.max_error.push(err);
     }
@@ -277,7 +278,12 @@ pub fn decode(forest: &Forest, vertices: &[Pt], code: &DepthCode, held: usize) -
 }
 
 /// [`decode`] with each vertex's parents and level.
-fn decode_with(parents: &[Option<(u32, u32)>], level: &[usize], code: &DepthCode, held: usize) -> Result<Vec<f32>, Error> {
+fn decode_with(
+    parents: &[Option<(u32, u32)>],
+    level: &[usize],
+    code: &DepthCode,
+    held: usize,
+) -> Result<Vec<f32>, Error> {
     let units = Units(code.lattice);
     let vertices = parents;
     let anchor_count = parents.iter().filter(|p| p.is_none()).count();

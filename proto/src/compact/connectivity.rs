@@ -85,7 +85,11 @@ fn parent(forest: &Forest, node: &Node) -> Option<Node> {
     let apex = [node.l, node.r]
         .into_iter()
         .find(|&c| d.apex.iter().any(|&q| q.0 >= 0 && q.1 >= 0 && p(q) == c))?;
-    Some(Node { l: p(d.a), r: p(d.b), a: apex })
+    Some(Node {
+        l: p(d.a),
+        r: p(d.b),
+        a: apex,
+    })
 }
 
 struct Encoder<'a> {
@@ -216,6 +220,9 @@ impl Decide for Decoder<'_> {
 /// Rebuilds the mesh that [`encode`] coded, expecting `triangles` of them.
 pub fn decode(forest: &Forest, bits: &Connectivity, triangles: usize) -> Result<Shape, &'static str> {
     forest.check()?;
+    if triangles > 2 * (forest.gw() as usize - 1) * (forest.gh() as usize - 1) {
+        return Err("more triangles than the forest holds");
+    }
     let mut dec = Decoder {
         split: BitReader::new(&bits.split, "split bits end early or run on"),
         leaf: BitReader::new(&bits.leaf, "leaf bits end early or run on"),
@@ -256,9 +263,6 @@ pub fn assemble(forest: &Forest, corners: &[[Pt; 3]]) -> Shape {
         slot[forest.index(p)] = *at;
         *at += 1;
     }
-    let triangles = corners
-        .iter()
-        .map(|t| t.map(|p| slot[forest.index(p)]))
-        .collect();
+    let triangles = corners.iter().map(|t| t.map(|p| slot[forest.index(p)])).collect();
     Shape { vertices, triangles }
 }

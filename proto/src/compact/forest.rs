@@ -159,7 +159,10 @@ impl Forest {
         if self.m == 0 || self.n == 0 {
             return Err("the forest needs at least one root quad");
         }
-        let (gw, gh) = (u64::from(self.m) * u64::from(self.side) + 1, u64::from(self.n) * u64::from(self.side) + 1);
+        let (gw, gh) = (
+            u64::from(self.m) * u64::from(self.side) + 1,
+            u64::from(self.n) * u64::from(self.side) + 1,
+        );
         if gw > 65_536 || gh > 65_536 || gw * gh > MAX_GRID_VERTICES {
             return Err("the forest is larger than any image a server stores");
         }
@@ -284,8 +287,24 @@ impl Forest {
         match decide.decide(&node, implied)? {
             Symbol::Split => {
                 self.mark(m, node.a, split);
-                self.visit(Node { l: node.l, r: node.a, a: m }, split, decide)?;
-                self.visit(Node { l: node.a, r: node.r, a: m }, split, decide)
+                self.visit(
+                    Node {
+                        l: node.l,
+                        r: node.a,
+                        a: m,
+                    },
+                    split,
+                    decide,
+                )?;
+                self.visit(
+                    Node {
+                        l: node.a,
+                        r: node.r,
+                        a: m,
+                    },
+                    split,
+                    decide,
+                )
             }
             Symbol::Emit => decide.emit(node.oriented()),
             Symbol::Skip => Ok(()),
@@ -338,7 +357,13 @@ mod tests {
     fn forests_beyond_the_limits_are_refused() {
         assert!(Forest { side: 3, m: 1, n: 1 }.check().is_err());
         assert!(Forest { side: 4, m: 0, n: 1 }.check().is_err());
-        assert!(Forest { side: 1 << 15, m: 3, n: 1 }.check().is_err());
+        assert!(Forest {
+            side: 1 << 15,
+            m: 3,
+            n: 1
+        }
+        .check()
+        .is_err());
         assert!(Forest { side: 512, m: 2, n: 1 }.check().is_ok());
     }
 }

@@ -233,7 +233,9 @@ pub fn encode(input: MeshInput<'_>) -> Result<MeshStream, CompactError> {
         .map(|p| depth_at.get(p).copied().ok_or("a drawn vertex has no depth"))
         .collect::<Result<Vec<f32>, _>>()?;
     let code = bitplanes::encode(&f, &shape.vertices, &depths, input.raw_grid).map_err(CompactError)?;
-    let sent = input.planes.map_or(code.planes.len(), |p| code.planes.len().min(usize::from(p)));
+    let sent = input
+        .planes
+        .map_or(code.planes.len(), |p| code.planes.len().min(usize::from(p)));
     Ok(MeshStream {
         version: COMPACT_VERSION,
         scene: input.scene.to_string(),
@@ -269,10 +271,27 @@ impl MeshStream {
     /// Decodes the mesh. Vertices must lie inside the reference image.
     pub fn decode(&self) -> Result<DecodedMesh, CompactError> {
         if self.version != COMPACT_VERSION {
-            return Err(CompactError(format!("version {} is not {COMPACT_VERSION}", self.version)));
+            return Err(CompactError(format!(
+                "version {} is not {COMPACT_VERSION}",
+                self.version
+            )));
         }
         let f = self.forest();
         f.check()?;
+        // The forest is the reference image's: the fewest roots of this side
+        // covering it (so what a decoder allocates is bounded by the image).
+        let (w, h) = (self.camera.width, self.camera.height);
+        let covers = |roots: u32, size: u32| {
+            size >= 2
+                && u64::from(roots - 1) * u64::from(f.side) < u64::from(size - 1)
+                && u64::from(roots) * u64::from(f.side) >= u64::from(size - 1)
+        };
+        if !(covers(f.m, w) && covers(f.n, h)) {
+            return Err(CompactError(format!(
+                "{} x {} roots of side {} do not cover the {w} x {h} reference image",
+                f.m, f.n, f.side
+            )));
+        }
         if self.max_error.len() < self.planes.len() + 1 {
             return Err("fewer error bounds than planes".into());
         }
@@ -280,7 +299,6 @@ impl MeshStream {
             return Err("error bounds must be finite and not negative".into());
         }
         let shape = connectivity::decode(&f, &self.connectivity, self.triangles as usize)?;
-        let (w, h) = (self.camera.width, self.camera.height);
         if shape.vertices.iter().any(|&(i, j)| i >= w || j >= h) {
             return Err("a vertex lies outside the reference image".into());
         }

@@ -36,7 +36,11 @@ impl Decide for Random {
         if !node.is_cell() && self.next() < self.split + 0.05 * f64::from(span.ilog2()) {
             return Ok(Symbol::Split);
         }
-        Ok(if self.next() < self.skip { Symbol::Skip } else { Symbol::Emit })
+        Ok(if self.next() < self.skip {
+            Symbol::Skip
+        } else {
+            Symbol::Emit
+        })
     }
     fn emit(&mut self, corners: [Pt; 3]) -> Result<(), ()> {
         self.corners.push(corners);
@@ -157,7 +161,11 @@ fn errors_shrink_as_planes_arrive() {
     let corners = random_mesh(&f, 7, 0.7, 0.0);
     let shape = connectivity::assemble(&f, &corners);
     let ij: Vec<(u16, u16)> = shape.vertices.iter().map(|&(x, y)| (x as u16, y as u16)).collect();
-    let depths: Vec<f32> = shape.vertices.iter().map(|&p| depth_at(p, false) + 0.01 * (p.1 % 3) as f32).collect();
+    let depths: Vec<f32> = shape
+        .vertices
+        .iter()
+        .map(|&p| depth_at(p, false) + 0.01 * (p.1 % 3) as f32)
+        .collect();
     let s = encode(input(f, &ij, &depths, &shape.triangles, None)).unwrap();
     assert!(s.planes.len() >= 16, "{} planes", s.planes.len());
     let e = &s.max_error;

@@ -1,0 +1,55 @@
+//! `dmesh-client decode`: a compact body (protocol 6) as the protocol 5
+//! JSON a tool reads: vertices with their derived normals and rho, exact
+//! depths as decoded, and the triangles as strips of one triangle each.
+//! What the browser's decoder is checked against, and a way to look
+//! inside a body.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use dmesh_engine::camera::{camera_from_json, Camera};
+use dmesh_engine::wire_compact::{render_response, strip_response};
+use dmesh_proto::{MeshBody, RenderStream};
+
+/// Options of `decode`.
+#[derive(clap::Args, Debug)]
+pub struct DecodeArgs {
+    /// The body: a strip route's (a mesh) or the render route's answer.
+    #[arg(long)]
+    pub body: PathBuf,
+    /// The camera of the request (JSON): the novel camera of a render, or
+    /// the requesting camera of a view-dependent strip request.
+    #[arg(long)]
+    pub camera: Option<PathBuf>,
+    /// The body is a render answer.
+    #[arg(long)]
+    pub render: bool,
+}
+
+/// Prints the decoded body as JSON.
+pub fn run(args: DecodeArgs) -> Result<()> {
+    let bytes = std::fs::read(&args.body).with_context(|| format!("reading {}", args.body.display()))?;
+    let camera: Option<Camera> = args
+        .camera
+        .as_ref()
+        .map(|p| -> Result<Camera> {
+            let text = std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
+            Ok(camera_from_json(&text)?)
+        })
+        .transpose()?;
+    let json = if args.render {
+        let stream: RenderStream = dmesh_proto::from_bincode(&bytes).context("a compact render body")?;
+        let novel = camera.context("a render body needs --camera, the novel camera")?;
+        serde_json::to_string(&render_response(&stream, &novel)?)?
+    } else {
+        let body: MeshBody = dmesh_proto::from_bincode(&bytes).context("a compact strip body")?;
+        let MeshBody::Mesh(stream) = body else {
+            anyhow::bail!("the body holds planes for a held mesh, not a mesh");
+        };
+        serde_json::to_string(&strip_response(&stream, camera.as_ref())?)?
+    };
+    // A closed pipe (`| head`) ends the output, not the program with a panic.
+    use std::io::Write;
+    let _ = writeln!(std::io::stdout().lock(), "{json}");
+    Ok(())
+}

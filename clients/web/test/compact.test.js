@@ -1,0 +1,182 @@
+// The viewer's compact-stream decoder (src/compact.js, protocol 6) against a
+// real `dmesh serve --demo` and the Rust decoder (`dmesh-client decode`):
+// the same vertices, depths, normals, rho and triangles to the bit; the
+// same mesh as protocol 5; planes that extend a held mesh; malformed and
+// mutated bodies refused with a WireError, never another exception; and the
+// decode rate, written to test-output/compact-decode.json.
+
+import assert from 'node:assert/strict';
+import fs from 'node:fs';
+import path from 'node:path';
+import { after, before, test } from 'node:test';
+import { decodeCompactRender, decodeMesh, readMeshBody, applyPlanes, MESH } from '../src/compact.js';
+import { decodeRender, stripTriangles, WireError } from '../src/protocol.js';
+import { ROOT, client, demoNovel, render, startServer, tempDir } from './harness.js';
+
+/** @type {Awaited<ReturnType<typeof startServer>>} */
+let server;
+before(async () => { server = await startServer(['--demo']); });
+after(async () => { await server.stop(); });
+
+const out = path.join(ROOT, 'clients/web/test-output');
+
+/** @param {any[]} t */
+const key = (t) => [...t].sort((a, b) => a - b).join(',');
+
+/** POSTs a strip request for `view` asking for the compact stream. @param {string} view @param {object} body */
+async function strips(view, body) {
+  const r = await fetch(`${server.url}/v1/scenes/demo/views/${view}/strips`, {
+    method: 'POST',
+    headers: { 'content-type': 'application/json', accept: MESH },
+    body: JSON.stringify(body),
+  });
+  assert.equal(r.status, 200, await r.clone().text());
+  return { body: await r.arrayBuffer(), etag: r.headers.get('etag') };
+}
+
+for (const extra of [{}, { bits: 10 }, { bits: 0 }, { bits: 3 }]) {
+  test(`the browser decodes to the Rust decoder's arrays, bit for bit ${JSON.stringify(extra)}`, async () => {
+    const camera = demoNovel();
+    const body = { camera, lod: { tau: 1 }, ...extra };
+    const bytes = /** @type {ArrayBuffer} */ (await render(server.url, 'demo', body, MESH));
+    const dir = tempDir();
+    fs.writeFileSync(path.join(dir, 'body'), Buffer.from(bytes));
+    fs.writeFileSync(path.join(dir, 'camera.json'), JSON.stringify(camera));
+    const rust = JSON.parse(await client(['decode', '--render', '--body', path.join(dir, 'body'), '--camera', path.join(dir, 'camera.json')]));
+    const js = decodeCompactRender(bytes.slice(0), camera);
+    assert.ok(js.views.length >= 2, 'the demo camera selects several views');
+    assert.equal(js.views.length, rust.views.length);
+    js.views.forEach((v, k) => {
+      const s = v.strips;
+      const w = rust.views[k].strips;
+      assert.equal(v.weight, rust.views[k].weight);
+      assert.equal(s.vertexCount, w.vertices.length);
+      w.vertices.forEach((/** @type {any} */ x, /** @type {number} */ i) => {
+        assert.equal(s.ij[2 * i], x.i); assert.equal(s.ij[2 * i + 1], x.j);
+        assert.equal(s.normal[2 * i], x.normal[0], `${s.view} normal of ${i}`);
+        assert.equal(s.normal[2 * i + 1], x.normal[1], `${s.view} normal of ${i}`);
+        assert.equal(s.rho[i], x.rho, `${s.view} rho of ${i}`);
+        assert.equal(s.depth[i], Math.fround(w.depths.exact[i]), `${s.view} depth of ${i}`);
+      });
+      const rt = stripTriangles(Uint32Array.from(w.indices.u32 ?? w.indices.u16, (i) => (i === 0xffff && w.indices.u16 ? 0xffffffff : i)));
+      assert.equal(s.indices.length, 3 * rt.length);
+      for (let t = 0; t < rt.length; t++) assert.deepEqual([s.indices[3 * t], s.indices[3 * t + 1], s.indices[3 * t + 2]], rt[t]);
+      assert.deepEqual(s.reach ? s.reach.culled.length : -1, w.reach ? w.reach.culled.length : -1);
+    });
+  });
+}
+
+test('the compact stream carries the mesh protocol 5 carries, depths within the stated bound', async () => {
+  const camera = demoNovel();
+  for (const lod of [{ tau: 1 }, { epsilon: 0.01 }]) {
+    const body = lod.tau ? { camera, lod } : { camera, lod };
+    const p5 = decodeRender(/** @type {ArrayBuffer} */ (await render(server.url, 'demo', body)));
+    for (const bits of [undefined, 10, 4]) {
+      const c = decodeCompactRender(/** @type {ArrayBuffer} */ (await render(server.url, 'demo', { ...body, bits }, MESH)), camera);
+      assert.equal(c.views.length, p5.views.length);
+      c.views.forEach((v, k) => {
+        const s = v.strips;
+        const w = p5.views[k].strips;
+        assert.equal(s.view, w.view);
+        assert.deepEqual(Array.from(s.ij), Array.from(w.ij));
+        const want = new Set(stripTriangles(w.indices).map(key));
+        assert.equal(s.triangles, want.size);
+        for (let t = 0; t < s.indices.length; t += 3) assert.ok(want.has(key([s.indices[t], s.indices[t + 1], s.indices[t + 2]])));
+        for (let i = 0; i < s.depth.length; i++) {
+          assert.ok(Math.abs(s.depth[i] - w.depth[i]) <= s.maxDepthError, `${s.view} depth ${i} at ${bits} planes`);
+        }
+        if (bits === 4) assert.ok(s.maxDepthError > 0);
+      });
+    }
+  }
+});
+
+test('planes extend a held mesh to the one asked for, and a wrong held ETag gets the whole mesh', async () => {
+  const camera = demoNovel();
+  const ask = { camera, lod: { tau: 1 } };
+  const four = await strips('v04', { ...ask, bits: 4 });
+  const ten = await strips('v04', { ...ask, bits: 10 });
+  const held = readMeshBody(four.body).mesh;
+  assert.ok(held && four.etag === held.etag, 'the ETag names the mesh');
+  const more = await strips('v04', { ...ask, bits: 10, held: four.etag });
+  const update = readMeshBody(more.body).planes;
+  assert.ok(update, 'a held mesh gets planes');
+  assert.ok(more.body.byteLength < ten.body.byteLength / 2, `${more.body.byteLength} bytes of planes against ${ten.body.byteLength} for the whole mesh`);
+  const raised = decodeMesh(applyPlanes(held, update), camera);
+  const direct = decodeMesh(/** @type {any} */ (readMeshBody(ten.body).mesh), camera);
+  assert.deepEqual(Array.from(raised.depth), Array.from(direct.depth));
+  assert.equal(raised.etag, direct.etag);
+  // Held for another camera, or a made-up tag: the whole mesh.
+  const moved = structuredClone(camera);
+  moved.pose.translation[0] += 0.05;
+  for (const tag of [(await strips('v04', { camera: moved, lod: { tau: 1 }, bits: 4 })).etag, '"made-up.e0.p4"', 'garbage']) {
+    const whole = readMeshBody((await strips('v04', { ...ask, bits: 10, held: tag })).body);
+    assert.ok(whole.mesh, `held ${tag} gets the whole mesh`);
+  }
+  // A static request's ETag answers If-None-Match with 304.
+  const s1 = await strips('v04', { lod: { epsilon: 0.01 }, bits: 8 });
+  const r = await fetch(`${server.url}/v1/scenes/demo/views/v04/strips`, {
+    method: 'POST',
+    headers: { 'content-type': 'application/json', accept: MESH, 'if-none-match': /** @type {string} */ (s1.etag) },
+    body: JSON.stringify({ lod: { epsilon: 0.01 }, bits: 8 }),
+  });
+  assert.equal(r.status, 304);
+});
+
+test('malformed and mutated bodies are refused with a WireError, never another exception', async () => {
+  const camera = demoNovel();
+  const good = new Uint8Array(/** @type {ArrayBuffer} */ (await render(server.url, 'demo', { camera, lod: { tau: 4 }, bits: 8, max_views: 2 }, MESH)));
+  decodeCompactRender(good.slice().buffer, camera);
+  for (const cut of [0, 1, 2, 10, 50, good.length >> 1, good.length - 1]) {
+    assert.throws(() => decodeCompactRender(good.slice(0, cut).buffer, camera), WireError, `cut at ${cut}`);
+  }
+  // A bounded fuzz: single-byte and bit mutations anywhere in the body.
+  let seed = 12345;
+  const rnd = () => { seed = (seed * 1103515245 + 12345) >>> 0; return seed / 2 ** 32; };
+  let refused = 0;
+  const deadline = performance.now() + 15_000;
+  let runs = 0;
+  for (; runs < 3000 && performance.now() < deadline; runs++) {
+    const b = good.slice();
+    const edits = 1 + Math.floor(rnd() * 4);
+    for (let e = 0; e < edits; e++) {
+      const at = Math.floor(rnd() * b.length);
+      b[at] = rnd() < 0.5 ? b[at] ^ (1 << Math.floor(rnd() * 8)) : Math.floor(rnd() * 256);
+    }
+    try {
+      const r = decodeCompactRender(b.buffer, camera);
+      for (const v of r.views) {
+        const s = v.strips;
+        for (const z of s.depth) assert.ok(Number.isFinite(z) && z > 0, 'decoded depths are finite and positive');
+        for (const i of s.indices) assert.ok(i < s.vertexCount, 'indices stay inside the vertices');
+      }
+    } catch (e) {
+      if (!(e instanceof WireError)) throw new Error(`run ${runs}: ${e instanceof Error ? e.stack : e}`);
+      refused++;
+    }
+  }
+  assert.ok(refused > runs / 4, `${refused} of ${runs} mutated bodies refused`);
+});
+
+test('decode rate in Node, per 100,000 triangles', async () => {
+  const camera = demoNovel();
+  const rows = [];
+  for (const [lod, bits] of [[{ tau: 1 }, 10], [{ tau: 0.25 }, 10], [{ tau: 0.25 }, undefined]]) {
+    const bytes = /** @type {ArrayBuffer} */ (await render(server.url, 'demo', { camera, lod, bits }, MESH));
+    let r = decodeCompactRender(bytes.slice(0), camera);
+    for (let i = 0; i < 30; i++) r = decodeCompactRender(bytes.slice(0), camera);
+    const times = [];
+    for (let i = 0; i < 15; i++) {
+      const t0 = performance.now();
+      decodeCompactRender(bytes.slice(0), camera);
+      times.push(performance.now() - t0);
+    }
+    times.sort((a, b) => a - b);
+    const triangles = r.views.reduce((s, v) => s + v.strips.triangles, 0);
+    const ms = times[times.length >> 1];
+    rows.push({ lod, bits: bits ?? 'all', triangles, bytes: bytes.byteLength, ms, ms_per_100k: (ms * 1e5) / triangles, mtri_per_s: triangles / ms / 1e3 });
+    assert.ok(ms > 0 && triangles > 10_000);
+  }
+  fs.mkdirSync(out, { recursive: true });
+  fs.writeFileSync(path.join(out, 'compact-decode.json'), JSON.stringify(rows, null, 1));
+});
