@@ -264,15 +264,16 @@ impl Server {
         }
     }
 
-    /// One view's mesh in the compact stream as it arrived: the whole mesh,
-    /// or the planes a held one lacks (`request.held`), with its size as it travelled.
+    /// One view's mesh in the compact stream as it arrived: the whole mesh
+    /// (its `etag` set from the answer's), or the planes a held one lacks
+    /// (`request.held`), with the answer's ETag and its size as it travelled.
     pub async fn mesh_body(
         &self,
         scene: &str,
         view: &str,
         request: &dmesh_proto::StripRequest,
-    ) -> anyhow::Result<(dmesh_proto::MeshBody, usize)> {
-        let (_, _, bytes, size) = self
+    ) -> anyhow::Result<(dmesh_proto::MeshBody, String, usize)> {
+        let (_, headers, bytes, size) = self
             .clone()
             .with_wire(Wire::Compact)
             .post_json(
@@ -280,7 +281,16 @@ impl Server {
                 serde_json::to_vec(request)?,
             )
             .await?;
-        Ok((dmesh_proto::from_bincode(&bytes)?, size))
+        let etag = headers
+            .get(header::ETAG)
+            .and_then(|v| v.to_str().ok())
+            .unwrap_or_default()
+            .to_string();
+        let mut body: dmesh_proto::MeshBody = dmesh_proto::from_bincode(&bytes)?;
+        if let dmesh_proto::MeshBody::Mesh(m) = &mut body {
+            m.etag.clone_from(&etag);
+        }
+        Ok((body, etag, size))
     }
 
     /// Sends a render request without decoding the answer: its size and the

@@ -199,7 +199,7 @@ mod tests {
             assert_eq!(tris, mesh.triangles);
             let Depths::Exact(z) = &back.depths else { panic!() };
             for (a, b) in z.iter().zip(&mesh.vertices) {
-                assert!((a - b.depth).abs() <= s.max_error[s.planes.len()]);
+                assert!((a - b.depth).abs() <= s.max_error);
             }
             assert_eq!(back.reach.is_some(), mesh.reach.is_some());
         }

@@ -74,7 +74,7 @@ proptest! {
         prop_assert_eq!(ij, want);
         prop_assert_eq!(decode_strips(&r.indices.to_u32()), mesh.triangles.clone());
         let Depths::Exact(z) = &r.depths else { panic!("exact depths expected") };
-        let bound = back.max_error[back.planes.len()];
+        let bound = back.max_error;
         for (a, v) in z.iter().zip(&mesh.vertices) {
             prop_assert!(a.is_finite() && *a > 0.0);
             prop_assert!((a - v.depth).abs() <= bound, "{} vs {} beyond {}", a, v.depth, bound);

@@ -3,7 +3,7 @@
 //! `app(state)` builds the router (tests drive it without a socket);
 //! [`serve`] binds and runs it. The browser viewer is served at `/` from
 //! files embedded in the binary ([`web`]). The tower stack, outermost first:
-//! compression (gzip, zstd); load shedding over two concurrency limits,
+//! compression (zstd, br at quality 4, gzip); load shedding over two concurrency limits,
 //! reads by the number of cores and uploads apart from them (excess
 //! requests get 503 + `Retry-After` after a short wait instead of queueing
 //! without bound; the viewer's files, health and metrics are never shed); per-route

@@ -88,7 +88,8 @@ fn extract(state: &AppState, scene: &str, view: &str, loaded: &Loaded, ask: &Ask
 
 /// One view's mesh for `ask` in the compact stream (protocol 6), named by
 /// `tag`: the whole mesh with the planes asked for, or, when the client
-/// holds the same mesh with fewer planes (`held`), only the planes it lacks.
+/// holds the same mesh with fewer planes (`held`), only the planes it lacks;
+/// with the answer's ETag (empty for a time budget).
 fn extract_compact(
     state: &AppState,
     (scene, view): (&str, &str),
@@ -96,7 +97,7 @@ fn extract_compact(
     ask: &Ask,
     tag: Option<&StreamTag>,
     held: Option<StreamTag>,
-) -> Result<MeshBody, AppError> {
+) -> Result<(MeshBody, String), AppError> {
     let mesh = extract_mesh(state, loaded, ask)?;
     let etag = tag.map(StreamTag::etag).unwrap_or_default();
     let h = &loaded.hierarchy;
@@ -106,17 +107,20 @@ fn extract_compact(
         .bits
         .map_or(stream.planes.len(), |b| stream.planes.len().min(usize::from(b)));
     let first = held.as_ref().and_then(|h| h.planes).map(usize::from);
-    if let (Some(held), Some(first)) = (held, first.filter(|&f| f < wanted)) {
-        return Ok(MeshBody::Planes(PlaneUpdate {
-            version: dmesh_proto::COMPACT_VERSION,
-            held: held.etag(),
-            first: first as u8,
-            planes: stream.planes.drain(first..wanted).collect(),
-            etag: stream.etag,
-        }));
+    if let Some(first) = first.filter(|&f| f < wanted) {
+        return Ok((
+            MeshBody::Planes(PlaneUpdate {
+                version: dmesh_proto::COMPACT_VERSION,
+                first: first as u8,
+                planes: stream.planes.drain(first..wanted).collect(),
+                max_error: stream.errors[wanted],
+            }),
+            stream.etag,
+        ));
     }
-    stream.planes.truncate(wanted);
-    Ok(MeshBody::Mesh(Box::new(stream)))
+    stream.truncate(wanted);
+    let etag = stream.etag.clone();
+    Ok((MeshBody::Mesh(Box::new(stream)), etag))
 }
 
 /// True when `If-None-Match` names `tag`.
@@ -156,18 +160,14 @@ async fn strips(
             .filter(|h| tag.as_ref().is_some_and(|t| t.same_mesh(h)));
         let st = state.clone();
         let start = Instant::now();
-        let body = tokio::task::spawn_blocking(move || {
+        let (body, etag) = tokio::task::spawn_blocking(move || {
             extract_compact(&st, (&scene, &view), &loaded, &ask, tag.as_ref(), held)
         })
         .await??;
         let ms = start.elapsed().as_secs_f64() * 1e3;
-        let etag = match &body {
-            MeshBody::Mesh(m) => m.etag.clone(),
-            MeshBody::Planes(p) => p.etag.clone(),
-        };
         let mut out = encode_compact(&body)?;
         server_timing(&mut out, ms, ms);
-        if let Ok(v) = etag.parse() {
+        if let (false, Ok(v)) = (etag.is_empty(), etag.parse()) {
             out.headers_mut().insert(header::ETAG, v);
         }
         return Ok(out);
@@ -270,7 +270,8 @@ pub async fn render(
                 .map(|(weight, name, loaded)| {
                     let ask = ask.share(*weight);
                     let tag = StreamTag::new(&loaded.etag, &ask);
-                    let MeshBody::Mesh(mesh) = extract_compact(&st, (&scene, name), loaded, &ask, tag.as_ref(), None)?
+                    let (MeshBody::Mesh(mesh), _) =
+                        extract_compact(&st, (&scene, name), loaded, &ask, tag.as_ref(), None)?
                     else {
                         return Err(AppError::Internal("a render answered with planes".into()));
                     };

@@ -47,11 +47,13 @@ function bytes(r, what) {
  * @property {Uint8Array} leaf
  * @property {{scale: number, offset: number} | null} lattice
  * @property {{step: number, planes: number}[]} levels
- * @property {Uint8Array} anchors
+ * @property {Uint8Array} escapes
+ * @property {Uint8Array} exact
  * @property {Uint8Array[]} planes
- * @property {Float32Array} maxError
+ * @property {number} totalPlanes
+ * @property {number} maxError  largest depth error of the planes held, metres
  * @property {{clearance: number | null, lo: number[], unit: number, culled: number[][]} | null} reach
- * @property {string} etag
+ * @property {string} etag  the answer's ETag header (not in the body)
  */
 
 /** @param {Reader} r @returns {MeshStream} */
@@ -75,14 +77,16 @@ export function readMeshStream(r) {
   const tag = r.u8('lattice');
   if (tag > 1) throw new WireError(`lattice option tag ${tag}`);
   const lattice = tag === 1 ? { scale: r.f64('lattice scale'), offset: r.f64('lattice offset') } : null;
-  const nLevels = r.len(9, 'levels');
+  const nLevels = r.len(5, 'levels');
   const levels = [];
-  for (let k = 0; k < nLevels; k++) levels.push({ step: r.f64('step'), planes: r.u8('planes') });
-  const anchors = bytes(r, 'anchors');
+  for (let k = 0; k < nLevels; k++) levels.push({ step: r.f32('step'), planes: r.u8('planes') });
+  const escapes = bytes(r, 'escape bits');
+  const exact = bytes(r, 'exact depths');
   const nPlanes = r.len(8, 'planes');
   const planes = [];
   for (let k = 0; k < nPlanes; k++) planes.push(bytes(r, 'plane'));
-  const maxError = r.array(Float32Array, r.len(4, 'max_error'), 'max_error');
+  const totalPlanes = r.u8('total_planes');
+  const maxError = r.f32('max_error');
   const rt = r.u8('reach');
   if (rt > 1) throw new WireError(`reach option tag ${rt}`);
   let reach = null;
@@ -97,43 +101,42 @@ export function readMeshStream(r) {
     for (let k = 0; k < count; k++) culled.push([r.u16(), r.u16(), r.u16(), r.u16()]);
     reach = { clearance, lo, unit, culled };
   }
-  const etag = r.string('etag');
   return {
     version, scene, view, lod, camera, extract_ms, rootSide, rootsX, rootsY, triangles,
-    split, leaf, lattice, levels, anchors, planes, maxError, reach, etag,
+    split, leaf, lattice, levels, escapes, exact, planes, totalPlanes, maxError, reach, etag: '',
   };
 }
 
-/** A strip route's compact body: `{mesh}` or `{planes}` (an update of a held mesh).
- * @param {ArrayBuffer} buffer */
-export function readMeshBody(buffer) {
+/** A strip route's compact body: `{mesh}` or `{planes}` (an update of the
+ * mesh the request named as held). `etag` is the answer's ETag header.
+ * @param {ArrayBuffer} buffer @param {string} [etag] */
+export function readMeshBody(buffer, etag = '') {
   const r = new Reader(buffer);
   const kind = r.tag('mesh body', 2);
   if (kind === 0) {
     const mesh = readMeshStream(r);
     r.end();
+    mesh.etag = etag;
     return { mesh };
   }
   const version = r.u16('version');
   if (version !== COMPACT_VERSION) throw new WireError(`compact stream version ${version}`);
-  const held = r.string('held');
   const first = r.u8('first');
   const n = r.len(8, 'planes');
   const planes = [];
   for (let k = 0; k < n; k++) planes.push(bytes(r, 'plane'));
-  const etag = r.string('etag');
+  const maxError = r.f32('max_error');
   r.end();
-  return { planes: { held, first, planes, etag } };
+  return { planes: { first, planes, maxError, etag } };
 }
 
-/** The planes of an update appended to the stream it extends.
- * @param {MeshStream} s @param {{held: string, first: number, planes: Uint8Array[], etag: string}} u
+/** The planes of an update appended to the held stream they extend.
+ * @param {MeshStream} s @param {{first: number, planes: Uint8Array[], maxError: number, etag: string}} u
  * @returns {MeshStream} */
 export function applyPlanes(s, u) {
-  if (u.held !== s.etag) throw new WireError('the planes extend another mesh');
   if (u.first !== s.planes.length) throw new WireError('the planes do not start where the held ones end');
-  if (s.planes.length + u.planes.length >= s.maxError.length) throw new WireError('more planes than the mesh has');
-  return { ...s, planes: [...s.planes, ...u.planes], etag: u.etag };
+  if (s.planes.length + u.planes.length > s.totalPlanes) throw new WireError('more planes than the mesh has');
+  return { ...s, planes: [...s.planes, ...u.planes], maxError: u.maxError, etag: u.etag };
 }
 
 /** The forest's geometry (engine/src/mesh/grid.rs). */
@@ -314,8 +317,8 @@ function assemble(f, corners) {
 
 /**
  * Depths from the first `held` planes (bitplanes.rs). `slot` numbers the
- * grid's vertices as the mesh does (-1: not in it); a vertex's parents are
- * coarser, so in the mesh they come before it.
+ * grid's vertices as the mesh does (-1: not in it); a vertex's predictors
+ * are coarser, so in the mesh they come before it.
  * @param {Forest} f @param {MeshStream} s @param {Uint16Array} ij @param {Uint8Array} level
  * @param {Int32Array} parent @param {Int32Array} slot @param {number} held
  */
@@ -332,50 +335,74 @@ function depths(f, s, ij, level, parent, slot, held) {
   }
   const n = ij.length / 2;
   const gw = f.gw;
+  const gh = f.gh;
+  // Predictors: two vertices (mean), one (its value: pb = -1) or none (pa = -1).
   const pa = new Int32Array(n).fill(-1);
   const pb = new Int32Array(n).fill(-1);
   const side = f.side;
-  let anchorCount = 0;
+  const at = (/** @type {number} */ x, /** @type {number} */ y) => (x >= 0 && y >= 0 && x < gw && y < gh ? slot[y * gw + x] : -1);
   for (let k = 0; k < n; k++) {
     const x = ij[2 * k]; const y = ij[2 * k + 1];
-    if (x % side !== 0 || y % side !== 0) {
-      // The edge it bisects: the walk's split recorded one end, the other mirrors it.
-      const e = parent[y * gw + x] - 1;
-      const ex = e % gw;
-      const ey = (e - ex) / gw;
-      const a = slot[e];
-      const b = slot[(2 * y - ey) * gw + (2 * x - ex)];
-      if (a >= 0 && b >= 0) { pa[k] = a; pb[k] = b; }
+    if (x % side === 0 && y % side === 0) continue;
+    // The edge it bisects: the walk's split recorded one end, the other
+    // mirrors it; the apexes lie across the other diagonal, smaller x (then y) first.
+    const e = parent[y * gw + x] - 1;
+    const ex = e % gw;
+    const ey = (e - ex) / gw;
+    const dx = ex - x; const dy = ey - y;
+    let p0x = x + dy; let p0y = y - dx; let p1x = x - dy; let p1y = y + dx;
+    if (p1x < p0x || (p1x === p0x && p1y < p0y)) { const tx = p0x; const ty = p0y; p0x = p1x; p0y = p1y; p1x = tx; p1y = ty; }
+    const a = slot[e];
+    const b = slot[(y - dy) * gw + (x - dx)];
+    const c = at(p0x, p0y);
+    const d = at(p1x, p1y);
+    if (a >= 0 && b >= 0) { pa[k] = a; pb[k] = b; } else if (c >= 0 && d >= 0) { pa[k] = c; pb[k] = d; } else {
+      pa[k] = a >= 0 ? a : b >= 0 ? b : c >= 0 ? c : d;
     }
-    if (pa[k] < 0) anchorCount++;
   }
-  if (s.anchors.length !== 4 * anchorCount) throw new WireError('anchor bytes do not match the anchors');
+  // Escape bits, one per predicted vertex: coded[k] when it is neither an anchor nor escaped.
+  const coded = new Uint8Array(n);
+  let exactCount = 0;
+  {
+    const b = s.escapes;
+    let bit = 0;
+    for (let k = 0; k < n; k++) {
+      if (pa[k] < 0) { exactCount++; continue; }
+      if (bit >= 8 * b.length) throw new WireError('escape bits end early or run on');
+      const escaped = (b[bit >> 3] >> (bit & 7)) & 1;
+      bit++;
+      coded[k] = 1 - escaped;
+      exactCount += escaped;
+    }
+    if ((bit + 7) >> 3 !== b.length || ((bit & 7) !== 0 && b[bit >> 3] >> (bit & 7) !== 0)) throw new WireError('escape bits end early or run on');
+  }
+  if (s.exact.length !== 4 * exactCount) throw new WireError('exact depth bytes do not match the anchors and escapes');
   const mb = new Uint32Array(n);
   const negative = new Uint8Array(n);
-  // Planes of each coded vertex's level (0 for anchors).
+  // Planes of each coded vertex's level (0 for the others).
   const lp = new Uint8Array(n);
-  for (let k = 0; k < n; k++) if (pa[k] >= 0) lp[k] = levels[level[k]].planes;
+  for (let k = 0; k < n; k++) if (coded[k]) lp[k] = levels[level[k]].planes;
   // Vertices a plane made non-zero, whose signs follow its bits.
   const fresh = new Int32Array(n);
   for (let t = 1; t <= held; t++) {
     const plane = s.planes[t - 1];
     const end = 8 * plane.length;
-    let at = 0;
+    let bit = 0;
     let count = 0;
     for (let k = 0; k < n; k++) {
       if (lp[k] < t) continue;
-      if (at >= end) throw new WireError('a depth plane ends early or runs on');
-      const m = (mb[k] << 1) | ((plane[at >> 3] >> (at & 7)) & 1);
+      if (bit >= end) throw new WireError('a depth plane ends early or runs on');
+      const m = (mb[k] << 1) | ((plane[bit >> 3] >> (bit & 7)) & 1);
       mb[k] = m;
       if (m === 1) fresh[count++] = k;
-      at++;
+      bit++;
     }
     for (let c = 0; c < count; c++) {
-      if (at >= end) throw new WireError('a depth plane ends early or runs on');
-      negative[fresh[c]] = (plane[at >> 3] >> (at & 7)) & 1;
-      at++;
+      if (bit >= end) throw new WireError('a depth plane ends early or runs on');
+      negative[fresh[c]] = (plane[bit >> 3] >> (bit & 7)) & 1;
+      bit++;
     }
-    if ((at + 7) >> 3 !== plane.length || ((at & 7) !== 0 && plane[at >> 3] >> (at & 7) !== 0)) {
+    if ((bit + 7) >> 3 !== plane.length || ((bit & 7) !== 0 && plane[bit >> 3] >> (bit & 7) !== 0)) {
       throw new WireError('a depth plane ends early or runs on');
     }
   }
@@ -387,21 +414,26 @@ function depths(f, s, ij, level, parent, slot, held) {
   let next = 0;
   const valid = (/** @type {number} */ z) => Number.isFinite(z) && z > 0;
   for (let k = 0; k < n; k++) {
-    if (pa[k] < 0) {
-      for (let b = 0; b < 4; b++) scratch.setUint8(b, s.anchors[b * anchorCount + next]);
+    if (!coded[k]) {
+      for (let b = 0; b < 4; b++) scratch.setUint8(b, s.exact[b * exactCount + next]);
       next++;
       const z = scratch.getFloat32(0, true);
-      if (!valid(z)) throw new WireError('an anchor depth is not finite and positive');
+      if (!valid(z)) throw new WireError('an exact depth is not finite and positive');
       out[k] = z;
       units[k] = lattice ? round((z - lattice.offset) / lattice.scale) : z;
-      if (lattice && !(Math.abs(units[k]) < MAX_RAW)) throw new WireError('an anchor lies off the lattice\'s range');
+      if (lattice && !(Math.abs(units[k]) < MAX_RAW)) throw new WireError('an exact depth lies off the lattice\'s range');
       continue;
     }
     const lv = level[k];
     const step = steps[lv];
     const sh = planesOf[lv] - Math.min(planesOf[lv], held);
-    const mid = (units[pa[k]] + units[pb[k]]) * 0.5;
-    const pred = lattice ? Math.floor(mid) : mid;
+    let pred;
+    if (pb[k] >= 0) {
+      const mid = (units[pa[k]] + units[pb[k]]) * 0.5;
+      pred = lattice ? Math.floor(mid) : mid;
+    } else {
+      pred = units[pa[k]];
+    }
     const m = mb[k];
     const mag = sh === 0 ? m : m === 0 ? 0 : m * (1 << sh) + (1 << (sh - 1));
     const value = negative[k] ? pred - mag * step : pred + mag * step;
@@ -503,8 +535,8 @@ export function decodeMesh(s, requesting) {
     throw new WireError(`${f.m} x ${f.n} roots of side ${f.side} do not cover the ${s.camera.width} x ${s.camera.height} reference image`);
   }
   if (s.triangles > 2 * (f.gw - 1) * (f.gh - 1)) throw new WireError(`${s.triangles} triangles is more than the forest holds`);
-  if (s.maxError.length < s.planes.length + 1) throw new WireError('fewer error bounds than planes');
-  for (const e of s.maxError) if (!(Number.isFinite(e) && e >= 0)) throw new WireError('error bounds must be finite and not negative');
+  if (s.planes.length > s.totalPlanes) throw new WireError('more planes than the mesh has');
+  if (!(Number.isFinite(s.maxError) && s.maxError >= 0)) throw new WireError('the error bound must be finite and not negative');
   const { corners, parent } = walk(f, s.split, s.leaf, s.triangles);
   const { ij, level, indices, slot } = assemble(f, corners);
   const { width, height } = s.camera;
@@ -525,8 +557,8 @@ export function decodeMesh(s, requesting) {
   return {
     version: s.version, scene: s.scene, view: s.view, lod: s.lod, camera: s.camera,
     vertexCount: ij.length / 2, ij, normal, rho, depth, indices, mode: /** @type {'triangles'} */ ('triangles'),
-    triangles: s.triangles, extract_ms: s.extract_ms, maxDepthError: s.maxError[s.planes.length], reach,
-    etag: s.etag, planes: s.planes.length, totalPlanes: s.maxError.length - 1,
+    triangles: s.triangles, extract_ms: s.extract_ms, maxDepthError: s.maxError, reach,
+    etag: s.etag, planes: s.planes.length, totalPlanes: s.totalPlanes,
   };
 }
 

@@ -1,7 +1,7 @@
 // Decodes answers off the main thread (the compact stream, bincode, or the
 // JSON fallback) and hands back the typed arrays, transferred, not copied.
 
-import { decodeCompactRender, decodeMesh, readMeshBody } from './compact.js';
+import { applyPlanes, decodeCompactRender, decodeMesh, readMeshBody } from './compact.js';
 import { decodeRender, readStrips, Reader, renderFromJson, stripTriangles } from './protocol.js';
 
 /** The triangles of a decoded mesh: strips, or an indexed list.
@@ -28,17 +28,17 @@ function edges(s) {
 }
 
 self.onmessage = (/** @type {MessageEvent} */ e) => {
-  const { id, body, json, lines, kind, compact, camera, held, keep } = e.data;
+  const { id, body, json, lines, kind, compact, camera, held, keep, etag } = e.data;
   const start = performance.now();
   try {
     if (kind === 'mesh') {
-      // A strip route's compact body: a whole mesh, or planes for the held stream.
-      const b = readMeshBody(body);
+      // A strip route's compact body: a whole mesh, or planes for the held
+      // stream the request named (`held`, kept by a caller that asked `keep`).
+      const b = readMeshBody(body, etag ?? '');
       let stream = b.mesh;
       if (b.planes) {
-        if (!held || held.etag !== b.planes.held) throw new Error('planes arrived for a mesh this viewer does not hold');
-        stream = { ...held, planes: [...held.planes, ...b.planes.planes], etag: b.planes.etag };
-        if (b.planes.first !== held.planes.length) throw new Error('the planes do not start where the held ones end');
+        if (!held) throw new Error('planes arrived for a mesh this viewer does not hold');
+        stream = applyPlanes(held, b.planes);
       }
       const s = decodeMesh(/** @type {import('./compact.js').MeshStream} */ (stream), camera);
       const wire = lines ? edges(s) : null;

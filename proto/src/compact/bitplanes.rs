@@ -1,24 +1,31 @@
-//! Vertex depths as nested bit planes of parent-edge residuals (PROTOCOL.md,
-//! "Protocol 6: depths"; Verlani et al. Sec. 4 and Table 2, the mesh's own
-//! coarser levels as the proxy; DESIGN.md "Residual bit-depth").
+//! Vertex depths as nested bit planes of residuals from the mesh's coarser
+//! levels (PROTOCOL.md, "Protocol 6: depths"; Verlani et al. Sec. 4 and
+//! Table 2, the mesh's own coarser levels as the proxy; DESIGN.md
+//! "Residual bit-depth").
 //!
-//! Vertices come coarse to fine. A vertex bisects the edge `a-b` of its
-//! diamond; when both ends are earlier vertices of the mesh its depth is
-//! predicted as their mean (floored, on an integer lattice) and its residual
-//! is coded, otherwise it is an *anchor* and travels as an exact `f32`.
+//! Vertices come coarse to fine. A vertex is predicted from coarser vertices
+//! of the mesh: the mean of its parent edge's ends `a`, `b` (the edge it
+//! bisects, as its error metric; floored on an integer lattice) when both
+//! are in the mesh, else the mean of its diamond's apexes when both are,
+//! else the first of `a`, `b`, apex 0, apex 1 that is; a vertex with none of
+//! them (a root corner, an island) is an *anchor* and travels as an exact
+//! `f32`.
 //!
 //! Residuals are quantised once, at full precision, closed loop: level `L`
-//! has a step `step_L` and a residual its magnitude `m = round(|r| /
-//! step_L)` with a sign, `P_L` the bit length of the level's largest `m`.
-//! Plane `t` (1-based) carries bit `P_L - t` of every magnitude of a level
-//! with `P_L >= t`, then the sign of each vertex that plane made non-zero.
-//! A decoder holding the first `b` planes knows `mb = m >> s` (`s = P_L -
-//! min(b, P_L)`) and reconstructs `mb * 2^s + 2^(s-1)` steps (0 when `mb =
-//! 0`; `m` itself when `s = 0`) from its own prediction. So the first `b`
-//! planes *are* the `b`-plane answer, whatever follows, and all planes give
-//! the encoder's closed-loop depths: lossless on a lattice (one raw unit a
-//! step), within half a step of `f32` rounding otherwise. The encoder runs
-//! the decoder at every plane count and states each one's largest error.
+//! has a step `step_L` and `P_L` planes, sized from the 99th percentile of
+//! its open-loop residuals (so a few vertices beside a depth jump do not
+//! coarsen every other one); a vertex whose magnitude `m = round(|r| /
+//! step_L)` needs more than `P_L` bits *escapes* and travels exact, like an
+//! anchor. Plane `t` (1-based) carries bit `P_L - t` of every other
+//! magnitude of a level with `P_L >= t`, then the sign of each vertex that
+//! plane made non-zero. A decoder holding the first `b` planes knows `mb = m
+//! >> s` (`s = P_L - min(b, P_L)`) and reconstructs `mb * 2^s + 2^(s-1)`
+//! steps (0 when `mb = 0`; `m` itself when `s = 0`) from its own prediction.
+//! So the first `b` planes *are* the `b`-plane answer, whatever follows, and
+//! all planes give the encoder's closed-loop depths: lossless on a lattice
+//! (one raw unit a step), within half a step of `f32` rounding otherwise. The
+//! encoder runs the decoder at every plane count and states each one's
+//! largest error.
 //!
 //! A reconstruction that is not a finite positive depth (a coarse answer
 //! far below a near surface) falls back to the prediction, in encoder and
@@ -38,7 +45,7 @@ const MAX_RAW: f64 = (1u64 << 50) as f64;
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct LevelCode {
     /// Residual per unit of magnitude: metres, or raw units on a lattice (1).
-    pub step: f64,
+    pub step: f32,
     /// Bit length of the level's largest magnitude.
     pub planes: u8,
 }
@@ -50,9 +57,12 @@ pub struct DepthCode {
     pub lattice: Option<RawGrid>,
     /// Per level, coarse to fine.
     pub levels: Vec<LevelCode>,
-    /// Exact depths of the anchors in vertex order, little-endian `f32`,
-    /// byte-shuffled (all first bytes, then all second bytes, ...).
-    pub anchors: Vec<u8>,
+    /// One bit per predicted vertex in vertex order: 1 when it escaped.
+    pub escapes: Vec<u8>,
+    /// Exact depths of the anchors and escaped vertices in vertex order,
+    /// little-endian `f32`, byte-shuffled (all first bytes, then all
+    /// second bytes, ...).
+    pub exact: Vec<u8>,
     /// Plane `t` at index `t - 1`: magnitude bits, then sign bits.
     pub planes: Vec<Vec<u8>>,
     /// Largest `|decoded - true|` depth in metres holding the first `b`
@@ -67,8 +77,19 @@ fn valid(z: f32) -> bool {
     z.is_finite() && z > 0.0
 }
 
-/// For each vertex, its parent edge's ends when both are earlier vertices.
-fn parents(forest: &Forest, vertices: &[Pt]) -> Vec<Option<(u32, u32)>> {
+/// What a vertex is predicted from: vertex numbers of coarser vertices.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Pred {
+    /// The mean of two.
+    Two(u32, u32),
+    /// One's value.
+    One(u32),
+    /// Nothing: an anchor.
+    None,
+}
+
+/// Each vertex's predictor (see the module docs).
+fn predictors(forest: &Forest, vertices: &[Pt]) -> Vec<Pred> {
     let mut slot = vec![u32::MAX; forest.len()];
     vertices
         .iter()
@@ -80,7 +101,13 @@ fn parents(forest: &Forest, vertices: &[Pt]) -> Vec<Option<(u32, u32)>> {
                     .then(|| slot[forest.index((x, y))])
                     .filter(|&s| s != u32::MAX)
             };
-            let p = forest.diamond(v).and_then(|d| Some((at(d.a)?, at(d.b)?)));
+            let p = forest.diamond(v).map_or(Pred::None, |d| {
+                let ends = [at(d.a), at(d.b), at(d.apex[0]), at(d.apex[1])];
+                match ends {
+                    [Some(a), Some(b), ..] | [_, _, Some(a), Some(b)] => Pred::Two(a, b),
+                    _ => ends.iter().flatten().next().map_or(Pred::None, |&a| Pred::One(a)),
+                }
+            });
             slot[forest.index(v)] = k as u32;
             p
         })
@@ -99,10 +126,18 @@ impl Units {
         }
     }
 
-    fn predict(self, a: f64, b: f64) -> f64 {
-        match self.0 {
-            None => (a + b) * 0.5,
-            Some(_) => ((a + b) * 0.5).floor(),
+    /// The prediction of a vertex from the values `held` of earlier ones.
+    fn predict(self, p: Pred, held: &[f64]) -> f64 {
+        match p {
+            Pred::Two(a, b) => {
+                let mid = (held[a as usize] + held[b as usize]) * 0.5;
+                match self.0 {
+                    None => mid,
+                    Some(_) => mid.floor(),
+                }
+            }
+            Pred::One(a) => held[a as usize],
+            Pred::None => 0.0,
         }
     }
 
@@ -149,6 +184,24 @@ fn lattice_ok(depths: &[f32], g: RawGrid) -> bool {
         })
 }
 
+/// The share of open-loop residuals a level's planes are sized to reach;
+/// the rest escape to exact depths.
+const RANGE_QUANTILE: f64 = 0.99;
+
+/// The `q`-quantile of `values` (0 when empty), reordering them.
+fn quantile(values: &mut [f64], q: f64) -> f64 {
+    if values.is_empty() {
+        return 0.0;
+    }
+    let k = ((values.len() - 1) as f64 * q).round() as usize;
+    *values.select_nth_unstable_by(k, f64::total_cmp).1
+}
+
+/// Bits needed for `m`.
+fn bit_length(m: u64) -> u8 {
+    (64 - m.leading_zeros()) as u8
+}
+
 /// Codes `depths` (finite, positive) of `vertices` (coarse to fine, as the
 /// connectivity decoder numbers them). `raw` is used as the lattice when
 /// every depth lies on it.
@@ -160,55 +213,66 @@ pub fn encode(forest: &Forest, vertices: &[Pt], depths: &[f32], raw: Option<RawG
         return Err(format!("depth {z} is not finite and positive"));
     }
     let units = Units(raw.filter(|g| lattice_ok(depths, *g)));
-    let parents = parents(forest, vertices);
+    let preds = predictors(forest, vertices);
     let level: Vec<usize> = vertices.iter().map(|&v| forest.level(v) as usize).collect();
     let truth: Vec<f64> = depths.iter().map(|&z| units.of(z)).collect();
-    // Steps from the open-loop residuals: 2^16 steps reach the largest, but
-    // no step is finer than a quarter of the f32 spacing of its level's depths.
-    let mut range = vec![0f64; forest.levels()];
+    // Per level: the open-loop residuals and the f32 spacing of its depths.
+    let mut residuals = vec![Vec::new(); forest.levels()];
     let mut spacing = vec![0f64; forest.levels()];
-    for (k, p) in parents.iter().enumerate() {
-        if let Some((a, b)) = *p {
-            let r = (truth[k] - units.predict(truth[a as usize], truth[b as usize])).abs();
-            range[level[k]] = range[level[k]].max(r);
+    for (k, &p) in preds.iter().enumerate() {
+        if p != Pred::None {
+            residuals[level[k]].push((truth[k] - units.predict(p, &truth)).abs());
             let z = depths[k];
             spacing[level[k]] = spacing[level[k]].max(f64::from(z.next_up()) - f64::from(z));
         }
     }
-    let mut levels: Vec<LevelCode> = range
-        .iter()
+    let levels: Vec<LevelCode> = residuals
+        .iter_mut()
         .zip(&spacing)
-        .map(|(&r, &ulp)| LevelCode {
-            step: match units.0 {
+        .map(|(r, &ulp)| {
+            let range = quantile(r, RANGE_QUANTILE);
+            // 16 bits of steps reach the range, but no step is finer than a
+            // quarter of the f32 spacing of the level's depths; f32 steps.
+            let step = match units.0 {
                 Some(_) => 1.0,
-                None => (r / 65536.0).max(ulp / 4.0).max(f64::MIN_POSITIVE),
-            },
-            planes: 0,
+                None => ((range / 65535.0).max(ulp / 4.0) as f32).max(f32::MIN_POSITIVE),
+            };
+            let planes = bit_length((range / f64::from(step)).round() as u64).min(MAX_PLANES);
+            LevelCode { step, planes }
         })
         .collect();
     // Closed loop at full precision.
     let mut held = vec![0f64; vertices.len()];
     let mut mags = vec![(0u32, false); vertices.len()];
-    let mut anchors: Vec<f32> = Vec::new();
-    let cap = (1u64 << MAX_PLANES) - 1;
+    let mut coded = vec![false; vertices.len()];
+    let mut exact: Vec<f32> = Vec::new();
+    let mut escapes = super::bits::BitWriter::default();
     for k in 0..vertices.len() {
-        match parents[k] {
-            None => {
-                anchors.push(depths[k]);
-                held[k] = truth[k];
-            }
-            Some((a, b)) => {
-                let pred = units.predict(held[a as usize], held[b as usize]);
-                let step = levels[level[k]].step;
-                let r = truth[k] - pred;
-                let m = ((r.abs() / step).round() as u64).min(cap) as u32;
-                let negative = r < 0.0 && m > 0;
-                mags[k] = (m, negative);
-                let planes = &mut levels[level[k]].planes;
-                *planes = (*planes).max((32 - m.leading_zeros()) as u8);
-                let d = reconstruct(units, pred, negative, f64::from(m), step)
-                    .ok_or("a prediction from valid depths is no depth")?;
+        let p = preds[k];
+        if p == Pred::None {
+            exact.push(depths[k]);
+            held[k] = truth[k];
+            continue;
+        }
+        let lc = levels[level[k]];
+        let pred = units.predict(p, &held);
+        let r = truth[k] - pred;
+        let m = (r.abs() / f64::from(lc.step)).round();
+        let negative = r < 0.0 && m >= 1.0;
+        let fits = m < f64::from(1u32 << lc.planes);
+        let d = fits
+            .then(|| reconstruct(units, pred, negative, m, f64::from(lc.step)))
+            .flatten();
+        escapes.bit(d.is_none());
+        match d {
+            Some(d) => {
+                mags[k] = (m as u32, negative);
+                coded[k] = true;
                 held[k] = d.1;
+            }
+            None => {
+                exact.push(depths[k]);
+                held[k] = truth[k];
             }
         }
     }
@@ -216,12 +280,12 @@ pub fn encode(forest: &Forest, vertices: &[Pt], depths: &[f32], raw: Option<RawG
     let mut planes = Vec::with_capacity(usize::from(total));
     for t in 1..=total {
         let mut w = super::bits::BitWriter::default();
-        let coded = || (0..vertices.len()).filter(|&k| parents[k].is_some() && levels[level[k]].planes >= t);
-        for k in coded() {
+        let part = || (0..vertices.len()).filter(|&k| coded[k] && levels[level[k]].planes >= t);
+        for k in part() {
             let shift = u32::from(levels[level[k]].planes - t);
             w.bit(mags[k].0 >> shift & 1 == 1);
         }
-        for k in coded() {
+        for k in part() {
             let shift = u32::from(levels[level[k]].planes - t);
             if mags[k].0 >> shift == 1 {
                 w.bit(mags[k].1);
@@ -232,13 +296,13 @@ pub fn encode(forest: &Forest, vertices: &[Pt], depths: &[f32], raw: Option<RawG
     let mut code = DepthCode {
         lattice: units.0,
         levels,
-        anchors: shuffle(&anchors),
+        escapes: escapes.finish(),
+        exact: shuffle(&exact),
         planes,
         max_error: Vec::new(),
     };
     for b in 0..=usize::from(total) {
-        let got =
-            decode_with(&parents, &level, &code, b).map_err(|e| format!("the encoder's own decode failed: {e}"))?;
+        let got = decode_with(&preds, &level, &code, b).map_err(|e| format!("the encoder's own decode failed: {e}"))?;
         let err = got.iter().zip(depths).map(|(a, b)| (a - b).abs()).fold(0f32, f32::max);
         code.max_error.push(err);
     }
@@ -272,65 +336,64 @@ pub fn decode(forest: &Forest, vertices: &[Pt], code: &DepthCode, held: usize) -
             }
         }
     }
-    let parents = parents(forest, vertices);
+    let preds = predictors(forest, vertices);
     let level: Vec<usize> = vertices.iter().map(|&v| forest.level(v) as usize).collect();
-    decode_with(&parents, &level, code, held)
+    decode_with(&preds, &level, code, held)
 }
 
-/// [`decode`] with each vertex's parents and level.
-fn decode_with(
-    parents: &[Option<(u32, u32)>],
-    level: &[usize],
-    code: &DepthCode,
-    held: usize,
-) -> Result<Vec<f32>, Error> {
+/// [`decode`] with each vertex's predictor and level.
+fn decode_with(preds: &[Pred], level: &[usize], code: &DepthCode, held: usize) -> Result<Vec<f32>, Error> {
     let units = Units(code.lattice);
-    let vertices = parents;
-    let anchor_count = parents.iter().filter(|p| p.is_none()).count();
-    let anchors = unshuffle(&code.anchors, anchor_count)?;
-    let mut mb = vec![0u32; vertices.len()];
-    let mut negative = vec![false; vertices.len()];
+    let n = preds.len();
+    let mut escapes = super::bits::BitReader::new(&code.escapes, "escape bits end early or run on");
+    let mut coded = vec![false; n];
+    let mut exact_count = 0;
+    for k in 0..n {
+        coded[k] = preds[k] != Pred::None && !escapes.bit()?;
+        exact_count += usize::from(!coded[k]);
+    }
+    escapes.end()?;
+    let exact = unshuffle(&code.exact, exact_count)?;
+    let mut mb = vec![0u32; n];
+    let mut negative = vec![false; n];
     for (t, plane) in code.planes[..held].iter().enumerate() {
         let t = t as u8 + 1;
         let mut r = super::bits::BitReader::new(plane, "a depth plane ends early or runs on");
-        let coded = || (0..vertices.len()).filter(|&k| parents[k].is_some() && code.levels[level[k]].planes >= t);
-        for k in coded() {
+        let part = || (0..n).filter(|&k| coded[k] && code.levels[level[k]].planes >= t);
+        for k in part() {
             mb[k] = mb[k] << 1 | u32::from(r.bit()?);
         }
-        for k in coded() {
+        for k in part() {
             if mb[k] == 1 {
                 negative[k] = r.bit()?;
             }
         }
         r.end()?;
     }
-    let mut held_units = vec![0f64; vertices.len()];
-    let mut out = vec![0f32; vertices.len()];
-    let mut next_anchor = anchors.iter();
-    for k in 0..vertices.len() {
-        let (z, u) = match parents[k] {
-            None => {
-                let z = *next_anchor.next().ok_or("anchors end early")?;
-                if !valid(z) {
-                    return Err("an anchor depth is not finite and positive");
-                }
-                let u = units.of(z);
-                if code.lattice.is_some() && u.abs() >= MAX_RAW {
-                    return Err("an anchor lies off the lattice's range");
-                }
-                (z, u)
+    let mut held_units = vec![0f64; n];
+    let mut out = vec![0f32; n];
+    let mut next_exact = exact.iter();
+    for k in 0..n {
+        let (z, u) = if coded[k] {
+            let lc = code.levels[level[k]];
+            let s = u32::from(lc.planes - lc.planes.min(held as u8));
+            let pred = units.predict(preds[k], &held_units);
+            let d = reconstruct(units, pred, negative[k], magnitude(mb[k], s), f64::from(lc.step))
+                .ok_or("depths decode to no valid depth")?;
+            if code.lattice.is_some() && d.1.abs() >= MAX_RAW {
+                return Err("depths leave the lattice's range");
             }
-            Some((a, b)) => {
-                let lc = code.levels[level[k]];
-                let s = u32::from(lc.planes - lc.planes.min(held as u8));
-                let pred = units.predict(held_units[a as usize], held_units[b as usize]);
-                let d = reconstruct(units, pred, negative[k], magnitude(mb[k], s), lc.step)
-                    .ok_or("depths decode to no valid depth")?;
-                if code.lattice.is_some() && d.1.abs() >= MAX_RAW {
-                    return Err("depths leave the lattice's range");
-                }
-                d
+            d
+        } else {
+            let z = *next_exact.next().ok_or("exact depths end early")?;
+            if !valid(z) {
+                return Err("an exact depth is not finite and positive");
             }
+            let u = units.of(z);
+            if code.lattice.is_some() && u.abs() >= MAX_RAW {
+                return Err("an exact depth lies off the lattice's range");
+            }
+            (z, u)
         };
         out[k] = z;
         held_units[k] = u;
@@ -351,7 +414,7 @@ fn shuffle(values: &[f32]) -> Vec<u8> {
 
 fn unshuffle(bytes: &[u8], n: usize) -> Result<Vec<f32>, Error> {
     if bytes.len() != 4 * n {
-        return Err("anchor bytes do not match the anchors");
+        return Err("exact depth bytes do not match the anchors and escapes");
     }
     Ok((0..n)
         .map(|k| f32::from_le_bytes([bytes[k], bytes[n + k], bytes[2 * n + k], bytes[3 * n + k]]))

@@ -102,7 +102,8 @@ struct Encoder<'a> {
     inside: Vec<u64>,
     split: BitWriter,
     leaf: BitWriter,
-    emitted: usize,
+    /// The drawn triangles in walk order, as the decoder will see them.
+    corners: Vec<[Pt; 3]>,
 }
 
 impl Decide for Encoder<'_> {
@@ -133,16 +134,17 @@ impl Decide for Encoder<'_> {
         Ok(if drawn { Symbol::Emit } else { Symbol::Skip })
     }
 
-    fn emit(&mut self, _: [Pt; 3]) -> Result<(), String> {
-        self.emitted += 1;
+    fn emit(&mut self, corners: [Pt; 3]) -> Result<(), String> {
+        self.corners.push(corners);
         Ok(())
     }
 }
 
 /// Codes the triangles `triangles` (grid coordinates of their corners) of a
-/// mesh on `forest`. Fails when a triangle is not one of the forest's, or
-/// the triangles are not the leaves of one conforming walk.
-pub fn encode(forest: &Forest, triangles: &[[Pt; 3]]) -> Result<Connectivity, String> {
+/// mesh on `forest`, with the shape the decoder will rebuild. Fails when a
+/// triangle is not one of the forest's, or the triangles are not the
+/// leaves of one conforming walk.
+pub fn encode(forest: &Forest, triangles: &[[Pt; 3]]) -> Result<(Connectivity, Shape), String> {
     forest.check()?;
     let words = (2 * forest.len()).div_ceil(64);
     let mut enc = Encoder {
@@ -152,7 +154,7 @@ pub fn encode(forest: &Forest, triangles: &[[Pt; 3]]) -> Result<Connectivity, St
         inside: vec![0; words],
         split: BitWriter::default(),
         leaf: BitWriter::default(),
-        emitted: 0,
+        corners: Vec::with_capacity(triangles.len()),
     };
     let (gw, gh) = (forest.gw(), forest.gh());
     for t in triangles {
@@ -174,17 +176,21 @@ pub fn encode(forest: &Forest, triangles: &[[Pt; 3]]) -> Result<Connectivity, St
         }
     }
     forest.walk(&mut enc)?;
-    if enc.emitted != triangles.len() {
+    if enc.corners.len() != triangles.len() {
         return Err(format!(
             "{} of {} triangles lie under triangles the walk drew or left out: the mesh does not conform",
-            triangles.len() - enc.emitted,
+            triangles.len() - enc.corners.len(),
             triangles.len()
         ));
     }
-    Ok(Connectivity {
-        split: enc.split.finish(),
-        leaf: enc.leaf.finish(),
-    })
+    let shape = assemble(forest, &enc.corners);
+    Ok((
+        Connectivity {
+            split: enc.split.finish(),
+            leaf: enc.leaf.finish(),
+        },
+        shape,
+    ))
 }
 
 struct Decoder<'a> {

@@ -79,33 +79,41 @@ pub struct MeshStream {
     pub lattice: Option<RawGrid>,
     /// Per level of the forest, coarse to fine: step and planes.
     pub levels: Vec<LevelCode>,
-    /// Exact anchor depths, byte-shuffled `f32`.
-    pub anchors: Vec<u8>,
-    /// Depth planes `1..=planes.len()` (of [`Self::max_error`]`.len() - 1`).
+    /// Escape bits: one per predicted vertex, 1 when its depth is exact.
+    pub escapes: Vec<u8>,
+    /// Exact depths of anchors and escaped vertices, byte-shuffled `f32`.
+    pub exact: Vec<u8>,
+    /// Depth planes `1..=planes.len()` (of [`Self::total_planes`]).
     pub planes: Vec<Vec<u8>>,
-    /// Largest depth error in metres holding `b` planes, at index `b`, for
-    /// every plane count up to all of them.
-    pub max_error: Vec<f32>,
+    /// The planes the mesh has in all, sent or not.
+    pub total_planes: u8,
+    /// Largest depth error in metres of the planes sent.
+    pub max_error: f32,
+    /// The encoder's largest depth error holding `b` planes, at index `b`,
+    /// for every `b` up to all of them: on the server, not on the wire.
+    #[serde(skip)]
+    pub errors: Vec<f32>,
     /// For a view-dependent mesh, how far its camera may move.
     pub reach: Option<CompactReach>,
-    /// Names this mesh (and its planes) for a later request that holds it:
-    /// the response's ETag.
+    /// The response's ETag, which names this mesh and its planes for a
+    /// later request that holds it. It travels in the `ETag` header, not in
+    /// the body; a client keeps it here.
+    #[serde(skip)]
     pub etag: String,
 }
 
-/// Planes a client lacks of a mesh it holds (named by `held`).
+/// Planes a client lacks of the mesh it named as held (the answer's `ETag`
+/// header names the extended mesh).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PlaneUpdate {
     /// [`COMPACT_VERSION`].
     pub version: u16,
-    /// The ETag of the mesh the planes extend.
-    pub held: String,
     /// Index (0-based) of the first plane sent: the number already held.
     pub first: u8,
     /// The planes.
     pub planes: Vec<Vec<u8>>,
-    /// The ETag of the extended mesh.
-    pub etag: String,
+    /// Largest depth error in metres holding all planes up to these.
+    pub max_error: f32,
 }
 
 /// [`crate::Reach`] in a few bytes: the requesting camera is the request's,
@@ -220,22 +228,33 @@ pub fn encode(input: MeshInput<'_>) -> Result<MeshStream, CompactError> {
         .iter()
         .map(|t| Ok([at(t[0])?, at(t[1])?, at(t[2])?]))
         .collect::<Result<Vec<_>, CompactError>>()?;
-    let connectivity = connectivity::encode(&f, &corners).map_err(CompactError)?;
-    // The decoder's numbering, and the depths in it.
-    let shape = connectivity::decode(&f, &connectivity, corners.len())?;
-    let mut depth_at = std::collections::HashMap::with_capacity(input.ij.len());
-    for (&(i, j), &z) in input.ij.iter().zip(input.depths) {
-        depth_at.insert((u32::from(i), u32::from(j)), z);
-    }
-    let depths = shape
-        .vertices
-        .iter()
-        .map(|p| depth_at.get(p).copied().ok_or("a drawn vertex has no depth"))
-        .collect::<Result<Vec<f32>, _>>()?;
+    let (connectivity, shape) = connectivity::encode(&f, &corners).map_err(CompactError)?;
+    // The depths in the decoder's numbering: the engine's own, unless the
+    // mesh came numbered otherwise.
+    let same = shape.vertices.len() == input.ij.len()
+        && shape
+            .vertices
+            .iter()
+            .zip(input.ij)
+            .all(|(&(x, y), &(i, j))| x == u32::from(i) && y == u32::from(j));
+    let depths = if same {
+        input.depths.to_vec()
+    } else {
+        let mut depth_at = std::collections::HashMap::with_capacity(input.ij.len());
+        for (&(i, j), &z) in input.ij.iter().zip(input.depths) {
+            depth_at.insert((u32::from(i), u32::from(j)), z);
+        }
+        shape
+            .vertices
+            .iter()
+            .map(|p| depth_at.get(p).copied().ok_or("a drawn vertex has no depth"))
+            .collect::<Result<Vec<f32>, _>>()?
+    };
     let code = bitplanes::encode(&f, &shape.vertices, &depths, input.raw_grid).map_err(CompactError)?;
     let sent = input
         .planes
         .map_or(code.planes.len(), |p| code.planes.len().min(usize::from(p)));
+    let total_planes = u8::try_from(code.planes.len()).map_err(|_| "more than 255 planes")?;
     Ok(MeshStream {
         version: COMPACT_VERSION,
         scene: input.scene.to_string(),
@@ -250,9 +269,12 @@ pub fn encode(input: MeshInput<'_>) -> Result<MeshStream, CompactError> {
         connectivity,
         lattice: code.lattice,
         levels: code.levels,
-        anchors: code.anchors,
+        escapes: code.escapes,
+        exact: code.exact,
         planes: code.planes[..sent].to_vec(),
-        max_error: code.max_error,
+        total_planes,
+        max_error: code.max_error[sent],
+        errors: code.max_error,
         reach: input.reach.map(|(s, c)| compact_reach(s, c)),
         etag: input.etag,
     })
@@ -292,11 +314,11 @@ impl MeshStream {
                 f.m, f.n, f.side
             )));
         }
-        if self.max_error.len() < self.planes.len() + 1 {
-            return Err("fewer error bounds than planes".into());
+        if self.planes.len() > usize::from(self.total_planes) {
+            return Err("more planes than the mesh has".into());
         }
-        if self.max_error.iter().any(|e| !(e.is_finite() && *e >= 0.0)) {
-            return Err("error bounds must be finite and not negative".into());
+        if !(self.max_error.is_finite() && self.max_error >= 0.0) {
+            return Err("the error bound must be finite and not negative".into());
         }
         let shape = connectivity::decode(&f, &self.connectivity, self.triangles as usize)?;
         if shape.vertices.iter().any(|&(i, j)| i >= w || j >= h) {
@@ -305,7 +327,8 @@ impl MeshStream {
         let code = DepthCode {
             lattice: self.lattice,
             levels: self.levels.clone(),
-            anchors: self.anchors.clone(),
+            escapes: self.escapes.clone(),
+            exact: self.exact.clone(),
             planes: self.planes.clone(),
             max_error: Vec::new(),
         };
@@ -313,30 +336,32 @@ impl MeshStream {
         Ok(DecodedMesh {
             shape,
             depths,
-            max_error: self.max_error[self.planes.len()],
+            max_error: self.max_error,
             planes: self.planes.len(),
         })
     }
 
-    /// Appends the planes of `update`, which must extend this mesh.
-    pub fn apply(&mut self, update: PlaneUpdate) -> Result<(), CompactError> {
-        if update.held != self.etag {
-            return Err("the planes extend another mesh".into());
-        }
+    /// Appends the planes of `update`, the answer to a request that named
+    /// this mesh as held; `etag` is that answer's.
+    pub fn apply(&mut self, update: PlaneUpdate, etag: String) -> Result<(), CompactError> {
         if usize::from(update.first) != self.planes.len() {
             return Err("the planes do not start where the held ones end".into());
         }
-        if self.planes.len() + update.planes.len() >= self.max_error.len() {
+        if self.planes.len() + update.planes.len() > usize::from(self.total_planes) {
             return Err("more planes than the mesh has".into());
         }
         self.planes.extend(update.planes);
-        self.etag = update.etag;
+        self.max_error = update.max_error;
+        self.etag = etag;
         Ok(())
     }
 
-    /// The planes the mesh has in all (sent or not).
-    pub fn total_planes(&self) -> usize {
-        self.max_error.len().saturating_sub(1)
+    /// Keeps the first `planes` planes (on the server, which knows their error).
+    pub fn truncate(&mut self, planes: usize) {
+        self.planes.truncate(planes);
+        if let Some(&e) = self.errors.get(self.planes.len()) {
+            self.max_error = e;
+        }
     }
 
     /// The reach's culled spheres in the world frame, `[x, y, z, r]`.

@@ -150,7 +150,7 @@ proptest! {
         // The first b planes of the full stream are the b-plane stream.
         let all = { let mut i = input(f, &ij, &depths, &want.triangles, raw); i.planes = None; encode(i).unwrap() };
         let mut cut = all.clone();
-        cut.planes.truncate(usize::from(planes));
+        cut.truncate(usize::from(planes));
         prop_assert_eq!(cut.decode().unwrap().depths, got.depths);
     }
 }
@@ -168,7 +168,7 @@ fn errors_shrink_as_planes_arrive() {
         .collect();
     let s = encode(input(f, &ij, &depths, &shape.triangles, None)).unwrap();
     assert!(s.planes.len() >= 16, "{} planes", s.planes.len());
-    let e = &s.max_error;
+    let e = &s.errors;
     assert!(e[0] > 0.0);
     assert!(e[10] < e[2] / 64.0, "{e:?}");
     assert!(*e.last().unwrap() < 1e-5, "{e:?}");
@@ -183,22 +183,21 @@ fn planes_extend_a_held_mesh_to_the_whole_one() {
     let depths: Vec<f32> = shape.vertices.iter().map(|&p| depth_at(p, false)).collect();
     let all = encode(input(f, &ij, &depths, &shape.triangles, None)).unwrap();
     let mut held = all.clone();
-    held.planes.truncate(4);
+    held.truncate(4);
     held.etag = "\"four\"".into();
     let update = PlaneUpdate {
         version: COMPACT_VERSION,
-        held: "\"four\"".into(),
         first: 4,
         planes: all.planes[4..].to_vec(),
-        etag: all.etag.clone(),
+        max_error: all.max_error,
     };
-    let mut wrong = update.clone();
-    wrong.held = "\"other\"".into();
-    assert!(held.clone().apply(wrong).is_err());
     let mut late = update.clone();
     late.first = 5;
-    assert!(held.clone().apply(late).is_err());
-    held.apply(update).unwrap();
+    assert!(held.clone().apply(late, all.etag.clone()).is_err());
+    let mut long = update.clone();
+    long.planes.push(vec![0]);
+    assert!(held.clone().apply(long, all.etag.clone()).is_err());
+    held.apply(update, all.etag.clone()).unwrap();
     assert_eq!(held, all);
 }
 
@@ -232,13 +231,16 @@ fn garbage_fails_with_a_reason_never_a_panic() {
     s.connectivity.split.pop();
     assert!(s.decode().is_err());
     let mut s = good.clone();
-    s.anchors.push(0);
+    s.exact.push(0);
+    assert!(s.decode().is_err());
+    let mut s = good.clone();
+    s.escapes.push(0);
     assert!(s.decode().is_err());
     let mut s = good.clone();
     s.root_side = 6;
     assert!(s.decode().is_err());
     let mut s = good.clone();
-    s.levels[3].step = f64::NAN;
+    s.levels[3].step = f32::NAN;
     assert!(s.decode().is_err());
     let mut s = good;
     s.roots_x = 1 << 20;
