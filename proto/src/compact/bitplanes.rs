@@ -18,8 +18,8 @@
 //! step_L)` needs more than `P_L` bits *escapes* and travels exact, like an
 //! anchor. Plane `t` (1-based) carries bit `P_L - t` of every other
 //! magnitude of a level with `P_L >= t`, then the sign of each vertex that
-//! plane made non-zero. A decoder holding the first `b` planes knows `mb = m
-//! >> s` (`s = P_L - min(b, P_L)`) and reconstructs `mb * 2^s + 2^(s-1)`
+//! plane made non-zero. A decoder holding the first `b` planes knows
+//! `mb = m >> s` (`s = P_L - min(b, P_L)`) and reconstructs `mb * 2^s + 2^(s-1)`
 //! steps (0 when `mb = 0`; `m` itself when `s = 0`) from its own prediction.
 //! So the first `b` planes *are* the `b`-plane answer, whatever follows, and
 //! all planes give the encoder's closed-loop depths: lossless on a lattice
