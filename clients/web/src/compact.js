@@ -206,6 +206,8 @@ function walk(f, splitBits, leafBits, count) {
   // One end of the edge each split vertex bisects, plus one (the other end
   // is its mirror; 0: not split yet).
   const parent = new Int32Array(gw * gh);
+  // The level of each split vertex (root corners stay 0).
+  const levels = new Uint8Array(gw * gh);
   const out = new Uint32Array(3 * count);
   let drawn = 0;
   let sAt = 0;
@@ -245,7 +247,15 @@ function walk(f, splitBits, leafBits, count) {
             // Split: the vertex and the apex opposite this triangle's.
             const m = my * gw + mx;
             split[m] = 1;
-            if (parent[m] === 0) parent[m] = ly * gw + lx + 1;
+            if (parent[m] === 0) {
+              parent[m] = ly * gw + lx + 1;
+              // A diagonal hypotenuse makes a centre, an axis-aligned one an
+              // edge midpoint; its half-length h gives the level.
+              const dx = rx > lx ? rx - lx : lx - rx;
+              const dy = ry > ly ? ry - ly : ly - ry;
+              const h = (dx > dy ? dx : dy) >> 1;
+              levels[m] = 2 * (f.k - 1 - (31 - Math.clz32(h))) + (dx !== 0 && dy !== 0 ? 1 : 2);
+            }
             const ox = 2 * mx - ax;
             const oy = 2 * my - ay;
             if (ox >= 0 && oy >= 0 && ox < gw && oy < gh) split[oy * gw + ox] = 1;
@@ -272,36 +282,39 @@ function walk(f, splitBits, leafBits, count) {
   if (!clear(splitBits, sAt)) throw new WireError('split bits end early or run on');
   if (!clear(leafBits, lAt)) throw new WireError('leaf bits end early or run on');
   if (drawn !== count) throw new WireError('connectivity draws fewer triangles than the header says');
-  return { corners: out, parent };
+  return { corners: out, parent, levels };
 }
 
 /**
  * Numbers the vertices by first use, then stably by level (as the engine).
  * @param {Forest} f @param {Uint32Array} corners grid indices
+ * @param {Uint8Array} levels each split vertex's level, by grid index
  */
-function assemble(f, corners) {
-  const slot = new Int32Array(f.gw * f.gh).fill(-1);
-  const used = [];
+function assemble(f, corners, levels) {
+  const gw = f.gw;
+  const slot = new Int32Array(gw * f.gh).fill(-1);
+  const used = new Int32Array(corners.length);
+  let n = 0;
   const perLevel = new Uint32Array(2 * f.k + 2);
   for (let c = 0; c < corners.length; c++) {
     const g = corners[c];
     if (slot[g] === -1) {
       slot[g] = 0;
-      const level = f.level(g % f.gw, Math.floor(g / f.gw));
-      perLevel[level + 1]++;
-      used.push(g, level);
+      perLevel[levels[g] + 1]++;
+      used[n++] = g;
     }
   }
   for (let l = 1; l < perLevel.length; l++) perLevel[l] += perLevel[l - 1];
-  const n = used.length / 2;
   const ij = new Uint16Array(2 * n);
   const level = new Uint8Array(n);
-  for (let u = 0; u < used.length; u += 2) {
+  for (let u = 0; u < n; u++) {
     const g = used[u];
-    const at = perLevel[used[u + 1]]++;
-    ij[2 * at] = g % f.gw;
-    ij[2 * at + 1] = Math.floor(g / f.gw);
-    level[at] = used[u + 1];
+    const lv = levels[g];
+    const at = perLevel[lv]++;
+    const x = g % gw;
+    ij[2 * at] = x;
+    ij[2 * at + 1] = (g - x) / gw;
+    level[at] = lv;
     slot[g] = at;
   }
   let indices;
@@ -537,8 +550,8 @@ export function decodeMesh(s, requesting) {
   if (s.triangles > 2 * (f.gw - 1) * (f.gh - 1)) throw new WireError(`${s.triangles} triangles is more than the forest holds`);
   if (s.planes.length > s.totalPlanes) throw new WireError('more planes than the mesh has');
   if (!(Number.isFinite(s.maxError) && s.maxError >= 0)) throw new WireError('the error bound must be finite and not negative');
-  const { corners, parent } = walk(f, s.split, s.leaf, s.triangles);
-  const { ij, level, indices, slot } = assemble(f, corners);
+  const { corners, parent, levels } = walk(f, s.split, s.leaf, s.triangles);
+  const { ij, level, indices, slot } = assemble(f, corners, levels);
   const { width, height } = s.camera;
   for (let k = 0; k < ij.length; k += 2) {
     if (ij[k] >= width || ij[k + 1] >= height) throw new WireError('a vertex lies outside the reference image');
