@@ -11,7 +11,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-docs/walkthrough}
 port=${PORT:-8093}
-cargo build --release --bins -q
+cargo build --release -q -p dmesh -p dmesh-client --bins
 data=$(mktemp -d)
 ./target/release/dmesh serve --demo --listen "127.0.0.1:$port" --data "$data" --queue-wait-ms 200 >"$data/server.log" 2>&1 &
 server=$!
@@ -24,7 +24,9 @@ client=./target/release/dmesh-client
 url="http://127.0.0.1:$port"
 $client ingest --server "$url" --scene terrain --simulate examples/scenes/terrain.json >/dev/null 2>&1
 echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs)"
-$client walkthrough --server "$url" --scene demo --path examples/paths/demo-orbit.json --truth demo --out "$out"
+# WIRE=bincode measures protocol 5 instead of the compact stream.
+wire=(--wire "${WIRE:-compact}")
+$client walkthrough --server "$url" --scene demo --path examples/paths/demo-orbit.json --truth demo --out "$out" "${wire[@]}"
 echo
 $client walkthrough --server "$url" --scene terrain --path examples/paths/terrain-flyover.json \
-  --truth examples/scenes/terrain.json --out "$out"
+  --truth examples/scenes/terrain.json --out "$out" "${wire[@]}"

@@ -36,8 +36,8 @@ pub const MESH_MEDIA_TYPE: &str = "application/vnd.dmesh.mesh";
 pub const COMPACT_VERSION: u16 = 6;
 
 /// Largest number of culled spheres a compact reach carries (the engine's
-/// are merged down to this, staying conservative).
-pub const MAX_COMPACT_CULLED: usize = 32;
+/// are merged down to this, staying conservative): 8 bytes each.
+pub const MAX_COMPACT_CULLED: usize = 1024;
 
 /// A body of the compact stream on the strip routes: a whole mesh, or the
 /// planes a client holding the same mesh lacks.
@@ -405,11 +405,31 @@ fn compact_reach(spheres: &[[f64; 4]], clearance: Option<f64>) -> CompactReach {
         .copied()
         .filter(|s| s.iter().all(|v| v.is_finite()))
         .collect();
+    // Neighbours in the walk's order lie near each other: merge, round by
+    // round, the neighbouring pairs whose union grows least (at most one
+    // merge per sphere a round), so large spheres that a moving camera
+    // would see into form only where they must.
     while s.len() > MAX_COMPACT_CULLED {
-        s = s
-            .chunks(2)
-            .map(|p| if p.len() == 2 { merge([p[0], p[1]]) } else { p[0] })
+        let excess = s.len() - MAX_COMPACT_CULLED;
+        let mut growth: Vec<(f64, usize)> = (0..s.len() - 1)
+            .map(|k| (merge([s[k], s[k + 1]])[3] - s[k][3].max(s[k + 1][3]), k))
             .collect();
+        growth.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut taken = vec![false; s.len()];
+        let mut merges = 0;
+        for &(_, k) in &growth {
+            if merges == excess {
+                break;
+            }
+            if !taken[k] && !taken[k + 1] {
+                taken[k] = true;
+                taken[k + 1] = true;
+                s[k] = merge([s[k], s[k + 1]]);
+                s[k + 1][3] = f64::NAN;
+                merges += 1;
+            }
+        }
+        s.retain(|v| !v[3].is_nan());
     }
     let lo = [0, 1, 2].map(|k| s.iter().map(|v| v[k] - v[3]).fold(f64::INFINITY, f64::min));
     let hi = [0, 1, 2].map(|k| s.iter().map(|v| v[k] + v[3]).fold(f64::NEG_INFINITY, f64::max));
