@@ -312,6 +312,16 @@ fn main() -> Result<()> {
         let vertices: usize = c.parts.iter().map(|p| p.mesh.vertices.len()).sum();
         let (png16, zstd16, zlib16) = depth_sources(c)?;
         for planes in [Some(8u8), Some(10), Some(12), None] {
+            // What the server spends coding the meshes (median of 5).
+            let mut encode = Vec::new();
+            for _ in 0..5 {
+                let t = Instant::now();
+                compact_body(c, planes)?;
+                encode.push(t.elapsed().as_secs_f64() * 1e3);
+            }
+            encode.sort_by(f64::total_cmp);
+            let encode_ms = encode[2];
+            let extract_ms: f64 = c.parts.iter().map(|p| p.mesh.extract_ms).sum();
             let (body, streams) = compact_body(c, planes)?;
             // The parts on their own, each coded alone (what they cost).
             let field = |f: &dyn Fn(&MeshStream) -> Vec<u8>| -> usize { streams.iter().map(|s| zstd(&f(s))).sum() };
@@ -352,6 +362,7 @@ fn main() -> Result<()> {
                 "p5_raw": p5.len(), "p5_zstd": zstd(&p5),
                 "connectivity_zstd": connectivity, "depths_zstd": depths, "reach_zstd": reach,
                 "decode_ms": ms, "decode_ms_per_100k": ms * 1e5 / triangles.max(1) as f64,
+                "encode_ms": encode_ms, "extract_ms": extract_ms,
                 "depth_png16": png16, "depth_zstd16": zstd16, "depth_zlib16": zlib16,
             });
             println!("{row}");

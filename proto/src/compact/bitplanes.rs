@@ -301,11 +301,30 @@ pub fn encode(forest: &Forest, vertices: &[Pt], depths: &[f32], raw: Option<RawG
         planes,
         max_error: Vec::new(),
     };
-    for b in 0..=usize::from(total) {
-        let got = decode_with(&preds, &level, &code, b).map_err(|e| format!("the encoder's own decode failed: {e}"))?;
-        let err = got.iter().zip(depths).map(|(a, b)| (a - b).abs()).fold(0f32, f32::max);
+    // The error of every plane count, from the magnitudes themselves: what
+    // `decode_with` computes from the planes, without parsing them again.
+    let mut values = vec![0f64; vertices.len()];
+    for b in 0..=total {
+        let mut err = 0f32;
+        for k in 0..vertices.len() {
+            let (z, u) = if coded[k] {
+                let lc = code.levels[level[k]];
+                let s = u32::from(lc.planes - lc.planes.min(b));
+                let pred = units.predict(preds[k], &values);
+                reconstruct(units, pred, mags[k].1, magnitude(mags[k].0 >> s, s), f64::from(lc.step))
+                    .ok_or("a prediction from valid depths is no depth")?
+            } else {
+                (depths[k], truth[k])
+            };
+            values[k] = u;
+            err = err.max((z - depths[k]).abs());
+        }
         code.max_error.push(err);
     }
+    debug_assert!({
+        let all = decode_with(&preds, &level, &code, usize::from(total)).unwrap_or_default();
+        all.iter().zip(depths).map(|(a, b)| (a - b).abs()).fold(0f32, f32::max) == code.max_error[usize::from(total)]
+    });
     Ok(code)
 }
 
