@@ -194,20 +194,55 @@ class Forest {
 }
 
 /**
+ * @typedef {object} GridScratch  grid-sized buffers kept between decodes
+ *   (allocating and zeroing them costs more than a small mesh's decode)
+ * @property {number} len
+ * @property {Uint8Array} split
+ * @property {Int32Array} parent
+ * @property {Uint8Array} levels
+ * @property {Int32Array} slot      -1 where unused
+ * @property {number[]} touched     grid indices whose split, parent and level were set
+ */
+/** @type {GridScratch | null} */
+let scratch = null;
+
+/** Clean scratch buffers for a grid of `len` vertices. @param {number} len @returns {GridScratch} */
+function gridScratch(len) {
+  if (!scratch || scratch.len < len) {
+    scratch = {
+      len,
+      split: new Uint8Array(len),
+      parent: new Int32Array(len),
+      levels: new Uint8Array(len),
+      slot: new Int32Array(len).fill(-1),
+      touched: [],
+    };
+  }
+  return scratch;
+}
+
+/** Returns the buffers clean: every split vertex's entries and the mesh's vertices' slots.
+ * @param {GridScratch} g @param {Uint16Array} ij @param {number} gw */
+function release(g, ij, gw) {
+  for (const i of g.touched) { g.split[i] = 0; g.parent[i] = 0; g.levels[i] = 0; }
+  g.touched.length = 0;
+  for (let k = 0; k < ij.length; k += 2) g.slot[ij[k + 1] * gw + ij[k]] = -1;
+}
+
+/**
  * Runs the canonical walk over `split` and `leaf` bits; returns the drawn
  * triangles' corners as grid indices (3 per triangle, oriented). Iterative,
  * with the bit readers inlined: this loop is most of a decode.
  * @param {Forest} f @param {Uint8Array} splitBits @param {Uint8Array} leafBits @param {number} count
+ * @param {GridScratch} grid clean buffers of the forest's size
  */
-function walk(f, splitBits, leafBits, count) {
+function walk(f, splitBits, leafBits, count, grid) {
   const gw = f.gw;
   const gh = f.gh;
-  const split = new Uint8Array(gw * gh);
-  // One end of the edge each split vertex bisects, plus one (the other end
-  // is its mirror; 0: not split yet).
-  const parent = new Int32Array(gw * gh);
-  // The level of each split vertex (root corners stay 0).
-  const levels = new Uint8Array(gw * gh);
+  const { split, parent, levels, touched } = grid;
+  // `parent`: one end of the edge each split vertex bisects, plus one (the
+  // other end is its mirror; 0: not split yet); `levels`: the level of each
+  // split vertex (root corners stay 0); `touched`: what to clear afterwards.
   const out = new Uint32Array(3 * count);
   let drawn = 0;
   let sAt = 0;
@@ -246,6 +281,7 @@ function walk(f, splitBits, leafBits, count) {
           if (splits) {
             // Split: the vertex and the apex opposite this triangle's.
             const m = my * gw + mx;
+            if (split[m] === 0) touched.push(m);
             split[m] = 1;
             if (parent[m] === 0) {
               parent[m] = ly * gw + lx + 1;
@@ -258,7 +294,10 @@ function walk(f, splitBits, leafBits, count) {
             }
             const ox = 2 * mx - ax;
             const oy = 2 * my - ay;
-            if (ox >= 0 && oy >= 0 && ox < gw && oy < gh) split[oy * gw + ox] = 1;
+            if (ox >= 0 && oy >= 0 && ox < gw && oy < gh && split[oy * gw + ox] === 0) {
+              split[oy * gw + ox] = 1;
+              touched.push(oy * gw + ox);
+            }
             stack[top] = ax; stack[top + 1] = ay; stack[top + 2] = rx; stack[top + 3] = ry; stack[top + 4] = mx; stack[top + 5] = my;
             stack[top + 6] = lx; stack[top + 7] = ly; stack[top + 8] = ax; stack[top + 9] = ay; stack[top + 10] = mx; stack[top + 11] = my;
             top += 12;
@@ -289,10 +328,10 @@ function walk(f, splitBits, leafBits, count) {
  * Numbers the vertices by first use, then stably by level (as the engine).
  * @param {Forest} f @param {Uint32Array} corners grid indices
  * @param {Uint8Array} levels each split vertex's level, by grid index
+ * @param {Int32Array} slot the grid's scratch map, all -1 (left set for the vertices)
  */
-function assemble(f, corners, levels) {
+function assemble(f, corners, levels, slot) {
   const gw = f.gw;
-  const slot = new Int32Array(gw * f.gh).fill(-1);
   const used = new Int32Array(corners.length);
   let n = 0;
   const perLevel = new Uint32Array(2 * f.k + 2);
@@ -550,13 +589,18 @@ export function decodeMesh(s, requesting) {
   if (s.triangles > 2 * (f.gw - 1) * (f.gh - 1)) throw new WireError(`${s.triangles} triangles is more than the forest holds`);
   if (s.planes.length > s.totalPlanes) throw new WireError('more planes than the mesh has');
   if (!(Number.isFinite(s.maxError) && s.maxError >= 0)) throw new WireError('the error bound must be finite and not negative');
-  const { corners, parent, levels } = walk(f, s.split, s.leaf, s.triangles);
-  const { ij, level, indices, slot } = assemble(f, corners, levels);
+  const grid = gridScratch(f.gw * f.gh);
+  // A decode that fails leaves the buffers dirty: drop them.
+  scratch = null;
+  const { corners, parent, levels } = walk(f, s.split, s.leaf, s.triangles, grid);
+  const { ij, level, indices, slot } = assemble(f, corners, levels, grid.slot);
   const { width, height } = s.camera;
   for (let k = 0; k < ij.length; k += 2) {
     if (ij[k] >= width || ij[k + 1] >= height) throw new WireError('a vertex lies outside the reference image');
   }
   const depth = depths(f, s, ij, level, parent, slot, s.planes.length);
+  release(grid, ij, f.gw);
+  scratch = grid;
   const { normal, rho } = deriveNormals(s.camera, ij, depth, indices);
   let reach = null;
   if (s.reach) {
