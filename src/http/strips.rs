@@ -101,11 +101,19 @@ fn extract_compact(
     let mesh = extract_mesh(state, loaded, ask)?;
     let etag = tag.map(StreamTag::etag).unwrap_or_default();
     let h = &loaded.hierarchy;
-    let mut stream = wire_compact::mesh_stream(&mesh, h.grid(), scene, view, h.camera(), loaded.raw_grid, None, etag)
-        .map_err(|e| AppError::Internal(format!("encoding the mesh: {e}")))?;
-    let wanted = ask
-        .bits
-        .map_or(stream.planes.len(), |b| stream.planes.len().min(usize::from(b)));
+    // The planes asked for (all without `bits`), their error stated.
+    let mut stream = wire_compact::mesh_stream(
+        &mesh,
+        h.grid(),
+        scene,
+        view,
+        h.camera(),
+        loaded.raw_grid,
+        ask.bits,
+        etag,
+    )
+    .map_err(|e| AppError::Internal(format!("encoding the mesh: {e}")))?;
+    let wanted = stream.planes.len();
     let first = held.as_ref().and_then(|h| h.planes).map(usize::from);
     if let Some(first) = first.filter(|&f| f < wanted) {
         return Ok((
@@ -113,12 +121,11 @@ fn extract_compact(
                 version: dmesh_proto::COMPACT_VERSION,
                 first: first as u8,
                 planes: stream.planes.drain(first..wanted).collect(),
-                max_error: stream.errors[wanted],
+                max_error: stream.max_error,
             }),
             stream.etag,
         ));
     }
-    stream.truncate(wanted);
     let etag = stream.etag.clone();
     Ok((MeshBody::Mesh(Box::new(stream)), etag))
 }

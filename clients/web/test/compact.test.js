@@ -85,6 +85,8 @@ test('the compact stream carries the mesh protocol 5 carries, depths within the 
         for (let i = 0; i < s.depth.length; i++) {
           assert.ok(Math.abs(s.depth[i] - w.depth[i]) <= s.maxDepthError, `${s.view} depth ${i} at ${bits} planes`);
         }
+        // The planes asked for, and no more.
+        assert.equal(s.planes, bits === undefined ? s.totalPlanes : Math.min(bits, s.totalPlanes), `${s.view} planes`);
         if (bits === 4) assert.ok(s.maxDepthError > 0);
       });
     }

@@ -63,11 +63,12 @@ pub struct DepthCode {
     /// little-endian `f32`, byte-shuffled (all first bytes, then all
     /// second bytes, ...).
     pub exact: Vec<u8>,
-    /// Plane `t` at index `t - 1`: magnitude bits, then sign bits.
+    /// Plane `t` at index `t - 1`: magnitude bits, then sign bits (all of them).
     pub planes: Vec<Vec<u8>>,
-    /// Largest `|decoded - true|` depth in metres holding the first `b`
-    /// planes, at index `b` (so one more entry than planes).
-    pub max_error: Vec<f32>,
+    /// The planes to send: `min(asked, planes.len())`.
+    pub sent: usize,
+    /// Largest `|decoded - true|` depth in metres holding the first `sent` planes.
+    pub max_error: f32,
 }
 
 /// Why depths do not decode.
@@ -203,9 +204,15 @@ fn bit_length(m: u64) -> u8 {
 }
 
 /// Codes `depths` (finite, positive) of `vertices` (coarse to fine, as the
-/// connectivity decoder numbers them). `raw` is used as the lattice when
-/// every depth lies on it.
-pub fn encode(forest: &Forest, vertices: &[Pt], depths: &[f32], raw: Option<RawGrid>) -> Result<DepthCode, String> {
+/// connectivity decoder numbers them), to be sent with `planes` planes
+/// (`None`: all). `raw` is used as the lattice when every depth lies on it.
+pub fn encode(
+    forest: &Forest,
+    vertices: &[Pt],
+    depths: &[f32],
+    raw: Option<RawGrid>,
+    planes: Option<u8>,
+) -> Result<DepthCode, String> {
     if vertices.len() != depths.len() {
         return Err(format!("{} depths for {} vertices", depths.len(), vertices.len()));
     }
@@ -277,6 +284,7 @@ pub fn encode(forest: &Forest, vertices: &[Pt], depths: &[f32], raw: Option<RawG
         }
     }
     let total = levels.iter().map(|l| l.planes).max().unwrap_or(0);
+    let sent = planes.map_or(total, |p| p.min(total));
     let mut planes = Vec::with_capacity(usize::from(total));
     for t in 1..=total {
         let mut w = super::bits::BitWriter::default();
@@ -299,12 +307,14 @@ pub fn encode(forest: &Forest, vertices: &[Pt], depths: &[f32], raw: Option<RawG
         escapes: escapes.finish(),
         exact: shuffle(&exact),
         planes,
-        max_error: Vec::new(),
+        sent: usize::from(sent),
+        max_error: 0.0,
     };
-    // The error of every plane count, from the magnitudes themselves: what
+    // The error of the planes sent, from the magnitudes themselves: what
     // `decode_with` computes from the planes, without parsing them again.
     let mut values = vec![0f64; vertices.len()];
-    for b in 0..=total {
+    {
+        let b = sent;
         let mut err = 0f32;
         for k in 0..vertices.len() {
             let (z, u) = if coded[k] {
@@ -319,11 +329,11 @@ pub fn encode(forest: &Forest, vertices: &[Pt], depths: &[f32], raw: Option<RawG
             values[k] = u;
             err = err.max((z - depths[k]).abs());
         }
-        code.max_error.push(err);
+        code.max_error = err;
     }
     debug_assert!({
-        let all = decode_with(&preds, &level, &code, usize::from(total)).unwrap_or_default();
-        all.iter().zip(depths).map(|(a, b)| (a - b).abs()).fold(0f32, f32::max) == code.max_error[usize::from(total)]
+        let got = decode_with(&preds, &level, &code, code.sent).unwrap_or_default();
+        got.iter().zip(depths).map(|(a, b)| (a - b).abs()).fold(0f32, f32::max) == code.max_error
     });
     Ok(code)
 }

@@ -89,10 +89,6 @@ pub struct MeshStream {
     pub total_planes: u8,
     /// Largest depth error in metres of the planes sent.
     pub max_error: f32,
-    /// The encoder's largest depth error holding `b` planes, at index `b`,
-    /// for every `b` up to all of them: on the server, not on the wire.
-    #[serde(skip)]
-    pub errors: Vec<f32>,
     /// For a view-dependent mesh, how far its camera may move.
     pub reach: Option<CompactReach>,
     /// The response's ETag, which names this mesh and its planes for a
@@ -250,10 +246,8 @@ pub fn encode(input: MeshInput<'_>) -> Result<MeshStream, CompactError> {
             .map(|p| depth_at.get(p).copied().ok_or("a drawn vertex has no depth"))
             .collect::<Result<Vec<f32>, _>>()?
     };
-    let code = bitplanes::encode(&f, &shape.vertices, &depths, input.raw_grid).map_err(CompactError)?;
-    let sent = input
-        .planes
-        .map_or(code.planes.len(), |p| code.planes.len().min(usize::from(p)));
+    let code = bitplanes::encode(&f, &shape.vertices, &depths, input.raw_grid, input.planes).map_err(CompactError)?;
+    let sent = code.sent;
     let total_planes = u8::try_from(code.planes.len()).map_err(|_| "more than 255 planes")?;
     Ok(MeshStream {
         version: COMPACT_VERSION,
@@ -273,8 +267,7 @@ pub fn encode(input: MeshInput<'_>) -> Result<MeshStream, CompactError> {
         exact: code.exact,
         planes: code.planes[..sent].to_vec(),
         total_planes,
-        max_error: code.max_error[sent],
-        errors: code.max_error,
+        max_error: code.max_error,
         reach: input.reach.map(|(s, c)| compact_reach(s, c)),
         etag: input.etag,
     })
@@ -330,7 +323,8 @@ impl MeshStream {
             escapes: self.escapes.clone(),
             exact: self.exact.clone(),
             planes: self.planes.clone(),
-            max_error: Vec::new(),
+            sent: self.planes.len(),
+            max_error: self.max_error,
         };
         let depths = bitplanes::decode(&f, &shape.vertices, &code, self.planes.len())?;
         Ok(DecodedMesh {
@@ -354,14 +348,6 @@ impl MeshStream {
         self.max_error = update.max_error;
         self.etag = etag;
         Ok(())
-    }
-
-    /// Keeps the first `planes` planes (on the server, which knows their error).
-    pub fn truncate(&mut self, planes: usize) {
-        self.planes.truncate(planes);
-        if let Some(&e) = self.errors.get(self.planes.len()) {
-            self.max_error = e;
-        }
     }
 
     /// The reach's culled spheres in the world frame, `[x, y, z, r]`.

@@ -150,7 +150,7 @@ proptest! {
         // The first b planes of the full stream are the b-plane stream.
         let all = { let mut i = input(f, &ij, &depths, &want.triangles, raw); i.planes = None; encode(i).unwrap() };
         let mut cut = all.clone();
-        cut.truncate(usize::from(planes));
+        cut.planes.truncate(usize::from(planes));
         prop_assert_eq!(cut.decode().unwrap().depths, got.depths);
     }
 }
@@ -166,12 +166,19 @@ fn errors_shrink_as_planes_arrive() {
         .iter()
         .map(|&p| depth_at(p, false) + 0.01 * (p.1 % 3) as f32)
         .collect();
-    let s = encode(input(f, &ij, &depths, &shape.triangles, None)).unwrap();
-    assert!(s.planes.len() >= 16, "{} planes", s.planes.len());
-    let e = &s.errors;
-    assert!(e[0] > 0.0);
-    assert!(e[10] < e[2] / 64.0, "{e:?}");
-    assert!(*e.last().unwrap() < 1e-5, "{e:?}");
+    let error = |planes: Option<u8>| {
+        let mut i = input(f, &ij, &depths, &shape.triangles, None);
+        i.planes = planes;
+        let s = encode(i).unwrap();
+        assert_eq!(s.decode().unwrap().max_error, s.max_error);
+        (s.max_error, s.total_planes)
+    };
+    let (all, total) = error(None);
+    assert!(total >= 15, "{total} planes");
+    let (e0, e2, e10) = (error(Some(0)).0, error(Some(2)).0, error(Some(10)).0);
+    assert!(e0 > 0.0);
+    assert!(e10 < e2 / 64.0, "{e2} {e10}");
+    assert!(all < 1e-5, "{all}");
 }
 
 #[test]
@@ -183,7 +190,7 @@ fn planes_extend_a_held_mesh_to_the_whole_one() {
     let depths: Vec<f32> = shape.vertices.iter().map(|&p| depth_at(p, false)).collect();
     let all = encode(input(f, &ij, &depths, &shape.triangles, None)).unwrap();
     let mut held = all.clone();
-    held.truncate(4);
+    held.planes.truncate(4);
     held.etag = "\"four\"".into();
     let update = PlaneUpdate {
         version: COMPACT_VERSION,
