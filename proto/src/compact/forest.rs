@@ -207,7 +207,10 @@ impl Forest {
         let (h, centre, horizontal) = self.kind(v)?;
         let (x, y, h) = (i64::from(v.0), i64::from(v.1), i64::from(h));
         Some(if centre {
-            let odd = |c: i64| if ((c - h) / (2 * h)) % 2 == 1 { c - h } else { c + h };
+            // Of c - h and c + h, the odd multiple of 2h (h a power of two,
+            // c >= h): a shift, not a division.
+            let shift = h.trailing_zeros() + 1;
+            let odd = |c: i64| if ((c - h) >> shift) & 1 == 1 { c - h } else { c + h };
             let (px, py) = (odd(x), odd(y));
             let (qx, qy) = (2 * x - px, 2 * y - py);
             let (c1, c2) = ((px, qy), (qx, py));
