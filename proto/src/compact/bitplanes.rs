@@ -91,28 +91,30 @@ enum Pred {
 
 /// Each vertex's predictor (see the module docs).
 fn predictors(forest: &Forest, vertices: &[Pt]) -> Vec<Pred> {
-    let mut slot = vec![u32::MAX; forest.len()];
-    vertices
-        .iter()
-        .enumerate()
-        .map(|(k, &v)| {
-            let at = |q: (i64, i64)| -> Option<u32> {
-                let (x, y) = (u32::try_from(q.0).ok()?, u32::try_from(q.1).ok()?);
-                (x < forest.gw() && y < forest.gh())
-                    .then(|| slot[forest.index((x, y))])
-                    .filter(|&s| s != u32::MAX)
-            };
-            let p = forest.diamond(v).map_or(Pred::None, |d| {
-                let ends = [at(d.a), at(d.b), at(d.apex[0]), at(d.apex[1])];
-                match ends {
-                    [Some(a), Some(b), ..] | [_, _, Some(a), Some(b)] => Pred::Two(a, b),
-                    _ => ends.iter().flatten().next().map_or(Pred::None, |&a| Pred::One(a)),
-                }
-            });
-            slot[forest.index(v)] = k as u32;
-            p
-        })
-        .collect()
+    super::forest::with_slot_map(forest.len(), |slot| {
+        let preds = vertices
+            .iter()
+            .enumerate()
+            .map(|(k, &v)| {
+                let at = |q: (i64, i64)| -> Option<u32> {
+                    let (x, y) = (u32::try_from(q.0).ok()?, u32::try_from(q.1).ok()?);
+                    (x < forest.gw() && y < forest.gh())
+                        .then(|| slot[forest.index((x, y))])
+                        .filter(|&s| s != u32::MAX)
+                };
+                let p = forest.diamond(v).map_or(Pred::None, |d| {
+                    let ends = [at(d.a), at(d.b), at(d.apex[0]), at(d.apex[1])];
+                    match ends {
+                        [Some(a), Some(b), ..] | [_, _, Some(a), Some(b)] => Pred::Two(a, b),
+                        _ => ends.iter().flatten().next().map_or(Pred::None, |&a| Pred::One(a)),
+                    }
+                });
+                slot[forest.index(v)] = k as u32;
+                p
+            })
+            .collect();
+        (preds, vertices.iter().map(|&v| forest.index(v)).collect())
+    })
 }
 
 /// The arithmetic both ends share.

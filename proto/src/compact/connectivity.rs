@@ -247,28 +247,30 @@ pub fn decode(forest: &Forest, bits: &Connectivity, triangles: usize) -> Result<
 /// Numbers the vertices of `corners` by first use, then stably by level,
 /// and indexes the triangles by that numbering.
 pub fn assemble(forest: &Forest, corners: &[[Pt; 3]]) -> Shape {
-    let mut slot = vec![u32::MAX; forest.len()];
-    let mut used: Vec<(Pt, usize)> = Vec::with_capacity(corners.len() / 2 + 8);
-    let mut per_level = vec![0u32; forest.levels() + 1];
-    for &p in corners.iter().flatten() {
-        let i = forest.index(p);
-        if slot[i] == u32::MAX {
-            slot[i] = 0;
-            let level = forest.level(p) as usize;
-            per_level[level + 1] += 1;
-            used.push((p, level));
+    super::forest::with_slot_map(forest.len(), |slot| {
+        let mut used: Vec<(Pt, usize)> = Vec::with_capacity(corners.len() / 2 + 8);
+        let mut per_level = vec![0u32; forest.levels() + 1];
+        for &p in corners.iter().flatten() {
+            let i = forest.index(p);
+            if slot[i] == u32::MAX {
+                slot[i] = 0;
+                let level = forest.level(p) as usize;
+                per_level[level + 1] += 1;
+                used.push((p, level));
+            }
         }
-    }
-    for l in 1..per_level.len() {
-        per_level[l] += per_level[l - 1];
-    }
-    let mut vertices = vec![(0, 0); used.len()];
-    for &(p, level) in &used {
-        let at = &mut per_level[level];
-        vertices[*at as usize] = p;
-        slot[forest.index(p)] = *at;
-        *at += 1;
-    }
-    let triangles = corners.iter().map(|t| t.map(|p| slot[forest.index(p)])).collect();
-    Shape { vertices, triangles }
+        for l in 1..per_level.len() {
+            per_level[l] += per_level[l - 1];
+        }
+        let mut vertices = vec![(0, 0); used.len()];
+        for &(p, level) in &used {
+            let at = &mut per_level[level];
+            vertices[*at as usize] = p;
+            slot[forest.index(p)] = *at;
+            *at += 1;
+        }
+        let triangles = corners.iter().map(|t| t.map(|p| slot[forest.index(p)])).collect();
+        let touched = vertices.iter().map(|&p| forest.index(p)).collect();
+        (Shape { vertices, triangles }, touched)
+    })
 }

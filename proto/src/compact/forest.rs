@@ -326,6 +326,28 @@ impl Forest {
     }
 }
 
+/// Runs `f` with a map from grid vertices to `u32`, all `u32::MAX`, of at
+/// least `len` entries; `f` returns the entries it set, which are reset.
+/// The map is kept per thread between calls: allocating and filling a
+/// grid-sized map per request costs more than a small mesh's coding.
+pub fn with_slot_map<R>(len: usize, f: impl FnOnce(&mut [u32]) -> (R, Vec<usize>)) -> R {
+    thread_local! {
+        static MAP: std::cell::RefCell<Vec<u32>> = const { std::cell::RefCell::new(Vec::new()) };
+    }
+    MAP.with(|cell| {
+        let mut map = cell.take();
+        if map.len() < len {
+            map = vec![u32::MAX; len];
+        }
+        let (out, touched) = f(&mut map[..len]);
+        for i in touched {
+            map[i] = u32::MAX;
+        }
+        cell.replace(map);
+        out
+    })
+}
+
 #[inline]
 fn get(bits: &[u64], i: usize) -> bool {
     bits.get(i / 64).is_some_and(|w| w >> (i % 64) & 1 == 1)
