@@ -44,6 +44,18 @@ struct Case {
     novel: Option<Camera>,
 }
 
+/// The timings of a render body built here, not served.
+const NO_TIMINGS: Timings = Timings {
+    select_ms: 0.0,
+    extract_ms: 0.0,
+    total_ms: 0.0,
+};
+
+/// Where a view's colour would be served.
+fn color_url(p: &Part) -> String {
+    format!("/v1/scenes/s/views/{}/color", p.name)
+}
+
 fn zstd(b: &[u8]) -> usize {
     zstd::bulk::compress(b, 3).map_or(usize::MAX, |v| v.len())
 }
@@ -176,14 +188,10 @@ fn compact_body(c: &Case, planes: Option<u8>) -> Result<(Vec<u8>, Vec<MeshStream
                 .map(|(s, p)| CompactView {
                     weight: p.weight,
                     mesh: s.clone(),
-                    color_url: format!("/v1/scenes/s/views/{}/color", p.name),
+                    color_url: color_url(p),
                 })
                 .collect(),
-            timings: Timings {
-                select_ms: 0.0,
-                extract_ms: 0.0,
-                total_ms: 0.0,
-            },
+            timings: NO_TIMINGS,
         })?,
         None => dmesh_proto::to_bincode(&MeshBody::Mesh(Box::new(streams[0].clone())))?,
     };
@@ -212,14 +220,10 @@ fn bincode_body(c: &Case, bits: Option<u8>) -> Result<Vec<u8>> {
                 .map(|(strips, p)| RenderedView {
                     weight: p.weight,
                     strips,
-                    color_url: format!("/v1/scenes/s/views/{}/color", p.name),
+                    color_url: color_url(p),
                 })
                 .collect(),
-            timings: Timings {
-                select_ms: 0.0,
-                extract_ms: 0.0,
-                total_ms: 0.0,
-            },
+            timings: NO_TIMINGS,
         })?,
         None => dmesh_proto::to_bincode(&responses[0])?,
     })

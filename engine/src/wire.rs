@@ -129,7 +129,7 @@ pub fn strip_response(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::image::DepthImage;
     use crate::mesh::{decode_strips, DepthMesh, Lod, Segmentation};
@@ -163,13 +163,13 @@ mod tests {
         assert_eq!(back.triangles as usize, mesh.triangles.len());
     }
 
-    #[test]
-    fn residual_depths_of_a_real_mesh_decode_within_their_bound() {
+    /// A 65 x 40 view of a wavy surface with a step, so that segmentation
+    /// drops triangles and the depth coders meet vertices without parents.
+    pub(crate) fn stepped() -> (Camera, DepthImage) {
         let cam = Camera::perspective(65, 40, 60.0, 60.0, 32.0, 20.0).unwrap();
         let z: Vec<f32> = (0..65 * 40)
             .map(|k| {
                 let (x, y) = ((k % 65) as f32, (k / 65) as f32);
-                // A step so that segmentation drops triangles and makes anchors.
                 if x > 40.0 {
                     6.0
                 } else {
@@ -177,7 +177,12 @@ mod tests {
                 }
             })
             .collect();
-        let depth = DepthImage::from_z(65, 40, z).unwrap();
+        (cam, DepthImage::from_z(65, 40, z).unwrap())
+    }
+
+    #[test]
+    fn residual_depths_of_a_real_mesh_decode_within_their_bound() {
+        let (cam, depth) = stepped();
         let h = DepthMesh::build(&depth, &cam, &Segmentation::default()).unwrap();
         let mesh = h.extract(Lod::Epsilon(0.0005)).unwrap();
         for bits in [0, 1, 4, 8, 12, 16] {

@@ -18,16 +18,6 @@ pub fn forest(grid: &Grid) -> Forest {
     }
 }
 
-/// What names a compact response besides its view: the view's version, and
-/// what the mesh and its planes are a function of.
-#[derive(Clone, Debug)]
-pub struct StreamKey<'a> {
-    /// The stored view's ETag (its version).
-    pub view_etag: &'a str,
-    /// Planes to send, `None` for all.
-    pub planes: Option<u8>,
-}
-
 /// `mesh` of the view `scene/view` (reference `camera`, hierarchy `grid`,
 /// stored on `raw_grid`) in the compact stream.
 #[allow(clippy::too_many_arguments)]
@@ -165,23 +155,12 @@ pub fn render_response(r: &RenderStream, novel: &Camera) -> Result<RenderRespons
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::image::DepthImage;
     use crate::mesh::{DepthMesh, Lod, Segmentation};
 
     #[test]
     fn a_compact_mesh_decodes_to_the_extracted_one() {
-        let cam = Camera::perspective(65, 40, 60.0, 60.0, 32.0, 20.0).unwrap();
-        let z: Vec<f32> = (0..65 * 40)
-            .map(|k| {
-                let (x, y) = ((k % 65) as f32, (k / 65) as f32);
-                if x > 40.0 {
-                    6.0
-                } else {
-                    2.0 + 0.01 * x + (y * 0.2).sin() * 0.1
-                }
-            })
-            .collect();
-        let h = DepthMesh::build(&DepthImage::from_z(65, 40, z).unwrap(), &cam, &Segmentation::default()).unwrap();
+        let (cam, depth) = crate::wire::tests::stepped();
+        let h = DepthMesh::build(&depth, &cam, &Segmentation::default()).unwrap();
         let novel = Camera::perspective(65, 40, 60.0, 60.0, 32.0, 20.0).unwrap();
         for lod in [
             Lod::Epsilon(0.0005),

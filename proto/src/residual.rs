@@ -47,7 +47,7 @@ const RANGE_QUANTILE: f64 = 0.9;
 
 /// Raw values of lattice depths stay below this, so sums of two are exact
 /// in f64 (and in JavaScript numbers).
-const MAX_RAW: f64 = (1u64 << 50) as f64;
+pub(crate) const MAX_RAW: f64 = (1u64 << 50) as f64;
 
 /// Depths coded as residuals from parent-edge predictions.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -382,7 +382,7 @@ fn quantile(values: &mut [f64], q: f64) -> f64 {
 
 /// Whether every depth is `raw * g.scale + g.offset` for an integer `raw`
 /// small enough for exact sums.
-fn on_lattice(depths: &[f32], g: RawGrid) -> bool {
+pub(crate) fn on_lattice(depths: &[f32], g: RawGrid) -> bool {
     g.scale != 0.0
         && g.scale.is_finite()
         && g.offset.is_finite()

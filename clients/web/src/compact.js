@@ -164,12 +164,6 @@ class Forest {
     this.horizontal = tx < ty;
     return 1 << Math.min(tx, ty);
   }
-  /** @param {number} x @param {number} y */
-  level(x, y) {
-    const h = this.kind(x, y);
-    if (h === 0) return 0;
-    return 2 * (this.k - 1 - ctz(h)) + (this.centre ? 1 : 2);
-  }
   /** The diamond of (x, y) into `out` = [ax, ay, bx, by, p0x, p0y, p1x, p1y]; false for a root corner.
    * @param {number} x @param {number} y @param {Float64Array | number[]} out */
   diamond(x, y, out) {

@@ -1,7 +1,7 @@
 // Decodes answers off the main thread (the compact stream, bincode, or the
 // JSON fallback) and hands back the typed arrays, transferred, not copied.
 
-import { applyPlanes, decodeCompactRender, decodeMesh, readMeshBody } from './compact.js';
+import { decodeCompactRender, decodeMesh, readMeshBody } from './compact.js';
 import { decodeRender, readStrips, Reader, renderFromJson, stripTriangles } from './protocol.js';
 
 /** The triangles of a decoded mesh: strips, or an indexed list.
@@ -28,25 +28,19 @@ function edges(s) {
 }
 
 self.onmessage = (/** @type {MessageEvent} */ e) => {
-  const { id, body, json, lines, kind, compact, camera, held, keep, etag } = e.data;
+  const { id, body, json, lines, kind, compact, camera } = e.data;
   const start = performance.now();
   try {
     if (kind === 'mesh') {
-      // A strip route's compact body: a whole mesh, or planes for the held
-      // stream the request named (`held`, kept by a caller that asked `keep`).
-      const b = readMeshBody(body, etag ?? '');
-      let stream = b.mesh;
-      if (b.planes) {
-        if (!held) throw new Error('planes arrived for a mesh this viewer does not hold');
-        stream = applyPlanes(held, b.planes);
-      }
-      const s = decodeMesh(/** @type {import('./compact.js').MeshStream} */ (stream), camera);
+      // A strip route's compact body; the viewer names no held mesh, so it is a whole one.
+      const { mesh } = readMeshBody(body);
+      if (!mesh) throw new Error('planes arrived for a mesh this viewer does not hold');
+      const s = decodeMesh(mesh, camera);
       const wire = lines ? edges(s) : null;
       /** @type {Transferable[]} */
       const transfer = [s.ij.buffer, s.normal.buffer, s.rho.buffer, s.depth.buffer, s.indices.buffer];
       if (wire) transfer.push(wire.buffer);
-      // The stream itself goes back only to a caller that will ask for its further planes.
-      self.postMessage({ id, strips: s, stream: keep ? stream : null, lines: wire, decodeMs: performance.now() - start }, { transfer });
+      self.postMessage({ id, strips: s, lines: wire, decodeMs: performance.now() - start }, { transfer });
       return;
     }
     if (kind === 'strips') {

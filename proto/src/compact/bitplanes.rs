@@ -32,14 +32,10 @@
 //! decoder alike, so no plane count ever yields an invalid depth.
 
 use super::forest::{Forest, Pt};
-use crate::residual::RawGrid;
+use crate::residual::{on_lattice, RawGrid, MAX_RAW};
 
 /// Largest number of planes a level may have.
 pub const MAX_PLANES: u8 = 24;
-
-/// Raw values of lattice depths stay below this, so sums of two are exact
-/// in f64 (and in JavaScript numbers).
-const MAX_RAW: f64 = (1u64 << 50) as f64;
 
 /// One level's quantisation.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -177,16 +173,6 @@ fn reconstruct(units: Units, pred: f64, negative: bool, mag: f64, step: f64) -> 
     valid(d.0).then_some(d)
 }
 
-fn lattice_ok(depths: &[f32], g: RawGrid) -> bool {
-    g.scale != 0.0
-        && g.scale.is_finite()
-        && g.offset.is_finite()
-        && depths.iter().all(|&z| {
-            let r = ((f64::from(z) - g.offset) / g.scale).round();
-            r.abs() < MAX_RAW && (r * g.scale + g.offset) as f32 == z
-        })
-}
-
 /// The share of open-loop residuals a level's planes are sized to reach;
 /// the rest escape to exact depths.
 const RANGE_QUANTILE: f64 = 0.99;
@@ -221,7 +207,7 @@ pub fn encode(
     if let Some(z) = depths.iter().find(|z| !valid(**z)) {
         return Err(format!("depth {z} is not finite and positive"));
     }
-    let units = Units(raw.filter(|g| lattice_ok(depths, *g)));
+    let units = Units(raw.filter(|g| on_lattice(depths, *g)));
     let preds = predictors(forest, vertices);
     let level: Vec<usize> = vertices.iter().map(|&v| forest.level(v) as usize).collect();
     let truth: Vec<f64> = depths.iter().map(|&z| units.of(z)).collect();
