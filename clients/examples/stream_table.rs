@@ -208,7 +208,7 @@ fn bincode_body(c: &Case, bits: Option<u8>) -> Result<Vec<u8>> {
                 root_side: p.hierarchy.grid().side(),
                 raw_grid: p.raw_grid,
             };
-            Ok(strip_response(&p.mesh, "s", &p.name, &p.camera, coding).map_err(|e| anyhow::anyhow!("{e}"))?)
+            strip_response(&p.mesh, "s", &p.name, &p.camera, coding).map_err(|e| anyhow::anyhow!("{e}"))
         })
         .collect::<Result<Vec<_>>>()?;
     Ok(match c.novel {

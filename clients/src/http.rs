@@ -2,6 +2,7 @@
 
 use std::path::PathBuf;
 
+use anyhow::Context as _;
 use bytes::Bytes;
 use http_body_util::{BodyExt, Full};
 use hyper::{header, Method, Request, StatusCode};
@@ -25,6 +26,18 @@ pub enum Wire {
     Compact,
     /// Protocol 5, bincode vertex records and strips, uncompressed.
     Bincode,
+}
+
+/// A compact mesh a client holds, which a later request of the same view
+/// names to receive only the change from it (protocol 6).
+#[derive(Clone, Debug)]
+pub struct HeldMesh {
+    /// The ETag of the answer that made it.
+    pub etag: String,
+    /// The requesting camera it was made for.
+    pub camera: Option<dmesh_proto::Camera>,
+    /// The mesh as decoded.
+    pub decoded: dmesh_proto::compact::DecodedMesh,
 }
 
 /// A failed call, with the server's error body when it sent one.
@@ -262,6 +275,53 @@ impl Server {
                 ))
             }
         }
+    }
+
+    /// One view's mesh as [`Self::strips`] gives it, naming `held` (another
+    /// mesh of the view this client decoded) so that the compact stream
+    /// sends only the change from it; with what to hold for the next
+    /// request (`None` on the bincode wire).
+    pub async fn strips_from(
+        &self,
+        scene: &str,
+        view: &str,
+        request: &dmesh_proto::StripRequest,
+        held: Option<&HeldMesh>,
+    ) -> anyhow::Result<(dmesh_proto::StripResponse, Option<HeldMesh>, usize)> {
+        if self.wire == Wire::Bincode {
+            let (mesh, size) = self.strips(scene, view, request).await?;
+            return Ok((mesh, None, size));
+        }
+        let mut request = request.clone();
+        request.held = held.map(|h| h.etag.clone());
+        request.held_camera = held.and_then(|h| h.camera.clone());
+        let (body, etag, size) = self.mesh_body(scene, view, &request).await?;
+        let camera = request
+            .camera
+            .as_ref()
+            .map(dmesh_engine::camera::Camera::try_from)
+            .transpose()?;
+        let (stream, decoded) = match body {
+            dmesh_proto::MeshBody::Mesh(stream) => {
+                let decoded = stream.decode()?;
+                (*stream, decoded)
+            }
+            dmesh_proto::MeshBody::Change(change) => {
+                let held = held.context("the server sent a change for a request that held no mesh")?;
+                let decoded = change.apply(&held.decoded)?;
+                (change.mesh, decoded)
+            }
+            dmesh_proto::MeshBody::Planes(_) => {
+                anyhow::bail!("the server sent planes for a request that held the mesh at every plane asked")
+            }
+        };
+        let next = HeldMesh {
+            etag,
+            camera: request.camera.clone(),
+            decoded: decoded.clone(),
+        };
+        let mesh = dmesh_engine::wire_compact::decoded_response(&stream, decoded, camera.as_ref())?;
+        Ok((mesh, Some(next), size))
     }
 
     /// One view's mesh in the compact stream as it arrived: the whole mesh

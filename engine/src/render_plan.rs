@@ -22,7 +22,7 @@ pub const MAX_ANGLE_DEG: f64 = 135.0;
 
 /// What a request asks for: a level of detail, the requesting camera it is
 /// meant for, and the depth coding. Checked on construction.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ask {
     /// The level of detail; a budget is shared by [`Self::share`].
     pub lod: WireLod,

@@ -2,7 +2,7 @@
 //! and back: a decoded stream as the strip response a client draws, with
 //! normals and rho derived from the mesh ([`crate::mesh::derived_normals`]).
 
-use dmesh_proto::compact::{self, CompactError, Forest, MeshInput, MeshStream, RenderStream};
+use dmesh_proto::compact::{self, CompactError, DecodedMesh, Forest, MeshChange, MeshInput, MeshStream, RenderStream};
 use dmesh_proto::{Depths, Indices, Reach as WireReach, RenderResponse, RenderedView, StripResponse, WireVertex};
 
 use crate::camera::Camera;
@@ -31,10 +31,44 @@ pub fn mesh_stream(
     planes: Option<u8>,
     etag: String,
 ) -> std::result::Result<MeshStream, CompactError> {
+    with_input(mesh, grid, scene, view, camera, raw_grid, planes, etag, compact::encode)
+}
+
+/// [`mesh_stream`] as its difference from `held`, another mesh of the same
+/// view as a client decoded it.
+#[allow(clippy::too_many_arguments)]
+pub fn mesh_change(
+    mesh: &Mesh,
+    grid: &Grid,
+    scene: &str,
+    view: &str,
+    camera: &Camera,
+    raw_grid: Option<dmesh_proto::RawGrid>,
+    planes: Option<u8>,
+    etag: String,
+    held: &DecodedMesh,
+) -> std::result::Result<MeshChange, CompactError> {
+    with_input(mesh, grid, scene, view, camera, raw_grid, planes, etag, |input| {
+        compact::encode_change(input, held)
+    })
+}
+
+#[allow(clippy::too_many_arguments)]
+fn with_input<T>(
+    mesh: &Mesh,
+    grid: &Grid,
+    scene: &str,
+    view: &str,
+    camera: &Camera,
+    raw_grid: Option<dmesh_proto::RawGrid>,
+    planes: Option<u8>,
+    etag: String,
+    encode: impl FnOnce(MeshInput<'_>) -> std::result::Result<T, CompactError>,
+) -> std::result::Result<T, CompactError> {
     let ij: Vec<(u16, u16)> = mesh.vertices.iter().map(|v| (v.i, v.j)).collect();
     let depths: Vec<f32> = mesh.vertices.iter().map(|v| v.depth).collect();
     let spheres: Option<Vec<[f64; 4]>> = mesh.reach.as_ref().map(|r| r.culled.clone());
-    compact::encode(MeshInput {
+    encode(MeshInput {
         scene,
         view,
         lod: mesh.lod,
@@ -61,6 +95,16 @@ pub fn mesh_stream(
 /// the request, which a view-dependent mesh's reach refers to.
 pub fn strip_response(stream: &MeshStream, requesting: Option<&Camera>) -> Result<StripResponse> {
     let decoded = stream.decode().map_err(|e| Error::invalid(e.to_string()))?;
+    decoded_response(stream, decoded, requesting)
+}
+
+/// [`strip_response`] of a mesh already decoded (from `stream`, or from a
+/// change whose `mesh` it is).
+pub fn decoded_response(
+    stream: &MeshStream,
+    decoded: DecodedMesh,
+    requesting: Option<&Camera>,
+) -> Result<StripResponse> {
     let camera = Camera::try_from(&stream.camera)?;
     let ij: Vec<(u16, u16)> = decoded
         .shape

@@ -7,7 +7,7 @@
 use dmesh_engine::camera::Camera;
 use dmesh_engine::image::DepthImage;
 use dmesh_engine::mesh::{decode_strips, DepthMesh, Lod, Segmentation};
-use dmesh_engine::wire_compact::{mesh_stream, strip_response};
+use dmesh_engine::wire_compact::{mesh_change, mesh_stream, strip_response};
 use dmesh_proto::{Depths, RawGrid};
 use proptest::prelude::*;
 
@@ -85,6 +85,41 @@ proptest! {
         for v in &r.vertices {
             prop_assert!(u32::from(v.i) < w && u32::from(v.j) < h);
         }
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(32))]
+
+    /// A change between two of the engine's meshes of one view (another
+    /// tolerance, a moved camera), applied to the held one as the client
+    /// decoded it, is exactly the whole new mesh's decode.
+    #[test]
+    fn changes_between_engine_meshes_are_exact(
+        w in 2u32..90, h in 2u32..70, seed in any::<u64>(), ortho in any::<bool>(), lattice in any::<bool>(),
+        tols in (0.05f64..8.0, 0.05f64..8.0), shift in -0.3f64..0.3, planes in prop::option::of(0u8..18),
+    ) {
+        let d = depth(w, h, seed, lattice);
+        let cam = camera(w, h, ortho);
+        let hier = DepthMesh::build(&d, &cam, &Segmentation::default()).unwrap();
+        let (mut before, mut after) = (cam, cam);
+        before.translation.x += 0.1;
+        after.translation.x += 0.1 + shift;
+        let raw = lattice.then_some(RawGrid { scale: 0.001, offset: 0.0 });
+        let held_mesh = hier.extract(Lod::Tau { tau: tols.0, view: &before }).unwrap();
+        let held = mesh_stream(&held_mesh, hier.grid(), "s", "v", &cam, raw, planes, String::new())
+            .unwrap()
+            .decode()
+            .unwrap();
+        let mesh = hier.extract(Lod::Tau { tau: tols.1, view: &after }).unwrap();
+        let whole = mesh_stream(&mesh, hier.grid(), "s", "v", &cam, raw, planes, String::new()).unwrap();
+        let change = mesh_change(&mesh, hier.grid(), "s", "v", &cam, raw, planes, String::new(), &held).unwrap();
+        let got = change.apply(&held).unwrap();
+        let want = whole.decode().unwrap();
+        prop_assert_eq!(&got.shape, &want.shape);
+        prop_assert_eq!(&got.depths, &want.depths);
+        prop_assert_eq!(got.max_error, want.max_error);
+        prop_assert_eq!(change.reuses_depths, planes.is_none() && held.lattice == want.lattice);
     }
 }
 

@@ -88,11 +88,17 @@ pub struct StripRequest {
     /// the compact stream, the number of depth planes; absent: all.
     #[serde(default)]
     pub bits: Option<u8>,
-    /// Compact stream only: the ETag of a response to the same request the
-    /// client holds (fewer planes); the answer is then only the planes it
-    /// lacks. Ignored when it names another view version, tolerance or camera.
+    /// Compact stream only: the ETag of a compact response of this view the
+    /// client holds. For the same request with fewer planes the answer is
+    /// only the planes it lacks; for another level of detail or camera, the
+    /// change from the held mesh (with `held_camera` when the held mesh was
+    /// view-dependent). Ignored (the whole mesh is sent) when it names
+    /// another view version, or a mesh the server cannot derive again.
     #[serde(default)]
     pub held: Option<String>,
+    /// The requesting camera of the held mesh, when it had one.
+    #[serde(default)]
+    pub held_camera: Option<Camera>,
 }
 
 impl Indices {
@@ -278,6 +284,7 @@ mod tests {
                 camera,
                 bits,
                 held: None,
+                held_camera: None,
             });
         }
         let r: StripRequest = serde_json::from_str(r#"{"lod": {"epsilon": 0.5}}"#).unwrap();

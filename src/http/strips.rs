@@ -39,6 +39,7 @@ pub struct StripQuery {
     budget_ms: Option<f64>,
     bits: Option<u8>,
     held: Option<String>,
+    held_camera: Option<String>,
 }
 
 impl StripQuery {
@@ -86,21 +87,76 @@ fn extract(state: &AppState, scene: &str, view: &str, loaded: &Loaded, ask: &Ask
         .map_err(|e| AppError::Internal(format!("encoding the mesh: {e}")))
 }
 
+/// What a compact request says the client holds of the view.
+enum Held {
+    /// The same mesh with the planes its tag names.
+    Planes(StreamTag),
+    /// Another mesh of the same view version, made by this request.
+    Mesh(Ask),
+}
+
+impl Held {
+    /// What the ETag `held` names, for a request answered as `tag` from the
+    /// view stored as `view_etag`; `None` when it names nothing the server
+    /// can derive again (then the whole mesh is sent).
+    fn of(held: Option<&str>, camera: Option<Camera>, tag: Option<&StreamTag>, view_etag: &str) -> Option<Self> {
+        let (held, tag) = (StreamTag::parse(held?)?, tag?);
+        if tag.same_mesh(&held) && held.planes != tag.planes {
+            return Some(Self::Planes(held));
+        }
+        tag.same_view(&held)
+            .then(|| held.ask(view_etag, camera))
+            .flatten()
+            .map(Self::Mesh)
+    }
+}
+
 /// One view's mesh for `ask` in the compact stream (protocol 6), named by
-/// `tag`: the whole mesh with the planes asked for, or, when the client
-/// holds the same mesh with fewer planes (`held`), only the planes it lacks;
-/// with the answer's ETag (empty for a time budget).
+/// `tag`: the whole mesh with the planes asked for; when the client holds
+/// the same mesh with fewer planes, only the planes it lacks; when it holds
+/// another mesh of the view, the change from it. With the answer's ETag
+/// (empty for a time budget).
 fn extract_compact(
     state: &AppState,
     (scene, view): (&str, &str),
     loaded: &Loaded,
     ask: &Ask,
     tag: Option<&StreamTag>,
-    held: Option<StreamTag>,
+    held: Option<Held>,
 ) -> Result<(MeshBody, String), AppError> {
     let mesh = extract_mesh(state, loaded, ask)?;
     let etag = tag.map(StreamTag::etag).unwrap_or_default();
     let h = &loaded.hierarchy;
+    let encoding = |e: dmesh_proto::compact::CompactError| AppError::Internal(format!("encoding the mesh: {e}"));
+    if let Some(Held::Mesh(held)) = &held {
+        // The held mesh as the client decoded it, derived again.
+        let (before, _) = render_plan::extract_mesh(h, held, |_| 0.0)?;
+        let held_stream = wire_compact::mesh_stream(
+            &before,
+            h.grid(),
+            scene,
+            view,
+            h.camera(),
+            loaded.raw_grid,
+            held.bits,
+            String::new(),
+        )
+        .map_err(encoding)?;
+        let decoded = held_stream.decode().map_err(encoding)?;
+        let change = wire_compact::mesh_change(
+            &mesh,
+            h.grid(),
+            scene,
+            view,
+            h.camera(),
+            loaded.raw_grid,
+            ask.bits,
+            etag.clone(),
+            &decoded,
+        )
+        .map_err(encoding)?;
+        return Ok((MeshBody::Change(Box::new(change)), etag));
+    }
     // The planes asked for (all without `bits`), their error stated.
     let mut stream = wire_compact::mesh_stream(
         &mesh,
@@ -112,9 +168,12 @@ fn extract_compact(
         ask.bits,
         etag,
     )
-    .map_err(|e| AppError::Internal(format!("encoding the mesh: {e}")))?;
+    .map_err(encoding)?;
     let wanted = stream.planes.len();
-    let first = held.as_ref().and_then(|h| h.planes).map(usize::from);
+    let first = match &held {
+        Some(Held::Planes(h)) => h.planes.map(usize::from),
+        _ => None,
+    };
     if let Some(first) = first.filter(|&f| f < wanted) {
         return Ok((
             MeshBody::Planes(PlaneUpdate {
@@ -142,15 +201,16 @@ fn not_modified(tag: String) -> Response {
     (StatusCode::NOT_MODIFIED, [(header::ETAG, tag)]).into_response()
 }
 
-/// A strip request as the handlers read it: level of detail, camera, bits, held ETag.
-type StripAsk = (WireLod, Option<Camera>, Option<u8>, Option<String>);
+/// A strip request as the handlers read it: level of detail, camera, bits,
+/// held ETag and the held mesh's camera.
+type StripAsk = (WireLod, Option<Camera>, Option<u8>, Option<String>, Option<Camera>);
 
 async fn strips(
     state: Arc<AppState>,
     scene: String,
     view: String,
     headers: HeaderMap,
-    (lod, camera, bits, held): StripAsk,
+    (lod, camera, bits, held, held_camera): StripAsk,
 ) -> Result<Response, AppError> {
     let ask = Ask::new(lod, camera, bits)?;
     let loaded = load(&state, &scene, &view).await?;
@@ -161,10 +221,7 @@ async fn strips(
         if let Some(t) = tag.as_ref().map(StreamTag::etag).filter(|t| none_match(&headers, t)) {
             return Ok(not_modified(t));
         }
-        let held = held
-            .as_deref()
-            .and_then(StreamTag::parse)
-            .filter(|h| tag.as_ref().is_some_and(|t| t.same_mesh(h)));
+        let held = Held::of(held.as_deref(), held_camera, tag.as_ref(), &loaded.etag);
         let st = state.clone();
         let start = Instant::now();
         let (body, etag) = tokio::task::spawn_blocking(move || {
@@ -200,7 +257,7 @@ async fn strips(
 
 /// `GET /v1/scenes/{scene}/views/{view}/strips?epsilon=E`, `?tau=T&camera=JSON`,
 /// `?max_triangles=N[&camera=JSON]` or `?budget_ms=MS[&camera=JSON]`, each with optional `&bits=B`
-/// (and, for the compact stream, `&held=ETAG`).
+/// (and, for the compact stream, `&held=ETAG[&held_camera=JSON]`).
 pub async fn get_strips(
     State(state): State<Arc<AppState>>,
     Path((scene, view)): Path<(String, String)>,
@@ -210,7 +267,8 @@ pub async fn get_strips(
     let Query(q) = query.map_err(|e| AppError::BadRequest(format!("query: {}", e.body_text())))?;
     let lod = q.lod()?;
     let camera = q.camera.as_deref().map(camera_from_json).transpose()?;
-    strips(state, scene, view, headers, (lod, camera, q.bits, q.held)).await
+    let held_camera = q.held_camera.as_deref().map(camera_from_json).transpose()?;
+    strips(state, scene, view, headers, (lod, camera, q.bits, q.held, held_camera)).await
 }
 
 /// `POST /v1/scenes/{scene}/views/{view}/strips` with a [`StripRequest`] body.
@@ -222,7 +280,15 @@ pub async fn post_strips(
 ) -> Result<Response, AppError> {
     let Json(b) = body.map_err(json_rejection)?;
     let camera = b.camera.as_ref().map(Camera::try_from).transpose()?;
-    strips(state, scene, view, headers, (b.lod, camera, b.bits, b.held)).await
+    let held_camera = b.held_camera.as_ref().map(Camera::try_from).transpose()?;
+    strips(
+        state,
+        scene,
+        view,
+        headers,
+        (b.lod, camera, b.bits, b.held, held_camera),
+    )
+    .await
 }
 
 pub(crate) fn json_rejection(e: axum::extract::rejection::JsonRejection) -> AppError {

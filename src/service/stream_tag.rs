@@ -8,10 +8,14 @@
 //! `t<bits>` (the f64 bits of epsilon or tau, hex) or `n<max triangles>`,
 //! `<camera>` empty or `c<hash>`, and `<planes>` a count or `a` for all. A
 //! request naming a held ETag of the same view version, level of detail and
-//! camera gets only the planes it lacks; any other held ETag is ignored and
-//! the whole mesh is sent. A time budget (`budget_ms`) depends on the
-//! server's measured rate, so its answers have no ETag.
+//! camera gets only the planes it lacks; one of the same view version with
+//! another level of detail or camera gets the change from it, the server
+//! deriving the held mesh again from the tag (and the held camera the
+//! request gives, which must hash to the tag's); any other held ETag is
+//! ignored and the whole mesh is sent. A time budget (`budget_ms`) depends
+//! on the server's measured rate, so its answers have no ETag.
 
+use dmesh_engine::camera::Camera;
 use dmesh_engine::render_plan::Ask;
 use dmesh_proto::Lod as WireLod;
 
@@ -79,6 +83,32 @@ impl StreamTag {
     pub fn same_mesh(&self, held: &Self) -> bool {
         self.view == held.view && self.mesh == held.mesh
     }
+
+    /// True when `held` names a mesh of the same view version.
+    pub fn same_view(&self, held: &Self) -> bool {
+        self.view == held.view
+    }
+
+    /// The request that made the mesh this tag names, given the camera it
+    /// was made for: `None` unless the tag is exactly that request's.
+    pub fn ask(&self, view_etag: &str, camera: Option<Camera>) -> Option<Ask> {
+        // `<lod>` then, when a camera was given, `c` and 16 hex digits.
+        let hashed = self.mesh.len() > 17 && self.mesh.as_bytes()[self.mesh.len() - 17] == b'c';
+        let lod = if hashed {
+            &self.mesh[..self.mesh.len() - 17]
+        } else {
+            &self.mesh[..]
+        };
+        let number = |s: &str| u64::from_str_radix(s, 16).ok().map(f64::from_bits);
+        let lod = match lod.split_at_checked(1)? {
+            ("e", x) => WireLod::Epsilon(number(x)?),
+            ("t", x) => WireLod::Tau(number(x)?),
+            ("n", n) => WireLod::MaxTriangles(n.parse().ok()?),
+            _ => return None,
+        };
+        let ask = Ask::new(lod, camera, self.planes).ok()?;
+        (Self::new(view_etag, &ask).as_ref() == Some(self)).then_some(ask)
+    }
 }
 
 /// 64-bit FNV-1a: a stable hash of the camera's bytes (not for security:
@@ -93,7 +123,6 @@ fn fnv1a(bytes: &[u8]) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use dmesh_engine::camera::Camera;
 
     #[test]
     fn tags_round_trip_and_name_their_mesh() {
@@ -111,6 +140,19 @@ mod tests {
         assert!(!t.same_mesh(&other));
         let newer = StreamTag::new("\"abc-2\"", &tau).unwrap();
         assert!(!t.same_mesh(&newer));
+        // A tag gives back its request, given the camera it hashed.
+        assert_eq!(t.ask("\"abc-1\"", Some(cam)), Some(tau));
+        assert_eq!(t.ask("\"abc-1\"", Some(moved)), None);
+        assert_eq!(t.ask("\"abc-1\"", None), None);
+        assert_eq!(t.ask("\"abc-2\"", Some(cam)), None);
+        for lod in [WireLod::Epsilon(0.0125), WireLod::MaxTriangles(5000)] {
+            let ask = Ask::new(lod, None, None).unwrap();
+            let tag = StreamTag::new("\"v\"", &ask).unwrap();
+            assert_eq!(StreamTag::parse(&tag.etag()).unwrap().ask("\"v\"", None), Some(ask));
+        }
+        let budget = Ask::new(WireLod::MaxTriangles(70), Some(cam), Some(3)).unwrap();
+        let tag = StreamTag::new("\"v\"", &budget).unwrap();
+        assert_eq!(tag.ask("\"v\"", Some(cam)), Some(budget));
         assert!(StreamTag::new("\"v\"", &Ask::new(WireLod::BudgetMs(1.0), None, None).unwrap()).is_none());
         for bad in ["", "\"\"", "abc", "\"v.e1.px\"", "\".e1.p3\"", "\"v.p3\""] {
             assert_eq!(StreamTag::parse(bad), None, "{bad}");

@@ -1,14 +1,15 @@
 //! `dmesh-client decode`: a compact body (protocol 6) as the protocol 5
 //! JSON a tool reads: vertices with their derived normals and rho, exact
 //! depths as decoded, and the triangles as strips of one triangle each.
-//! What the browser's decoder is checked against, and a way to look
-//! inside a body.
+//! A change is decoded against the whole mesh it was asked against
+//! (`--held`). What the browser's decoder is checked against, and a way to
+//! look inside a body.
 
 use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use dmesh_engine::camera::{camera_from_json, Camera};
-use dmesh_engine::wire_compact::{render_response, strip_response};
+use dmesh_engine::wire_compact::{decoded_response, render_response, strip_response};
 use dmesh_proto::{MeshBody, RenderStream};
 
 /// Options of `decode`.
@@ -24,6 +25,9 @@ pub struct DecodeArgs {
     /// The body is a render answer.
     #[arg(long)]
     pub render: bool,
+    /// For a change: the whole-mesh body of the mesh it was asked against.
+    #[arg(long)]
+    pub held: Option<PathBuf>,
 }
 
 /// Prints the decoded body as JSON.
@@ -43,10 +47,21 @@ pub fn run(args: DecodeArgs) -> Result<()> {
         serde_json::to_string(&render_response(&stream, &novel)?)?
     } else {
         let body: MeshBody = dmesh_proto::from_bincode(&bytes).context("a compact strip body")?;
-        let MeshBody::Mesh(stream) = body else {
-            anyhow::bail!("the body holds planes for a held mesh, not a mesh");
-        };
-        serde_json::to_string(&strip_response(&stream, camera.as_ref())?)?
+        match body {
+            MeshBody::Mesh(stream) => serde_json::to_string(&strip_response(&stream, camera.as_ref())?)?,
+            MeshBody::Change(change) => {
+                let path = args
+                    .held
+                    .context("a change needs --held, the body of the mesh it changes")?;
+                let held = std::fs::read(&path).with_context(|| format!("reading {}", path.display()))?;
+                let MeshBody::Mesh(held) = dmesh_proto::from_bincode(&held).context("a compact strip body")? else {
+                    anyhow::bail!("--held must be a whole mesh");
+                };
+                let decoded = change.apply(&held.decode()?)?;
+                serde_json::to_string(&decoded_response(&change.mesh, decoded, camera.as_ref())?)?
+            }
+            MeshBody::Planes(_) => anyhow::bail!("the body holds planes for a held mesh, not a mesh"),
+        }
     };
     // A closed pipe (`| head`) ends the output, not the program with a panic.
     use std::io::Write;

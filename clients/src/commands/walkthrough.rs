@@ -50,6 +50,9 @@ pub struct WalkthroughArgs {
     /// How meshes travel: the compact stream (protocol 6, zstd) or protocol 5 bincode.
     #[arg(long, value_enum, default_value = "compact")]
     pub wire: dmesh_client::http::Wire,
+    /// Refresh held meshes whole, not by the change from the held one (compact wire).
+    #[arg(long)]
+    pub whole: bool,
     /// Most views a frame draws.
     #[arg(long, default_value_t = 5)]
     pub max_views: usize,
@@ -83,6 +86,7 @@ pub fn run(args: WalkthroughArgs, rt: &tokio::runtime::Runtime) -> Result<()> {
         guard,
         bits,
         wire,
+        whole,
         max_views,
         frames_out,
         truth,
@@ -138,6 +142,7 @@ pub fn run(args: WalkthroughArgs, rt: &tokio::runtime::Runtime) -> Result<()> {
                 max_views,
                 frames_out: frames_out.as_ref().map(|d| d.join(strategy.name())),
                 truth: truth.clone(),
+                changes: !whole,
                 ..walkthrough::Options::default()
             };
             let total = walk_path.frames;

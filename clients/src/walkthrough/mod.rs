@@ -88,6 +88,8 @@ pub struct Options {
     pub frames_out: Option<PathBuf>,
     /// Compare every frame with the simulator's ground truth of this scene.
     pub truth: Option<SceneSpec>,
+    /// Refresh a held mesh by the change from it (compact stream), not whole.
+    pub changes: bool,
 }
 
 impl Default for Options {
@@ -99,6 +101,7 @@ impl Default for Options {
             blend: BlendOptions::default(),
             frames_out: None,
             truth: None,
+            changes: true,
         }
     }
 }
@@ -204,6 +207,8 @@ pub async fn run(
     // Per reference view: what the policy sees of its held mesh, and what the blend draws.
     let mut held: Vec<Option<Held>> = vec![None; scene.views.len()];
     let mut strips: Vec<Option<StripResponse>> = vec![None; scene.views.len()];
+    // And, on the compact wire, the decoded mesh a refresh asks the change from.
+    let mut compact: Vec<Option<crate::http::HeldMesh>> = vec![None; scene.views.len()];
     let mut frames = Vec::with_capacity(path.frames as usize);
     if let Some(dir) = &options.frames_out {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
@@ -232,6 +237,7 @@ pub async fn run(
             camera: Some((&widened(&camera, options.guard)?).into()),
             bits: options.bits,
             held: None,
+            held_camera: None,
         };
         let mut tasks = tokio::task::JoinSet::new();
         for v in plan.fetches() {
@@ -241,11 +247,12 @@ pub async fn run(
                 scene.views[v].clone(),
                 request.clone(),
             );
+            let from = compact[v].clone().filter(|_| options.changes);
             tasks.spawn(async move {
                 let sent = Instant::now();
                 let mut retries = 0;
                 let answer = loop {
-                    let answer = server.strips(&scene_id, &view, &request).await;
+                    let answer = server.strips_from(&scene_id, &view, &request, from.as_ref()).await;
                     if retries < MAX_RETRIES && answer.as_ref().is_err_and(shed) {
                         retries += 1;
                         tokio::time::sleep(std::time::Duration::from_millis(2 << retries)).await;
@@ -260,7 +267,8 @@ pub async fn run(
             let (v, answer, ms, retries) = done?;
             frame.retries += retries;
             let refreshed = plan.refresh.contains(&v);
-            let (mesh, bytes) = answer.with_context(|| format!("frame {t}: view {}", scene.views[v]))?;
+            let (mesh, kept, bytes) = answer.with_context(|| format!("frame {t}: view {}", scene.views[v]))?;
+            compact[v] = kept;
             let tau = match mesh.lod {
                 dmesh_proto::Lod::Tau(tau) => tau,
                 // A response states epsilon or tau; only tau was asked for.

@@ -107,17 +107,28 @@ export function readMeshStream(r) {
   };
 }
 
-/** A strip route's compact body: `{mesh}` or `{planes}` (an update of the
- * mesh the request named as held). `etag` is the answer's ETag header.
+/** A strip route's compact body: `{mesh}`, `{change}` (another mesh as its
+ * difference from the one the request named as held: `{mesh, reusesDepths}`)
+ * or `{planes}` (an update of the mesh the request named as held). `etag` is
+ * the answer's ETag header.
  * @param {ArrayBuffer} buffer @param {string} [etag] */
 export function readMeshBody(buffer, etag = '') {
   const r = new Reader(buffer);
-  const kind = r.tag('mesh body', 2);
+  const kind = r.tag('mesh body', 3);
   if (kind === 0) {
     const mesh = readMeshStream(r);
     r.end();
     mesh.etag = etag;
     return { mesh };
+  }
+  if (kind === 2) {
+    const mesh = readMeshStream(r);
+    const flag = r.u8('reuses_depths');
+    if (flag > 1) throw new WireError(`reuses_depths is ${flag}`);
+    const reusesDepths = flag === 1;
+    r.end();
+    mesh.etag = etag;
+    return { change: { mesh, reusesDepths } };
   }
   const version = r.u16('version');
   if (version !== COMPACT_VERSION) throw new WireError(`compact stream version ${version}`);
@@ -224,13 +235,66 @@ function release(g, ij, gw) {
 }
 
 /**
+ * @typedef {object} Held  a decoded mesh a change is applied to
+ * @property {Uint16Array} ij @property {Uint16Array | Uint32Array} indices
+ * @property {Float32Array} depth @property {{scale: number, offset: number} | null} lattice
+ * @property {boolean} complete  every plane decoded
+ */
+
+/**
+ * A held mesh as the context a change's bits are coded in (connectivity.rs,
+ * `Context`): `vert[g]` is 1 for a held vertex; `drawn[2 g + half]` has bit 0
+ * for a drawn larger triangle whose split vertex is g, bit 1 for a drawn cell
+ * triangle whose cell's corner is g.
+ * @param {Forest} f @param {Held} held
+ */
+function heldContext(f, held) {
+  const gw = f.gw;
+  const len = f.gw * f.gh;
+  const vert = new Uint8Array(len);
+  const drawn = new Uint8Array(2 * len);
+  const { ij, indices } = held;
+  const n = ij.length / 2;
+  for (let k = 0; k < n; k++) {
+    if (ij[2 * k] >= f.gw || ij[2 * k + 1] >= f.gh) throw new WireError('a held vertex lies outside the grid');
+    vert[ij[2 * k + 1] * gw + ij[2 * k]] = 1;
+  }
+  const p = [0, 0, 0, 0, 0, 0];
+  for (let t = 0; t < indices.length; t += 3) {
+    for (let c = 0; c < 3; c++) {
+      const v = indices[t + c];
+      if (v >= n) throw new WireError('a held triangle has no vertex');
+      p[2 * c] = ij[2 * v]; p[2 * c + 1] = ij[2 * v + 1];
+    }
+    // The right angle is opposite the longest side.
+    const d2 = (/** @type {number} */ a, /** @type {number} */ b) => (p[2 * a] - p[2 * b]) ** 2 + (p[2 * a + 1] - p[2 * b + 1]) ** 2;
+    const sides = [d2(1, 2), d2(0, 2), d2(0, 1)];
+    const apex = sides[0] >= sides[1] && sides[0] >= sides[2] ? 0 : sides[1] >= sides[2] ? 1 : 2;
+    const l = (apex + 1) % 3; const r = (apex + 2) % 3;
+    const lx = p[2 * l]; const ly = p[2 * l + 1]; const rx = p[2 * r]; const ry = p[2 * r + 1];
+    const ax = p[2 * apex]; const ay = p[2 * apex + 1];
+    const cell = Math.abs(lx - rx) === 1 && Math.abs(ly - ry) === 1;
+    if (cell) {
+      const mx = Math.min(lx, rx); const my = Math.min(ly, ry);
+      drawn[2 * (my * gw + mx) + (ax !== mx ? 1 : 0)] |= 2;
+    } else {
+      const mx = (lx + rx) >> 1; const my = (ly + ry) >> 1;
+      drawn[2 * (my * gw + mx) + (ax < mx || (ax === mx && ay < my) ? 0 : 1)] |= 1;
+    }
+  }
+  return { vert, drawn };
+}
+
+/**
  * Runs the canonical walk over `split` and `leaf` bits; returns the drawn
  * triangles' corners as grid indices (3 per triangle, oriented). Iterative,
  * with the bit readers inlined: this loop is most of a decode.
  * @param {Forest} f @param {Uint8Array} splitBits @param {Uint8Array} leafBits @param {number} count
  * @param {GridScratch} grid clean buffers of the forest's size
+ * @param {{vert: Uint8Array, drawn: Uint8Array} | null} held a change's context: each bit is
+ *   the difference from what the held mesh predicts
  */
-function walk(f, splitBits, leafBits, count, grid) {
+function walk(f, splitBits, leafBits, count, grid, held) {
   const gw = f.gw;
   const gh = f.gh;
   const { split, parent, levels, touched } = grid;
@@ -263,13 +327,26 @@ function walk(f, splitBits, leafBits, count, grid) {
         const ax = stack[top + 4]; const ay = stack[top + 5];
         let draw = false;
         const cell = (lx - rx === 1 || rx - lx === 1) && (ly - ry === 1 || ry - ly === 1);
+        // With a held mesh: what it predicts of this triangle's split, and its drawn flags.
+        let splitPred = 0;
+        let drawnHeld = 0;
+        if (held) {
+          if (cell) {
+            const cx = lx < rx ? lx : rx; const cy = ly < ry ? ly : ry;
+            drawnHeld = held.drawn[2 * (cy * gw + cx) + (ax !== cx ? 1 : 0)] & 2;
+          } else {
+            const mx = (lx + rx) >> 1; const my = (ly + ry) >> 1;
+            drawnHeld = held.drawn[2 * (my * gw + mx) + (ax < mx || (ax === mx && ay < my) ? 0 : 1)] & 1;
+            splitPred = held.vert[my * gw + mx] === 1 && drawnHeld === 0 ? 1 : 0;
+          }
+        }
         if (!cell) {
           const mx = (lx + rx) >> 1;
           const my = (ly + ry) >> 1;
           let splits = split[my * gw + mx] === 1;
           if (!splits) {
             if (sAt >= sEnd) throw new WireError('split bits end early or run on');
-            splits = ((splitBits[sAt >> 3] >> (sAt & 7)) & 1) === 1;
+            splits = (((splitBits[sAt >> 3] >> (sAt & 7)) & 1) ^ splitPred) === 1;
             sAt++;
           }
           if (splits) {
@@ -299,7 +376,13 @@ function walk(f, splitBits, leafBits, count, grid) {
           }
         }
         if (lAt >= lEnd) throw new WireError('leaf bits end early or run on');
-        draw = ((leafBits[lAt >> 3] >> (lAt & 7)) & 1) === 1;
+        let leafPred = 0;
+        if (held) {
+          // Drawn, unless the held mesh reached the triangle and neither split nor drew it.
+          const reached = (lx > rx ? lx - rx : rx - lx) === s || held.vert[ay * gw + ax] === 1;
+          leafPred = drawnHeld !== 0 || !(reached && (cell || splitPred === 0)) ? 1 : 0;
+        }
+        draw = (((leafBits[lAt >> 3] >> (lAt & 7)) & 1) ^ leafPred) === 1;
         lAt++;
         if (!draw) continue;
         if (drawn >= count) throw new WireError('connectivity draws more triangles than the header says');
@@ -367,8 +450,9 @@ function assemble(f, corners, levels, slot) {
  * are coarser, so in the mesh they come before it.
  * @param {Forest} f @param {MeshStream} s @param {Uint16Array} ij @param {Uint8Array} level
  * @param {Int32Array} parent @param {Int32Array} slot @param {number} held
+ * @param {Float32Array | null} known depths the client has (NaN where it has none), skipped by the code
  */
-function depths(f, s, ij, level, parent, slot, held) {
+function depths(f, s, ij, level, parent, slot, held, known) {
   const { lattice, levels } = s;
   if (levels.length !== 2 * f.k + 1) throw new WireError('depth levels do not match the forest');
   if (held > s.planes.length) throw new WireError('fewer depth planes than stated');
@@ -413,6 +497,7 @@ function depths(f, s, ij, level, parent, slot, held) {
     const b = s.escapes;
     let bit = 0;
     for (let k = 0; k < n; k++) {
+      if (known && !Number.isNaN(known[k])) continue;
       if (pa[k] < 0) { exactCount++; continue; }
       if (bit >= 8 * b.length) throw new WireError('escape bits end early or run on');
       const escaped = (b[bit >> 3] >> (bit & 7)) & 1;
@@ -460,6 +545,13 @@ function depths(f, s, ij, level, parent, slot, held) {
   let next = 0;
   const valid = (/** @type {number} */ z) => Number.isFinite(z) && z > 0;
   for (let k = 0; k < n; k++) {
+    if (known && !Number.isNaN(known[k])) {
+      const z = known[k];
+      if (!valid(z)) throw new WireError('a known depth is not finite and positive');
+      out[k] = z;
+      units[k] = lattice ? round((z - lattice.offset) / lattice.scale) : z;
+      continue;
+    }
     if (!coded[k]) {
       for (let b = 0; b < 4; b++) scratch.setUint8(b, s.exact[b * exactCount + next]);
       next++;
@@ -569,10 +661,12 @@ export function deriveNormals(cam, ij, z, tri) {
  * A compact mesh decoded into the arrays the renderer draws (the `Strips`
  * shape of protocol.js, with `mode: 'triangles'`: an indexed triangle list).
  * `requesting` is the camera the request named (a view-dependent mesh's
- * reach refers to it).
+ * reach refers to it). With `held`, `s` is a change's mesh, applied to the
+ * held mesh (with its depths when the change `reusesDepths`).
  * @param {MeshStream} s @param {import('./protocol.js').CameraJson | null} requesting
+ * @param {Held | null} [held] @param {boolean} [reusesDepths]
  */
-export function decodeMesh(s, requesting) {
+export function decodeMesh(s, requesting, held = null, reusesDepths = false) {
   const f = new Forest(s.rootSide, s.rootsX, s.rootsY);
   // The forest is the reference image's: the fewest roots of this side covering it.
   const covers = (/** @type {number} */ roots, /** @type {number} */ size) =>
@@ -583,16 +677,29 @@ export function decodeMesh(s, requesting) {
   if (s.triangles > 2 * (f.gw - 1) * (f.gh - 1)) throw new WireError(`${s.triangles} triangles is more than the forest holds`);
   if (s.planes.length > s.totalPlanes) throw new WireError('more planes than the mesh has');
   if (!(Number.isFinite(s.maxError) && s.maxError >= 0)) throw new WireError('the error bound must be finite and not negative');
+  const context = held ? heldContext(f, held) : null;
+  if (reusesDepths) {
+    const same = held && s.lattice && held.lattice && held.lattice.scale === s.lattice.scale && held.lattice.offset === s.lattice.offset;
+    if (!(held && held.complete && same)) throw new WireError('the change reuses depths the held mesh does not have');
+  }
   const grid = gridScratch(f.gw * f.gh);
   // A decode that fails leaves the buffers dirty: drop them.
   scratch = null;
-  const { corners, parent, levels } = walk(f, s.split, s.leaf, s.triangles, grid);
+  const { corners, parent, levels } = walk(f, s.split, s.leaf, s.triangles, grid, context);
   const { ij, level, indices, slot } = assemble(f, corners, levels, grid.slot);
   const { width, height } = s.camera;
   for (let k = 0; k < ij.length; k += 2) {
     if (ij[k] >= width || ij[k + 1] >= height) throw new WireError('a vertex lies outside the reference image');
   }
-  const depth = depths(f, s, ij, level, parent, slot, s.planes.length);
+  let known = null;
+  if (reusesDepths && held) {
+    // The held depths by grid vertex, then in this mesh's numbering.
+    const byGrid = new Float32Array(f.gw * f.gh).fill(NaN);
+    for (let k = 0; k < held.depth.length; k++) byGrid[held.ij[2 * k + 1] * f.gw + held.ij[2 * k]] = held.depth[k];
+    known = new Float32Array(ij.length / 2);
+    for (let k = 0; k < known.length; k++) known[k] = byGrid[ij[2 * k + 1] * f.gw + ij[2 * k]];
+  }
+  const depth = depths(f, s, ij, level, parent, slot, s.planes.length, known);
   release(grid, ij, f.gw);
   scratch = grid;
   const { normal, rho } = deriveNormals(s.camera, ij, depth, indices);
@@ -610,6 +717,7 @@ export function decodeMesh(s, requesting) {
     vertexCount: ij.length / 2, ij, normal, rho, depth, indices, mode: /** @type {'triangles'} */ ('triangles'),
     triangles: s.triangles, extract_ms: s.extract_ms, maxDepthError: s.maxError, reach,
     etag: s.etag, planes: s.planes.length, totalPlanes: s.totalPlanes,
+    lattice: s.lattice, complete: s.planes.length === s.totalPlanes,
   };
 }
 

@@ -253,14 +253,17 @@ function decode(body, format, lines, camera) {
 }
 
 /** One strip answer, decoded in the worker: the compact stream (requested
- * for `camera`) or bincode. @param {ArrayBuffer} body @param {boolean} compact
+ * for `camera`) or bincode. A compact mesh is kept in the worker under `key`
+ * with its ETag `etag`; an answer to a request that named `held` may be
+ * the change from it. @param {ArrayBuffer} body @param {boolean} compact
  * @param {boolean} lines @param {CameraJson} camera
+ * @param {{key: string, etag: string | null, held: string | null}} [names]
  * @returns {Promise<{strips: any, lines: Uint32Array | null}>} */
-function decodeStrips(body, compact, lines, camera) {
+function decodeStrips(body, compact, lines, camera, names) {
   const id = nextId++;
   return new Promise((resolve, reject) => {
     pending.set(id, { resolve, reject });
-    worker.postMessage({ id, body, json: false, lines, kind: compact ? 'mesh' : 'strips', camera }, [body]);
+    worker.postMessage({ id, body, json: false, lines, kind: compact ? 'mesh' : 'strips', camera, ...names }, [body]);
   });
 }
 
@@ -485,20 +488,33 @@ const STALE_FACTOR = 1.5;
 /** Requests a round sends at once: the server reads as many as its cores at a time. */
 const ROUND_CONCURRENCY = 2;
 
-/** One view's mesh for `cam` (the page's wire), decoded in the worker. @param {number} v @param {CameraJson} cam */
+/** Per view id, the compact mesh the worker keeps: its ETag and requesting
+ * camera, which a refresh names to get only the change from it. */
+const compactHeld = /** @type {Map<string, {etag: string, camera: CameraJson}>} */ (new Map());
+
+/** One view's mesh for `cam` (the page's wire), decoded in the worker; on
+ * the compact wire, as the change from the mesh held for the view.
+ * @param {number} v @param {CameraJson} cam */
 async function fetchStrips(v, cam) {
   const ref = refs[v];
   const path = `/v1/scenes/${encodeURIComponent(/** @type {string} */ (state.scene))}/views/${encodeURIComponent(ref.view)}/strips`;
+  const key = `${state.scene}/${ref.view}`;
+  const body = requestBody(cam);
+  const from = state.wire === 'compact' ? compactHeld.get(key) : undefined;
+  if (from) { body.held = from.etag; body.held_camera = from.camera; }
   const r = await fetchPatiently(path, {
     method: 'POST',
     headers: { 'content-type': 'application/json', accept: state.wire === 'compact' ? MESH : BINCODE },
-    body: JSON.stringify(requestBody(cam)),
+    body: JSON.stringify(body),
   }, Infinity);
   if (!r.ok) throw new HttpError(r.status, await serverMessage(r));
   const compact = answerFormat(r) === 'compact';
   const buffer = await r.arrayBuffer();
   const bytes = buffer.byteLength;
-  const { strips, lines } = await decodeStrips(buffer, compact, state.mode === 'wireframe', cam);
+  const etag = r.headers.get('etag');
+  compactHeld.delete(key);
+  const { strips, lines } = await decodeStrips(buffer, compact, state.mode === 'wireframe', cam, { key, etag, held: from?.etag ?? null });
+  if (compact && etag) compactHeld.set(key, { etag, camera: cam });
   return { v, strips, lines, bytes, extract: serverTiming(r.headers.get('server-timing')).extract ?? strips.extract_ms };
 }
 

@@ -27,15 +27,31 @@ function edges(s) {
   return Uint32Array.from(out);
 }
 
+/** Per view: the last compact mesh decoded, kept (copied) for a change
+ * from it. @type {Map<string, import('./compact.js').Held & {etag: string}>} */
+const kept = new Map();
+
 self.onmessage = (/** @type {MessageEvent} */ e) => {
-  const { id, body, json, lines, kind, compact, camera } = e.data;
+  const { id, body, json, lines, kind, compact, camera, key, etag, held } = e.data;
   const start = performance.now();
   try {
     if (kind === 'mesh') {
-      // A strip route's compact body; the viewer names no held mesh, so it is a whole one.
-      const { mesh } = readMeshBody(body);
-      if (!mesh) throw new Error('planes arrived for a mesh this viewer does not hold');
-      const s = decodeMesh(mesh, camera);
+      // A strip route's compact body: a whole mesh, or the change from the
+      // one kept for `key` that the request named as held.
+      const answer = readMeshBody(body, etag ?? '');
+      let s;
+      if (answer.mesh) {
+        s = decodeMesh(answer.mesh, camera);
+      } else if (answer.change) {
+        const h = key ? kept.get(key) : undefined;
+        if (!h || h.etag !== held) throw new Error('a change arrived for a mesh this viewer does not hold');
+        s = decodeMesh(answer.change.mesh, camera, h, answer.change.reusesDepths);
+      } else {
+        throw new Error('planes arrived for a mesh this viewer does not hold');
+      }
+      if (key && etag) {
+        kept.set(key, { etag, ij: s.ij.slice(), indices: s.indices.slice(), depth: s.depth.slice(), lattice: s.lattice, complete: s.complete });
+      }
       const wire = lines ? edges(s) : null;
       /** @type {Transferable[]} */
       const transfer = [s.ij.buffer, s.normal.buffer, s.rho.buffer, s.depth.buffer, s.indices.buffer];

@@ -8,6 +8,7 @@
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
 import path from 'node:path';
+import zlib from 'node:zlib';
 import { after, before, test } from 'node:test';
 import { decodeCompactRender, decodeMesh, readMeshBody, applyPlanes, MESH } from '../src/compact.js';
 import { decodeRender, stripTriangles, WireError } from '../src/protocol.js';
@@ -123,6 +124,50 @@ test('planes extend a held mesh to the one asked for, and a wrong held ETag gets
     body: JSON.stringify({ lod: { epsilon: 0.01 }, bits: 8 }),
   });
   assert.equal(r.status, 304);
+});
+
+test('a change applied to the held mesh is the whole new mesh, as the Rust decoder applies it', async () => {
+  const camera = demoNovel();
+  const moved = structuredClone(camera);
+  moved.pose.translation[0] += 0.05;
+  const other = structuredClone(camera);
+  other.pose.translation[1] += 0.07;
+  const dir = tempDir();
+  /** @type {[{camera: any, lod: object, bits?: number}, {camera: any, lod: object, bits?: number}][]} */
+  const cases = [
+    // A finer tolerance, a moved camera, and both with planes (depths sent again).
+    [{ camera, lod: { tau: 4 } }, { camera, lod: { tau: 1 } }],
+    [{ camera, lod: { tau: 1 } }, { camera: moved, lod: { tau: 1 } }],
+    [{ camera, lod: { tau: 4 }, bits: 10 }, { camera: moved, lod: { tau: 1 }, bits: 10 }],
+  ];
+  for (const [from, to] of cases) {
+    const a = await strips('v04', from);
+    const held = decodeMesh(/** @type {any} */ (readMeshBody(a.body, /** @type {string} */ (a.etag)).mesh), from.camera);
+    const whole = await strips('v04', to);
+    const ch = await strips('v04', { ...to, held: a.etag, held_camera: from.camera });
+    const { change } = readMeshBody(ch.body.slice(0), /** @type {string} */ (ch.etag));
+    assert.ok(change, `${JSON.stringify(to)} from a held mesh is a change`);
+    assert.equal(ch.etag, whole.etag, 'a change names the mesh it makes');
+    assert.equal(change.reusesDepths, to.bits === undefined, 'depths are reused between complete meshes');
+    // As they travel: content-coded (here gzip; the bit fields are differences, mostly zeros).
+    const gz = (/** @type {ArrayBuffer} */ b) => zlib.gzipSync(Buffer.from(b), { level: 6 }).length;
+    const [c, w] = [gz(ch.body), gz(whole.body)];
+    assert.ok(c < (change.reusesDepths ? w / 2 : w), `${c} bytes of change against ${w} whole, gzipped`);
+    const got = decodeMesh(change.mesh, to.camera, held, change.reusesDepths);
+    const want = decodeMesh(/** @type {any} */ (readMeshBody(whole.body, /** @type {string} */ (whole.etag)).mesh), to.camera);
+    for (const k of /** @type {const} */ (['ij', 'depth', 'indices', 'normal', 'rho'])) {
+      assert.deepEqual(Array.from(got[k]), Array.from(want[k]), `${k} of the change and of the whole mesh`);
+    }
+    fs.writeFileSync(path.join(dir, 'held'), Buffer.from(a.body));
+    fs.writeFileSync(path.join(dir, 'change'), Buffer.from(ch.body));
+    fs.writeFileSync(path.join(dir, 'camera.json'), JSON.stringify(to.camera));
+    const rust = JSON.parse(await client(['decode', '--body', path.join(dir, 'change'), '--held', path.join(dir, 'held'), '--camera', path.join(dir, 'camera.json')]));
+    assert.deepEqual(rust.vertices.map((/** @type {any} */ v) => [v.i, v.j]).flat(), Array.from(got.ij));
+    assert.deepEqual(rust.depths.exact.map(Math.fround), Array.from(got.depth));
+    // The same held tag with a camera it was not made for: the whole mesh.
+    const wrong = readMeshBody((await strips('v04', { ...to, held: a.etag, held_camera: other })).body);
+    assert.ok(wrong.mesh, 'a held camera that does not hash to the tag gets the whole mesh');
+  }
 });
 
 test('malformed and mutated bodies are refused with a WireError, never another exception', async () => {

@@ -191,49 +191,77 @@ fn bit_length(m: u64) -> u8 {
     (64 - m.leading_zeros()) as u8
 }
 
+/// The lattice a mesh's depths are coded on: `raw` when every depth lies on
+/// it, else the finest power-of-two lattice on which the largest depth
+/// needs at most 24 bits (so a depth rounds by at most half a unit in the
+/// last place of `f32` at the mesh's largest depth). A depth's value on it,
+/// and so every all-plane answer, depends on the depth alone, not on the
+/// mesh: what lets a client holding one mesh take another's depths
+/// ([`super::MeshChange`]).
+pub fn lattice_for(depths: &[f32], raw: Option<RawGrid>) -> RawGrid {
+    if let Some(g) = raw.filter(|g| on_lattice(depths, *g)) {
+        return g;
+    }
+    let top = depths
+        .iter()
+        .copied()
+        .filter(|z| valid(*z))
+        .fold(f32::MIN_POSITIVE, f32::max);
+    // 2^e > top: the scale is 2^(e - 24).
+    let e = f64::from(top).log2().floor() as i32 + 1;
+    RawGrid {
+        scale: 2f64.powi(e - 24),
+        offset: 0.0,
+    }
+}
+
+/// `z` on the lattice `g` (`z` itself when it lies on it).
+pub fn on(g: RawGrid, z: f32) -> f32 {
+    (((f64::from(z) - g.offset) / g.scale).round() * g.scale + g.offset) as f32
+}
+
 /// Codes `depths` (finite, positive) of `vertices` (coarse to fine, as the
-/// connectivity decoder numbers them), to be sent with `planes` planes
-/// (`None`: all). `raw` is used as the lattice when every depth lies on it.
+/// connectivity decoder numbers them) on [`lattice_for`] `raw`, to be sent
+/// with `planes` planes (`None`: all). The vertices `known` marks are the
+/// client's already, on the same lattice: they predict, but cost nothing.
 pub fn encode(
     forest: &Forest,
     vertices: &[Pt],
     depths: &[f32],
     raw: Option<RawGrid>,
     planes: Option<u8>,
+    known: Option<&[bool]>,
 ) -> Result<DepthCode, String> {
     if vertices.len() != depths.len() {
         return Err(format!("{} depths for {} vertices", depths.len(), vertices.len()));
     }
+    if known.is_some_and(|k| k.len() != depths.len()) {
+        return Err("the known mask does not match the vertices".to_string());
+    }
     if let Some(z) = depths.iter().find(|z| !valid(**z)) {
         return Err(format!("depth {z} is not finite and positive"));
     }
-    let units = Units(raw.filter(|g| on_lattice(depths, *g)));
+    let g = lattice_for(depths, raw);
+    let units = Units(Some(g));
+    let is_known = |k: usize| known.is_some_and(|m| m[k]);
+    // The depths as coded: on the lattice.
+    let coded_depths: Vec<f32> = depths.iter().map(|&z| on(g, z)).collect();
     let preds = predictors(forest, vertices);
     let level: Vec<usize> = vertices.iter().map(|&v| forest.level(v) as usize).collect();
-    let truth: Vec<f64> = depths.iter().map(|&z| units.of(z)).collect();
-    // Per level: the open-loop residuals and the f32 spacing of its depths.
+    let truth: Vec<f64> = coded_depths.iter().map(|&z| units.of(z)).collect();
+    // Per level: the open-loop residuals.
     let mut residuals = vec![Vec::new(); forest.levels()];
-    let mut spacing = vec![0f64; forest.levels()];
     for (k, &p) in preds.iter().enumerate() {
-        if p != Pred::None {
+        if p != Pred::None && !is_known(k) {
             residuals[level[k]].push((truth[k] - units.predict(p, &truth)).abs());
-            let z = depths[k];
-            spacing[level[k]] = spacing[level[k]].max(f64::from(z.next_up()) - f64::from(z));
         }
     }
     let levels: Vec<LevelCode> = residuals
         .iter_mut()
-        .zip(&spacing)
-        .map(|(r, &ulp)| {
+        .map(|r| {
             let range = quantile(r, RANGE_QUANTILE);
-            // 16 bits of steps reach the range, but no step is finer than a
-            // quarter of the f32 spacing of the level's depths; f32 steps.
-            let step = match units.0 {
-                Some(_) => 1.0,
-                None => ((range / 65535.0).max(ulp / 4.0) as f32).max(f32::MIN_POSITIVE),
-            };
-            let planes = bit_length((range / f64::from(step)).round() as u64).min(MAX_PLANES);
-            LevelCode { step, planes }
+            let planes = bit_length(range.round() as u64).min(MAX_PLANES);
+            LevelCode { step: 1.0, planes }
         })
         .collect();
     // Closed loop at full precision.
@@ -244,8 +272,12 @@ pub fn encode(
     let mut escapes = super::bits::BitWriter::default();
     for k in 0..vertices.len() {
         let p = preds[k];
+        if is_known(k) {
+            held[k] = truth[k];
+            continue;
+        }
         if p == Pred::None {
-            exact.push(depths[k]);
+            exact.push(coded_depths[k]);
             held[k] = truth[k];
             continue;
         }
@@ -266,7 +298,7 @@ pub fn encode(
                 held[k] = d.1;
             }
             None => {
-                exact.push(depths[k]);
+                exact.push(coded_depths[k]);
                 held[k] = truth[k];
             }
         }
@@ -312,7 +344,7 @@ pub fn encode(
                 reconstruct(units, pred, mags[k].1, magnitude(mags[k].0 >> s, s), f64::from(lc.step))
                     .ok_or("a prediction from valid depths is no depth")?
             } else {
-                (depths[k], truth[k])
+                (coded_depths[k], truth[k])
             };
             values[k] = u;
             err = err.max((z - depths[k]).abs());
@@ -320,15 +352,27 @@ pub fn encode(
         code.max_error = err;
     }
     debug_assert!({
-        let got = decode_with(&preds, &level, &code, code.sent).unwrap_or_default();
+        let given: Option<Vec<Option<f32>>> =
+            known.map(|m| m.iter().zip(&coded_depths).map(|(&k, &z)| k.then_some(z)).collect());
+        let got = decode_with(&preds, &level, &code, code.sent, given.as_deref()).unwrap_or_default();
         got.iter().zip(depths).map(|(a, b)| (a - b).abs()).fold(0f32, f32::max) == code.max_error
     });
     Ok(code)
 }
 
 /// Decodes the depths of `vertices` from the first `held` planes of `code`
-/// (the planes past `held` may be absent).
-pub fn decode(forest: &Forest, vertices: &[Pt], code: &DepthCode, held: usize) -> Result<Vec<f32>, Error> {
+/// (the planes past `held` may be absent); `known` gives the depths the
+/// client already has, which the code skips.
+pub fn decode(
+    forest: &Forest,
+    vertices: &[Pt],
+    code: &DepthCode,
+    held: usize,
+    known: Option<&[Option<f32>]>,
+) -> Result<Vec<f32>, Error> {
+    if known.is_some_and(|k| k.len() != vertices.len()) {
+        return Err("the known depths do not match the vertices");
+    }
     if code.levels.len() != forest.levels() {
         return Err("depth levels do not match the forest");
     }
@@ -355,17 +399,27 @@ pub fn decode(forest: &Forest, vertices: &[Pt], code: &DepthCode, held: usize) -
     }
     let preds = predictors(forest, vertices);
     let level: Vec<usize> = vertices.iter().map(|&v| forest.level(v) as usize).collect();
-    decode_with(&preds, &level, code, held)
+    decode_with(&preds, &level, code, held, known)
 }
 
 /// [`decode`] with each vertex's predictor and level.
-fn decode_with(preds: &[Pred], level: &[usize], code: &DepthCode, held: usize) -> Result<Vec<f32>, Error> {
+fn decode_with(
+    preds: &[Pred],
+    level: &[usize],
+    code: &DepthCode,
+    held: usize,
+    known: Option<&[Option<f32>]>,
+) -> Result<Vec<f32>, Error> {
     let units = Units(code.lattice);
     let n = preds.len();
+    let given = |k: usize| known.and_then(|m| m[k]);
     let mut escapes = super::bits::BitReader::new(&code.escapes, "escape bits end early or run on");
     let mut coded = vec![false; n];
     let mut exact_count = 0;
     for k in 0..n {
+        if given(k).is_some() {
+            continue;
+        }
         coded[k] = preds[k] != Pred::None && !escapes.bit()?;
         exact_count += usize::from(!coded[k]);
     }
@@ -391,7 +445,12 @@ fn decode_with(preds: &[Pred], level: &[usize], code: &DepthCode, held: usize) -
     let mut out = vec![0f32; n];
     let mut next_exact = exact.iter();
     for k in 0..n {
-        let (z, u) = if coded[k] {
+        let (z, u) = if let Some(z) = given(k) {
+            if !valid(z) {
+                return Err("a known depth is not finite and positive");
+            }
+            (z, units.of(z))
+        } else if coded[k] {
             let lc = code.levels[level[k]];
             let s = u32::from(lc.planes - lc.planes.min(held as u8));
             let pred = units.predict(preds[k], &held_units);

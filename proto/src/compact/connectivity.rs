@@ -33,6 +33,76 @@ pub struct Shape {
     pub triangles: Vec<[u32; 3]>,
 }
 
+/// What a client holds of another mesh of the same view, as the context a
+/// change's bits are coded in (PROTOCOL.md, "Protocol 6: changes"): each
+/// bit is sent as its difference from what the held mesh predicts.
+///
+/// - A split bit predicts the held mesh's vertex at the split point: split
+///   where the held mesh has that vertex and does not draw the triangle.
+/// - A leaf bit predicts drawn, unless the held mesh reached the triangle
+///   (it has the triangle's apex, the vertex its parent split at, or the
+///   triangle is a root's half), neither split nor drew it: left out there,
+///   left out here.
+#[derive(Clone, Debug, Default)]
+pub struct Context {
+    /// Held vertices, by grid index.
+    vertices: Vec<u64>,
+    /// Held drawn cell triangles, by cell and half.
+    cells: Vec<u64>,
+    /// Held drawn larger triangles, by split vertex and half.
+    drawn: Vec<u64>,
+}
+
+impl Context {
+    /// The context of `held`, a decoded mesh on `forest`.
+    pub fn of(forest: &Forest, held: &Shape) -> Result<Self, String> {
+        let words = |n: usize| n.div_ceil(64);
+        let mut c = Self {
+            vertices: vec![0; words(forest.len())],
+            cells: vec![0; words(2 * forest.len())],
+            drawn: vec![0; words(2 * forest.len())],
+        };
+        let (gw, gh) = (forest.gw(), forest.gh());
+        for &p in &held.vertices {
+            if p.0 >= gw || p.1 >= gh {
+                return Err(format!("held vertex {p:?} lies outside the {gw} x {gh} grid"));
+            }
+            set(&mut c.vertices, forest.index(p));
+        }
+        for t in &held.triangles {
+            let corner = |k: u32| {
+                held.vertices
+                    .get(k as usize)
+                    .copied()
+                    .ok_or("a held triangle has no vertex")
+            };
+            let node = node_of(forest, [corner(t[0])?, corner(t[1])?, corner(t[2])?])?;
+            let key = 2 * forest.index(node.mid()) + node.half();
+            set(if node.is_cell() { &mut c.cells } else { &mut c.drawn }, key);
+        }
+        Ok(c)
+    }
+
+    fn has(&self, forest: &Forest, p: Pt) -> bool {
+        get(&self.vertices, forest.index(p))
+    }
+
+    /// The predicted split bit of a triangle larger than a cell.
+    fn split(&self, forest: &Forest, node: &Node) -> bool {
+        self.has(forest, node.mid()) && !get(&self.drawn, 2 * forest.index(node.mid()) + node.half())
+    }
+
+    /// The predicted leaf bit.
+    fn leaf(&self, forest: &Forest, node: &Node) -> bool {
+        let key = 2 * forest.index(node.mid()) + node.half();
+        if get(if node.is_cell() { &self.cells } else { &self.drawn }, key) {
+            return true;
+        }
+        let reached = forest.is_root(node) || self.has(forest, node.a);
+        !(reached && (node.is_cell() || !self.split(forest, node)))
+    }
+}
+
 fn set(bits: &mut [u64], i: usize) -> bool {
     let was = bits[i / 64] >> (i % 64) & 1 == 1;
     bits[i / 64] |= 1 << (i % 64);
@@ -104,6 +174,8 @@ struct Encoder<'a> {
     leaf: BitWriter,
     /// The drawn triangles in walk order, as the decoder will see them.
     corners: Vec<[Pt; 3]>,
+    /// A held mesh the bits are coded against.
+    held: Option<&'a Context>,
 }
 
 impl Decide for Encoder<'_> {
@@ -111,9 +183,11 @@ impl Decide for Encoder<'_> {
 
     fn decide(&mut self, node: &Node, implied: bool) -> Result<Symbol, String> {
         let key = 2 * self.forest.index(node.mid()) + node.half();
+        let f = self.forest;
+        let leaf_pred = |node: &Node| self.held.is_some_and(|c| c.leaf(f, node));
         if node.is_cell() {
             let drawn = get(&self.cells, key);
-            self.leaf.bit(drawn);
+            self.leaf.bit(drawn != leaf_pred(node));
             return Ok(if drawn { Symbol::Emit } else { Symbol::Skip });
         }
         let drawn = get(&self.drawn, key);
@@ -126,11 +200,11 @@ impl Decide for Encoder<'_> {
             return Ok(Symbol::Split);
         }
         let split = !drawn && get(&self.inside, key);
-        self.split.bit(split);
+        self.split.bit(split != self.held.is_some_and(|c| c.split(f, node)));
         if split {
             return Ok(Symbol::Split);
         }
-        self.leaf.bit(drawn);
+        self.leaf.bit(drawn != leaf_pred(node));
         Ok(if drawn { Symbol::Emit } else { Symbol::Skip })
     }
 
@@ -145,6 +219,15 @@ impl Decide for Encoder<'_> {
 /// triangle is not one of the forest's, or the triangles are not the
 /// leaves of one conforming walk.
 pub fn encode(forest: &Forest, triangles: &[[Pt; 3]]) -> Result<(Connectivity, Shape), String> {
+    encode_against(forest, triangles, None)
+}
+
+/// [`encode`], each bit sent as its difference from what `held` predicts.
+pub fn encode_against(
+    forest: &Forest,
+    triangles: &[[Pt; 3]],
+    held: Option<&Context>,
+) -> Result<(Connectivity, Shape), String> {
     forest.check()?;
     let words = (2 * forest.len()).div_ceil(64);
     let mut enc = Encoder {
@@ -155,6 +238,7 @@ pub fn encode(forest: &Forest, triangles: &[[Pt; 3]]) -> Result<(Connectivity, S
         split: BitWriter::default(),
         leaf: BitWriter::default(),
         corners: Vec::with_capacity(triangles.len()),
+        held,
     };
     let (gw, gh) = (forest.gw(), forest.gh());
     for t in triangles {
@@ -194,6 +278,8 @@ pub fn encode(forest: &Forest, triangles: &[[Pt; 3]]) -> Result<(Connectivity, S
 }
 
 struct Decoder<'a> {
+    forest: &'a Forest,
+    held: Option<&'a Context>,
     split: BitReader<'a>,
     leaf: BitReader<'a>,
     corners: Vec<[Pt; 3]>,
@@ -208,10 +294,12 @@ impl Decide for Decoder<'_> {
         if implied {
             return Ok(Symbol::Split);
         }
-        if !node.is_cell() && self.split.bit()? {
+        let f = self.forest;
+        if !node.is_cell() && self.split.bit()? != self.held.is_some_and(|c| c.split(f, node)) {
             return Ok(Symbol::Split);
         }
-        Ok(if self.leaf.bit()? { Symbol::Emit } else { Symbol::Skip })
+        let drawn = self.leaf.bit()? != self.held.is_some_and(|c| c.leaf(f, node));
+        Ok(if drawn { Symbol::Emit } else { Symbol::Skip })
     }
 
     fn emit(&mut self, corners: [Pt; 3]) -> Result<(), &'static str> {
@@ -225,11 +313,23 @@ impl Decide for Decoder<'_> {
 
 /// Rebuilds the mesh that [`encode`] coded, expecting `triangles` of them.
 pub fn decode(forest: &Forest, bits: &Connectivity, triangles: usize) -> Result<Shape, &'static str> {
+    decode_against(forest, bits, triangles, None)
+}
+
+/// [`decode`] of bits [`encode_against`] coded against `held`.
+pub fn decode_against(
+    forest: &Forest,
+    bits: &Connectivity,
+    triangles: usize,
+    held: Option<&Context>,
+) -> Result<Shape, &'static str> {
     forest.check()?;
     if triangles > 2 * (forest.gw() as usize - 1) * (forest.gh() as usize - 1) {
         return Err("more triangles than the forest holds");
     }
     let mut dec = Decoder {
+        forest,
+        held,
         split: BitReader::new(&bits.split, "split bits end early or run on"),
         leaf: BitReader::new(&bits.leaf, "leaf bits end early or run on"),
         corners: Vec::with_capacity(triangles.min(1 << 24)),

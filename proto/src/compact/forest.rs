@@ -238,6 +238,11 @@ impl Forest {
         x >= 0 && y >= 0 && x < i64::from(self.gw()) && y < i64::from(self.gh())
     }
 
+    /// True for a root quad's half (its hypotenuse is the quad's diagonal).
+    pub fn is_root(&self, node: &Node) -> bool {
+        node.l.0.abs_diff(node.r.0) == self.side
+    }
+
     /// The two triangles of each root quad, in walk order.
     pub fn roots(&self) -> impl Iterator<Item = Node> + '_ {
         let s = self.side;

@@ -24,6 +24,8 @@ pub use bitplanes::{DepthCode, LevelCode};
 pub use connectivity::{Connectivity, Shape};
 pub use forest::Forest;
 
+use forest::Pt;
+
 use crate::camera::Camera;
 use crate::render::Timings;
 use crate::residual::RawGrid;
@@ -48,6 +50,23 @@ pub enum MeshBody {
     Mesh(Box<MeshStream>),
     /// Further depth planes of a mesh the client holds.
     Planes(PlaneUpdate),
+    /// Another mesh of the same view, as its difference from one the client holds.
+    Change(Box<MeshChange>),
+}
+
+/// Another mesh of a view (a finer or coarser tolerance, a moved camera),
+/// sent as its difference from a mesh of the same view the client holds
+/// (PROTOCOL.md, "Protocol 6: changes"). Applied to the held mesh it gives
+/// exactly what the whole mesh decodes to.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MeshChange {
+    /// The new mesh, its connectivity bits coded against the held mesh
+    /// ([`connectivity::Context`]), its depths all of them or, with
+    /// [`Self::reuses_depths`], only those of the vertices the held mesh lacks.
+    pub mesh: MeshStream,
+    /// True when the held mesh's depths are the new mesh's: both carry all
+    /// planes on one lattice, so a depth's value is the depth's alone.
+    pub reuses_depths: bool,
 }
 
 /// One view's mesh in the compact stream.
@@ -200,6 +219,11 @@ pub struct DecodedMesh {
     pub max_error: f32,
     /// Planes decoded.
     pub planes: usize,
+    /// The lattice the depths were coded on.
+    pub lattice: Option<RawGrid>,
+    /// True when every plane was decoded: each depth is then its value on
+    /// the lattice, whatever mesh it came in.
+    pub complete: bool,
 }
 
 /// Encodes a mesh.
@@ -212,6 +236,17 @@ pub fn encode(input: MeshInput<'_>) -> Result<MeshStream, CompactError> {
             input.ij.len()
         )));
     }
+    let corners = corners_of(&input)?;
+    let (connectivity, shape) = connectivity::encode(&f, &corners).map_err(CompactError)?;
+    let depths = depths_in(&input, &shape)?;
+    let code =
+        bitplanes::encode(&f, &shape.vertices, &depths, input.raw_grid, input.planes, None).map_err(CompactError)?;
+    assemble_stream(input, connectivity, code, corners.len())
+}
+
+/// The triangles of `input` as grid points, and its depths in the order
+/// of the `shape` the connectivity coder numbered.
+fn corners_of(input: &MeshInput<'_>) -> Result<Vec<[Pt; 3]>, CompactError> {
     let at = |v: u32| -> Result<(u32, u32), CompactError> {
         let (i, j) = *input
             .ij
@@ -219,34 +254,90 @@ pub fn encode(input: MeshInput<'_>) -> Result<MeshStream, CompactError> {
             .ok_or_else(|| CompactError(format!("triangle index {v} has no vertex")))?;
         Ok((u32::from(i), u32::from(j)))
     };
-    let corners = input
+    input
         .triangles
         .iter()
         .map(|t| Ok([at(t[0])?, at(t[1])?, at(t[2])?]))
-        .collect::<Result<Vec<_>, CompactError>>()?;
-    let (connectivity, shape) = connectivity::encode(&f, &corners).map_err(CompactError)?;
-    // The depths in the decoder's numbering: the engine's own, unless the
-    // mesh came numbered otherwise.
+        .collect()
+}
+
+fn depths_in(input: &MeshInput<'_>, shape: &Shape) -> Result<Vec<f32>, CompactError> {
+    // The engine's own numbering, unless the mesh came numbered otherwise.
     let same = shape.vertices.len() == input.ij.len()
         && shape
             .vertices
             .iter()
             .zip(input.ij)
             .all(|(&(x, y), &(i, j))| x == u32::from(i) && y == u32::from(j));
-    let depths = if same {
-        input.depths.to_vec()
-    } else {
-        let mut depth_at = std::collections::HashMap::with_capacity(input.ij.len());
-        for (&(i, j), &z) in input.ij.iter().zip(input.depths) {
-            depth_at.insert((u32::from(i), u32::from(j)), z);
+    if same {
+        return Ok(input.depths.to_vec());
+    }
+    let mut depth_at = std::collections::HashMap::with_capacity(input.ij.len());
+    for (&(i, j), &z) in input.ij.iter().zip(input.depths) {
+        depth_at.insert((u32::from(i), u32::from(j)), z);
+    }
+    Ok(shape
+        .vertices
+        .iter()
+        .map(|p| depth_at.get(p).copied().ok_or("a drawn vertex has no depth"))
+        .collect::<Result<Vec<f32>, _>>()?)
+}
+
+/// Encodes the mesh of `input` as its difference from `held`, a mesh of
+/// the same view the client decoded. Its depths are reused when `held` is
+/// complete, all planes are asked for, and both lie on one lattice.
+pub fn encode_change(input: MeshInput<'_>, held: &DecodedMesh) -> Result<MeshChange, CompactError> {
+    let f = input.forest;
+    if input.ij.len() != input.depths.len() {
+        return Err(CompactError(format!(
+            "{} depths for {} vertices",
+            input.depths.len(),
+            input.ij.len()
+        )));
+    }
+    let context = connectivity::Context::of(&f, &held.shape).map_err(CompactError)?;
+    let corners = corners_of(&input)?;
+    let (connectivity, shape) = connectivity::encode_against(&f, &corners, Some(&context)).map_err(CompactError)?;
+    let depths = depths_in(&input, &shape)?;
+    let lattice = bitplanes::lattice_for(&depths, input.raw_grid);
+    let mut known = None;
+    if held.complete && input.planes.is_none() && held.lattice == Some(lattice) {
+        let mut slot = std::collections::HashMap::with_capacity(held.shape.vertices.len());
+        for (p, &z) in held.shape.vertices.iter().zip(&held.depths) {
+            slot.insert(*p, z);
         }
-        shape
+        let mask: Vec<bool> = shape.vertices.iter().map(|p| slot.contains_key(p)).collect();
+        // The reuse holds only if the held depths are these depths' values.
+        let agree = shape
             .vertices
             .iter()
-            .map(|p| depth_at.get(p).copied().ok_or("a drawn vertex has no depth"))
-            .collect::<Result<Vec<f32>, _>>()?
-    };
-    let code = bitplanes::encode(&f, &shape.vertices, &depths, input.raw_grid, input.planes).map_err(CompactError)?;
+            .zip(&depths)
+            .all(|(p, &z)| slot.get(p).is_none_or(|&h| h == bitplanes::on(lattice, z)));
+        known = agree.then_some(mask);
+    }
+    let code = bitplanes::encode(
+        &f,
+        &shape.vertices,
+        &depths,
+        input.raw_grid,
+        input.planes,
+        known.as_deref(),
+    )
+    .map_err(CompactError)?;
+    let reuses_depths = known.is_some();
+    Ok(MeshChange {
+        mesh: assemble_stream(input, connectivity, code, corners.len())?,
+        reuses_depths,
+    })
+}
+
+fn assemble_stream(
+    input: MeshInput<'_>,
+    connectivity: Connectivity,
+    code: DepthCode,
+    triangles: usize,
+) -> Result<MeshStream, CompactError> {
+    let f = input.forest;
     let sent = code.sent;
     let total_planes = u8::try_from(code.planes.len()).map_err(|_| "more than 255 planes")?;
     Ok(MeshStream {
@@ -259,7 +350,7 @@ pub fn encode(input: MeshInput<'_>) -> Result<MeshStream, CompactError> {
         root_side: f.side,
         roots_x: f.m,
         roots_y: f.n,
-        triangles: u32::try_from(corners.len()).map_err(|_| "too many triangles")?,
+        triangles: u32::try_from(triangles).map_err(|_| "too many triangles")?,
         connectivity,
         lattice: code.lattice,
         levels: code.levels,
@@ -271,6 +362,13 @@ pub fn encode(input: MeshInput<'_>) -> Result<MeshStream, CompactError> {
         reach: input.reach.map(|(s, c)| compact_reach(s, c)),
         etag: input.etag,
     })
+}
+
+impl MeshChange {
+    /// The new mesh, from `held`: the decoded mesh the request named.
+    pub fn apply(&self, held: &DecodedMesh) -> Result<DecodedMesh, CompactError> {
+        self.mesh.decode_against(Some((held, self.reuses_depths)))
+    }
 }
 
 impl MeshStream {
@@ -285,6 +383,12 @@ impl MeshStream {
 
     /// Decodes the mesh. Vertices must lie inside the reference image.
     pub fn decode(&self) -> Result<DecodedMesh, CompactError> {
+        self.decode_against(None)
+    }
+
+    /// Decodes the mesh, its bits coded against `held` with the held depths
+    /// reused or not ([`MeshChange`]).
+    fn decode_against(&self, held: Option<(&DecodedMesh, bool)>) -> Result<DecodedMesh, CompactError> {
         if self.version != COMPACT_VERSION {
             return Err(CompactError(format!(
                 "version {} is not {COMPACT_VERSION}",
@@ -313,10 +417,27 @@ impl MeshStream {
         if !(self.max_error.is_finite() && self.max_error >= 0.0) {
             return Err("the error bound must be finite and not negative".into());
         }
-        let shape = connectivity::decode(&f, &self.connectivity, self.triangles as usize)?;
+        let context = held
+            .map(|(m, _)| connectivity::Context::of(&f, &m.shape))
+            .transpose()
+            .map_err(CompactError)?;
+        let shape = connectivity::decode_against(&f, &self.connectivity, self.triangles as usize, context.as_ref())?;
         if shape.vertices.iter().any(|&(i, j)| i >= w || j >= h) {
             return Err("a vertex lies outside the reference image".into());
         }
+        let known: Option<Vec<Option<f32>>> = match held {
+            Some((m, true)) => {
+                if !m.complete || m.lattice != self.lattice || self.lattice.is_none() {
+                    return Err("the change reuses depths the held mesh does not have".into());
+                }
+                let mut slot = std::collections::HashMap::with_capacity(m.shape.vertices.len());
+                for (p, &z) in m.shape.vertices.iter().zip(&m.depths) {
+                    slot.insert(*p, z);
+                }
+                Some(shape.vertices.iter().map(|p| slot.get(p).copied()).collect())
+            }
+            _ => None,
+        };
         let code = DepthCode {
             lattice: self.lattice,
             levels: self.levels.clone(),
@@ -326,12 +447,14 @@ impl MeshStream {
             sent: self.planes.len(),
             max_error: self.max_error,
         };
-        let depths = bitplanes::decode(&f, &shape.vertices, &code, self.planes.len())?;
+        let depths = bitplanes::decode(&f, &shape.vertices, &code, self.planes.len(), known.as_deref())?;
         Ok(DecodedMesh {
             shape,
             depths,
             max_error: self.max_error,
             planes: self.planes.len(),
+            lattice: self.lattice,
+            complete: self.planes.len() == usize::from(self.total_planes),
         })
     }
 

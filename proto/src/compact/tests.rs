@@ -155,6 +155,79 @@ proptest! {
     }
 }
 
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+
+    /// A change applied to the held mesh decodes to exactly what the whole
+    /// new mesh decodes to, reusing the held depths when both are complete.
+    #[test]
+    fn changes_applied_to_the_held_mesh_are_the_new_mesh(
+        side_log in 1u32..5, m in 1u32..4, n in 1u32..3, seeds in any::<(u64, u64)>(), same_seed in any::<bool>(),
+        split in (0.0f64..0.9, 0.0f64..0.9), skip in (0.0f64..0.3, 0.0f64..0.3), lattice in any::<bool>(),
+        planes in (proptest::option::of(0u8..20), proptest::option::of(0u8..20)),
+    ) {
+        let f = Forest { side: 1 << side_log, m, n };
+        let raw = lattice.then_some(RawGrid { scale: 0.001, offset: 0.0 });
+        let mesh = |seed: u64, split: f64, skip: f64| {
+            let shape = connectivity::assemble(&f, &random_mesh(&f, seed, split, skip));
+            let ij: Vec<(u16, u16)> = shape.vertices.iter().map(|&(x, y)| (x as u16, y as u16)).collect();
+            let depths: Vec<f32> = shape.vertices.iter().map(|&p| depth_at(p, lattice)).collect();
+            (shape, ij, depths)
+        };
+        let (h, h_ij, h_depths) = mesh(seeds.0, split.0, skip.0);
+        let (want, ij, depths) = mesh(if same_seed { seeds.0 } else { seeds.1 }, split.1, skip.1);
+        let mut held_input = input(f, &h_ij, &h_depths, &h.triangles, raw);
+        held_input.planes = planes.0;
+        let held = encode(held_input).unwrap().decode().unwrap();
+        let whole = |planes: Option<u8>| {
+            let mut i = input(f, &ij, &depths, &want.triangles, raw);
+            i.planes = planes;
+            i
+        };
+        let change = encode_change(whole(planes.1), &held).unwrap();
+        // Through bincode, as it travels.
+        let bytes = crate::to_bincode(&MeshBody::Change(Box::new(change.clone()))).unwrap();
+        let MeshBody::Change(back) = crate::from_bincode::<MeshBody>(&bytes).unwrap() else { panic!("not a change") };
+        let got = back.apply(&held).unwrap();
+        let single = encode(whole(planes.1)).unwrap().decode().unwrap();
+        prop_assert_eq!(&got.shape, &want);
+        // The same mesh; only the count of planes the change itself carried differs.
+        prop_assert_eq!(&got, &DecodedMesh { planes: got.planes, ..single.clone() });
+        prop_assert_eq!(change.reuses_depths, held.complete && planes.1.is_none() && held.lattice == single.lattice);
+    }
+}
+
+#[test]
+fn a_refinement_costs_about_its_new_vertices() {
+    // A coarse mesh refined: the change's bytes against the whole fine mesh.
+    let f = Forest { side: 32, m: 2, n: 2 };
+    let fine = connectivity::assemble(&f, &random_mesh(&f, 11, 0.6, 0.0));
+    let ij: Vec<(u16, u16)> = fine.vertices.iter().map(|&(x, y)| (x as u16, y as u16)).collect();
+    let depths: Vec<f32> = fine.vertices.iter().map(|&p| depth_at(p, true)).collect();
+    let raw = Some(RawGrid {
+        scale: 0.001,
+        offset: 0.0,
+    });
+    let whole = encode(input(f, &ij, &depths, &fine.triangles, raw)).unwrap();
+    let same = encode_change(input(f, &ij, &depths, &fine.triangles, raw), &whole.decode().unwrap()).unwrap();
+    let size = |b: MeshBody| crate::to_bincode(&b).unwrap().len();
+    let (whole_bytes, same_bytes) = (
+        size(MeshBody::Mesh(Box::new(whole))),
+        size(MeshBody::Change(Box::new(same.clone()))),
+    );
+    assert!(same.reuses_depths);
+    // Every bit predicted: zero bytes, and no depths.
+    assert!(same
+        .mesh
+        .connectivity
+        .split
+        .iter()
+        .chain(&same.mesh.connectivity.leaf)
+        .all(|&b| b == 0));
+    assert!(same.mesh.exact.is_empty() && same.mesh.planes.iter().all(|p| p.is_empty()));
+    assert!(same_bytes * 2 < whole_bytes, "{same_bytes} of {whole_bytes}");
+}
+
 #[test]
 fn errors_shrink_as_planes_arrive() {
     let f = Forest { side: 16, m: 2, n: 1 };
