@@ -126,9 +126,10 @@ export function readMeshBody(buffer, etag = '') {
     const flag = r.u8('reuses_depths');
     if (flag > 1) throw new WireError(`reuses_depths is ${flag}`);
     const reusesDepths = flag === 1;
+    const fresh = { split: bytes(r, 'fresh split bits'), leaf: bytes(r, 'fresh leaf bits') };
     r.end();
     mesh.etag = etag;
-    return { change: { mesh, reusesDepths } };
+    return { change: { mesh, reusesDepths, fresh } };
   }
   const version = r.u16('version');
   if (version !== COMPACT_VERSION) throw new WireError(`compact stream version ${version}`);
@@ -291,10 +292,11 @@ function heldContext(f, held) {
  * with the bit readers inlined: this loop is most of a decode.
  * @param {Forest} f @param {Uint8Array} splitBits @param {Uint8Array} leafBits @param {number} count
  * @param {GridScratch} grid clean buffers of the forest's size
- * @param {{vert: Uint8Array, drawn: Uint8Array} | null} held a change's context: each bit is
- *   the difference from what the held mesh predicts
+ * @param {{vert: Uint8Array, drawn: Uint8Array} | null} held a change's context: the bits of a
+ *   triangle the held mesh reached are differences from its fate there; the others' are in `fresh`
+ * @param {{split: Uint8Array, leaf: Uint8Array} | null} fresh
  */
-function walk(f, splitBits, leafBits, count, grid, held) {
+function walk(f, splitBits, leafBits, count, grid, held, fresh) {
   const gw = f.gw;
   const gh = f.gh;
   const { split, parent, levels, touched } = grid;
@@ -307,6 +309,10 @@ function walk(f, splitBits, leafBits, count, grid, held) {
   let lAt = 0;
   const sEnd = 8 * splitBits.length;
   const lEnd = 8 * leafBits.length;
+  const freshSplit = fresh ? fresh.split : new Uint8Array(0);
+  const freshLeaf = fresh ? fresh.leaf : new Uint8Array(0);
+  let fsAt = 0;
+  let flAt = 0;
   const d = [0, 0, 0, 0, 0, 0, 0, 0];
   // Triangles still to visit, six coordinates each; children pushed in
   // reverse so the entry-side child is visited first.
@@ -327,17 +333,19 @@ function walk(f, splitBits, leafBits, count, grid, held) {
         const ax = stack[top + 4]; const ay = stack[top + 5];
         let draw = false;
         const cell = (lx - rx === 1 || rx - lx === 1) && (ly - ry === 1 || ry - ly === 1);
-        // With a held mesh: what it predicts of this triangle's split, and its drawn flags.
-        let splitPred = 0;
+        // With a held mesh: whether it reached this triangle, and its fate there.
+        let reached = false;
+        let splitHeld = 0;
         let drawnHeld = 0;
         if (held) {
+          reached = (lx > rx ? lx - rx : rx - lx) === s || held.vert[ay * gw + ax] === 1;
           if (cell) {
             const cx = lx < rx ? lx : rx; const cy = ly < ry ? ly : ry;
-            drawnHeld = held.drawn[2 * (cy * gw + cx) + (ax !== cx ? 1 : 0)] & 2;
+            drawnHeld = held.drawn[2 * (cy * gw + cx) + (ax !== cx ? 1 : 0)] & 2 ? 1 : 0;
           } else {
             const mx = (lx + rx) >> 1; const my = (ly + ry) >> 1;
             drawnHeld = held.drawn[2 * (my * gw + mx) + (ax < mx || (ax === mx && ay < my) ? 0 : 1)] & 1;
-            splitPred = held.vert[my * gw + mx] === 1 && drawnHeld === 0 ? 1 : 0;
+            splitHeld = held.vert[my * gw + mx] === 1 && drawnHeld === 0 ? 1 : 0;
           }
         }
         if (!cell) {
@@ -345,9 +353,15 @@ function walk(f, splitBits, leafBits, count, grid, held) {
           const my = (ly + ry) >> 1;
           let splits = split[my * gw + mx] === 1;
           if (!splits) {
-            if (sAt >= sEnd) throw new WireError('split bits end early or run on');
-            splits = (((splitBits[sAt >> 3] >> (sAt & 7)) & 1) ^ splitPred) === 1;
-            sAt++;
+            if (held && !reached) {
+              if (fsAt >= 8 * freshSplit.length) throw new WireError('fresh split bits end early or run on');
+              splits = ((freshSplit[fsAt >> 3] >> (fsAt & 7)) & 1) === 1;
+              fsAt++;
+            } else {
+              if (sAt >= sEnd) throw new WireError('split bits end early or run on');
+              splits = (((splitBits[sAt >> 3] >> (sAt & 7)) & 1) ^ splitHeld) === 1;
+              sAt++;
+            }
           }
           if (splits) {
             // Split: the vertex and the apex opposite this triangle's.
@@ -375,15 +389,15 @@ function walk(f, splitBits, leafBits, count, grid, held) {
             continue;
           }
         }
-        if (lAt >= lEnd) throw new WireError('leaf bits end early or run on');
-        let leafPred = 0;
-        if (held) {
-          // Drawn, unless the held mesh reached the triangle and neither split nor drew it.
-          const reached = (lx > rx ? lx - rx : rx - lx) === s || held.vert[ay * gw + ax] === 1;
-          leafPred = drawnHeld !== 0 || !(reached && (cell || splitPred === 0)) ? 1 : 0;
+        if (held && !reached) {
+          if (flAt >= 8 * freshLeaf.length) throw new WireError('fresh leaf bits end early or run on');
+          draw = ((freshLeaf[flAt >> 3] >> (flAt & 7)) & 1) === 1;
+          flAt++;
+        } else {
+          if (lAt >= lEnd) throw new WireError('leaf bits end early or run on');
+          draw = (((leafBits[lAt >> 3] >> (lAt & 7)) & 1) ^ drawnHeld) === 1;
+          lAt++;
         }
-        draw = (((leafBits[lAt >> 3] >> (lAt & 7)) & 1) ^ leafPred) === 1;
-        lAt++;
         if (!draw) continue;
         if (drawn >= count) throw new WireError('connectivity draws more triangles than the header says');
         const cross = (rx - lx) * (ay - ly) - (ry - ly) * (ax - lx);
@@ -397,6 +411,8 @@ function walk(f, splitBits, leafBits, count, grid, held) {
     (at + 7) >> 3 === b.length && ((at & 7) === 0 || b[at >> 3] >> (at & 7) === 0);
   if (!clear(splitBits, sAt)) throw new WireError('split bits end early or run on');
   if (!clear(leafBits, lAt)) throw new WireError('leaf bits end early or run on');
+  if (!clear(freshSplit, fsAt)) throw new WireError('fresh split bits end early or run on');
+  if (!clear(freshLeaf, flAt)) throw new WireError('fresh leaf bits end early or run on');
   if (drawn !== count) throw new WireError('connectivity draws fewer triangles than the header says');
   return { corners: out, parent, levels };
 }
@@ -665,8 +681,9 @@ export function deriveNormals(cam, ij, z, tri) {
  * held mesh (with its depths when the change `reusesDepths`).
  * @param {MeshStream} s @param {import('./protocol.js').CameraJson | null} requesting
  * @param {Held | null} [held] @param {boolean} [reusesDepths]
+ * @param {{split: Uint8Array, leaf: Uint8Array} | null} [fresh] the change's bits of triangles the held mesh never reached
  */
-export function decodeMesh(s, requesting, held = null, reusesDepths = false) {
+export function decodeMesh(s, requesting, held = null, reusesDepths = false, fresh = null) {
   const f = new Forest(s.rootSide, s.rootsX, s.rootsY);
   // The forest is the reference image's: the fewest roots of this side covering it.
   const covers = (/** @type {number} */ roots, /** @type {number} */ size) =>
@@ -685,7 +702,7 @@ export function decodeMesh(s, requesting, held = null, reusesDepths = false) {
   const grid = gridScratch(f.gw * f.gh);
   // A decode that fails leaves the buffers dirty: drop them.
   scratch = null;
-  const { corners, parent, levels } = walk(f, s.split, s.leaf, s.triangles, grid, context);
+  const { corners, parent, levels } = walk(f, s.split, s.leaf, s.triangles, grid, context, held ? fresh ?? { split: new Uint8Array(0), leaf: new Uint8Array(0) } : null);
   const { ij, level, indices, slot } = assemble(f, corners, levels, grid.slot);
   const { width, height } = s.camera;
   for (let k = 0; k < ij.length; k += 2) {

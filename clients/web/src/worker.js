@@ -45,7 +45,7 @@ self.onmessage = (/** @type {MessageEvent} */ e) => {
       } else if (answer.change) {
         const h = key ? kept.get(key) : undefined;
         if (!h || h.etag !== held) throw new Error('a change arrived for a mesh this viewer does not hold');
-        s = decodeMesh(answer.change.mesh, camera, h, answer.change.reusesDepths);
+        s = decodeMesh(answer.change.mesh, camera, h, answer.change.reusesDepths, answer.change.fresh);
       } else {
         throw new Error('planes arrived for a mesh this viewer does not hold');
       }

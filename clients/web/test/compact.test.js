@@ -153,7 +153,7 @@ test('a change applied to the held mesh is the whole new mesh, as the Rust decod
     const gz = (/** @type {ArrayBuffer} */ b) => zlib.gzipSync(Buffer.from(b), { level: 6 }).length;
     const [c, w] = [gz(ch.body), gz(whole.body)];
     assert.ok(c < (change.reusesDepths ? w / 2 : w), `${c} bytes of change against ${w} whole, gzipped`);
-    const got = decodeMesh(change.mesh, to.camera, held, change.reusesDepths);
+    const got = decodeMesh(change.mesh, to.camera, held, change.reusesDepths, change.fresh);
     const want = decodeMesh(/** @type {any} */ (readMeshBody(whole.body, /** @type {string} */ (whole.etag)).mesh), to.camera);
     for (const k of /** @type {const} */ (['ij', 'depth', 'indices', 'normal', 'rho'])) {
       assert.deepEqual(Array.from(got[k]), Array.from(want[k]), `${k} of the change and of the whole mesh`);

@@ -34,15 +34,14 @@ pub struct Shape {
 }
 
 /// What a client holds of another mesh of the same view, as the context a
-/// change's bits are coded in (PROTOCOL.md, "Protocol 6: changes"): each
-/// bit is sent as its difference from what the held mesh predicts.
+/// change's bits are coded in (PROTOCOL.md, "Protocol 6: changes").
 ///
-/// - A split bit predicts the held mesh's vertex at the split point: split
-///   where the held mesh has that vertex and does not draw the triangle.
-/// - A leaf bit predicts drawn, unless the held mesh reached the triangle
-///   (it has the triangle's apex, the vertex its parent split at, or the
-///   triangle is a root's half), neither split nor drew it: left out there,
-///   left out here.
+/// A triangle the held mesh *reached* (a root's half, or one whose apex,
+/// the vertex its parent split at, the held mesh has) has a known fate
+/// there: split (the held mesh has its split vertex and does not draw it),
+/// drawn, or left out. Its bits travel as differences from that fate, in
+/// fields that are nearly all zeros; the bits of triangles the held mesh
+/// never reached travel plain, in their own fields.
 #[derive(Clone, Debug, Default)]
 pub struct Context {
     /// Held vertices, by grid index.
@@ -51,6 +50,13 @@ pub struct Context {
     cells: Vec<u64>,
     /// Held drawn larger triangles, by split vertex and half.
     drawn: Vec<u64>,
+}
+
+/// A triangle's fate in the held mesh.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Fate {
+    split: bool,
+    drawn: bool,
 }
 
 impl Context {
@@ -87,20 +93,33 @@ impl Context {
         get(&self.vertices, forest.index(p))
     }
 
-    /// The predicted split bit of a triangle larger than a cell.
-    fn split(&self, forest: &Forest, node: &Node) -> bool {
-        self.has(forest, node.mid()) && !get(&self.drawn, 2 * forest.index(node.mid()) + node.half())
-    }
-
-    /// The predicted leaf bit.
-    fn leaf(&self, forest: &Forest, node: &Node) -> bool {
-        let key = 2 * forest.index(node.mid()) + node.half();
-        if get(if node.is_cell() { &self.cells } else { &self.drawn }, key) {
-            return true;
+    /// The triangle's fate in the held mesh, `None` where it never reached it.
+    fn fate(&self, forest: &Forest, node: &Node) -> Option<Fate> {
+        if !(forest.is_root(node) || self.has(forest, node.a)) {
+            return None;
         }
-        let reached = forest.is_root(node) || self.has(forest, node.a);
-        !(reached && (node.is_cell() || !self.split(forest, node)))
+        let key = 2 * forest.index(node.mid()) + node.half();
+        if node.is_cell() {
+            return Some(Fate {
+                split: false,
+                drawn: get(&self.cells, key),
+            });
+        }
+        let drawn = get(&self.drawn, key);
+        Some(Fate {
+            split: !drawn && self.has(forest, node.mid()),
+            drawn,
+        })
     }
+}
+
+/// Where a walk's bits go or come from: the plain fields, or, against a
+/// held mesh, the difference fields and the fresh ones.
+struct Fields<W> {
+    split: W,
+    leaf: W,
+    fresh_split: W,
+    fresh_leaf: W,
 }
 
 fn set(bits: &mut [u64], i: usize) -> bool {
@@ -170,8 +189,7 @@ struct Encoder<'a> {
     drawn: Vec<u64>,
     /// Triangles with a drawn triangle inside, by split vertex and half.
     inside: Vec<u64>,
-    split: BitWriter,
-    leaf: BitWriter,
+    bits: Fields<BitWriter>,
     /// The drawn triangles in walk order, as the decoder will see them.
     corners: Vec<[Pt; 3]>,
     /// A held mesh the bits are coded against.
@@ -183,11 +201,17 @@ impl Decide for Encoder<'_> {
 
     fn decide(&mut self, node: &Node, implied: bool) -> Result<Symbol, String> {
         let key = 2 * self.forest.index(node.mid()) + node.half();
-        let f = self.forest;
-        let leaf_pred = |node: &Node| self.held.is_some_and(|c| c.leaf(f, node));
+        let fate = self.held.and_then(|c| c.fate(self.forest, node));
+        let fresh = self.held.is_some() && fate.is_none();
+        let bits = &mut self.bits;
+        let mut leaf = |drawn: bool| match (fate, fresh) {
+            (Some(f), _) => bits.leaf.bit(drawn != f.drawn),
+            (None, true) => bits.fresh_leaf.bit(drawn),
+            (None, false) => bits.leaf.bit(drawn),
+        };
         if node.is_cell() {
             let drawn = get(&self.cells, key);
-            self.leaf.bit(drawn != leaf_pred(node));
+            leaf(drawn);
             return Ok(if drawn { Symbol::Emit } else { Symbol::Skip });
         }
         let drawn = get(&self.drawn, key);
@@ -200,11 +224,19 @@ impl Decide for Encoder<'_> {
             return Ok(Symbol::Split);
         }
         let split = !drawn && get(&self.inside, key);
-        self.split.bit(split != self.held.is_some_and(|c| c.split(f, node)));
+        match (fate, fresh) {
+            (Some(f), _) => self.bits.split.bit(split != f.split),
+            (None, true) => self.bits.fresh_split.bit(split),
+            (None, false) => self.bits.split.bit(split),
+        }
         if split {
             return Ok(Symbol::Split);
         }
-        self.leaf.bit(drawn != leaf_pred(node));
+        match (fate, fresh) {
+            (Some(f), _) => self.bits.leaf.bit(drawn != f.drawn),
+            (None, true) => self.bits.fresh_leaf.bit(drawn),
+            (None, false) => self.bits.leaf.bit(drawn),
+        }
         Ok(if drawn { Symbol::Emit } else { Symbol::Skip })
     }
 
@@ -219,15 +251,17 @@ impl Decide for Encoder<'_> {
 /// triangle is not one of the forest's, or the triangles are not the
 /// leaves of one conforming walk.
 pub fn encode(forest: &Forest, triangles: &[[Pt; 3]]) -> Result<(Connectivity, Shape), String> {
-    encode_against(forest, triangles, None)
+    let (bits, _, shape) = encode_against(forest, triangles, None)?;
+    Ok((bits, shape))
 }
 
-/// [`encode`], each bit sent as its difference from what `held` predicts.
+/// [`encode`] against `held`: the bits of triangles the held mesh reached,
+/// as differences from their fate there, and the bits of the others (fresh).
 pub fn encode_against(
     forest: &Forest,
     triangles: &[[Pt; 3]],
     held: Option<&Context>,
-) -> Result<(Connectivity, Shape), String> {
+) -> Result<(Connectivity, Connectivity, Shape), String> {
     forest.check()?;
     let words = (2 * forest.len()).div_ceil(64);
     let mut enc = Encoder {
@@ -235,8 +269,12 @@ pub fn encode_against(
         cells: vec![0; words],
         drawn: vec![0; words],
         inside: vec![0; words],
-        split: BitWriter::default(),
-        leaf: BitWriter::default(),
+        bits: Fields {
+            split: BitWriter::default(),
+            leaf: BitWriter::default(),
+            fresh_split: BitWriter::default(),
+            fresh_leaf: BitWriter::default(),
+        },
         corners: Vec::with_capacity(triangles.len()),
         held,
     };
@@ -268,10 +306,20 @@ pub fn encode_against(
         ));
     }
     let shape = assemble(forest, &enc.corners);
+    let Fields {
+        split,
+        leaf,
+        fresh_split,
+        fresh_leaf,
+    } = enc.bits;
     Ok((
         Connectivity {
-            split: enc.split.finish(),
-            leaf: enc.leaf.finish(),
+            split: split.finish(),
+            leaf: leaf.finish(),
+        },
+        Connectivity {
+            split: fresh_split.finish(),
+            leaf: fresh_leaf.finish(),
         },
         shape,
     ))
@@ -280,8 +328,7 @@ pub fn encode_against(
 struct Decoder<'a> {
     forest: &'a Forest,
     held: Option<&'a Context>,
-    split: BitReader<'a>,
-    leaf: BitReader<'a>,
+    bits: Fields<BitReader<'a>>,
     corners: Vec<[Pt; 3]>,
     /// At most this many triangles (from the header).
     limit: usize,
@@ -294,11 +341,24 @@ impl Decide for Decoder<'_> {
         if implied {
             return Ok(Symbol::Split);
         }
-        let f = self.forest;
-        if !node.is_cell() && self.split.bit()? != self.held.is_some_and(|c| c.split(f, node)) {
-            return Ok(Symbol::Split);
+        let fate = self.held.and_then(|c| c.fate(self.forest, node));
+        let fresh = self.held.is_some() && fate.is_none();
+        let b = &mut self.bits;
+        if !node.is_cell() {
+            let split = match (fate, fresh) {
+                (Some(f), _) => b.split.bit()? != f.split,
+                (None, true) => b.fresh_split.bit()?,
+                (None, false) => b.split.bit()?,
+            };
+            if split {
+                return Ok(Symbol::Split);
+            }
         }
-        let drawn = self.leaf.bit()? != self.held.is_some_and(|c| c.leaf(f, node));
+        let drawn = match (fate, fresh) {
+            (Some(f), _) => b.leaf.bit()? != f.drawn,
+            (None, true) => b.fresh_leaf.bit()?,
+            (None, false) => b.leaf.bit()?,
+        };
         Ok(if drawn { Symbol::Emit } else { Symbol::Skip })
     }
 
@@ -313,13 +373,14 @@ impl Decide for Decoder<'_> {
 
 /// Rebuilds the mesh that [`encode`] coded, expecting `triangles` of them.
 pub fn decode(forest: &Forest, bits: &Connectivity, triangles: usize) -> Result<Shape, &'static str> {
-    decode_against(forest, bits, triangles, None)
+    decode_against(forest, bits, &Connectivity::default(), triangles, None)
 }
 
-/// [`decode`] of bits [`encode_against`] coded against `held`.
+/// [`decode`] of the bits [`encode_against`] coded against `held`.
 pub fn decode_against(
     forest: &Forest,
     bits: &Connectivity,
+    fresh: &Connectivity,
     triangles: usize,
     held: Option<&Context>,
 ) -> Result<Shape, &'static str> {
@@ -330,14 +391,20 @@ pub fn decode_against(
     let mut dec = Decoder {
         forest,
         held,
-        split: BitReader::new(&bits.split, "split bits end early or run on"),
-        leaf: BitReader::new(&bits.leaf, "leaf bits end early or run on"),
+        bits: Fields {
+            split: BitReader::new(&bits.split, "split bits end early or run on"),
+            leaf: BitReader::new(&bits.leaf, "leaf bits end early or run on"),
+            fresh_split: BitReader::new(&fresh.split, "fresh split bits end early or run on"),
+            fresh_leaf: BitReader::new(&fresh.leaf, "fresh leaf bits end early or run on"),
+        },
         corners: Vec::with_capacity(triangles.min(1 << 24)),
         limit: triangles,
     };
     forest.walk(&mut dec)?;
-    dec.split.end()?;
-    dec.leaf.end()?;
+    dec.bits.split.end()?;
+    dec.bits.leaf.end()?;
+    dec.bits.fresh_split.end()?;
+    dec.bits.fresh_leaf.end()?;
     if dec.corners.len() != triangles {
         return Err("connectivity draws fewer triangles than the header says");
     }

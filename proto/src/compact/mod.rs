@@ -67,6 +67,9 @@ pub struct MeshChange {
     /// True when the held mesh's depths are the new mesh's: both carry all
     /// planes on one lattice, so a depth's value is the depth's alone.
     pub reuses_depths: bool,
+    /// The split and leaf bits of the triangles the held mesh never reached,
+    /// plain (the mesh's own fields carry the others, as differences).
+    pub fresh: Connectivity,
 }
 
 /// One view's mesh in the compact stream.
@@ -297,7 +300,8 @@ pub fn encode_change(input: MeshInput<'_>, held: &DecodedMesh) -> Result<MeshCha
     }
     let context = connectivity::Context::of(&f, &held.shape).map_err(CompactError)?;
     let corners = corners_of(&input)?;
-    let (connectivity, shape) = connectivity::encode_against(&f, &corners, Some(&context)).map_err(CompactError)?;
+    let (connectivity, fresh, shape) =
+        connectivity::encode_against(&f, &corners, Some(&context)).map_err(CompactError)?;
     let depths = depths_in(&input, &shape)?;
     let lattice = bitplanes::lattice_for(&depths, input.raw_grid);
     let mut known = None;
@@ -328,6 +332,7 @@ pub fn encode_change(input: MeshInput<'_>, held: &DecodedMesh) -> Result<MeshCha
     Ok(MeshChange {
         mesh: assemble_stream(input, connectivity, code, corners.len())?,
         reuses_depths,
+        fresh,
     })
 }
 
@@ -367,7 +372,7 @@ fn assemble_stream(
 impl MeshChange {
     /// The new mesh, from `held`: the decoded mesh the request named.
     pub fn apply(&self, held: &DecodedMesh) -> Result<DecodedMesh, CompactError> {
-        self.mesh.decode_against(Some((held, self.reuses_depths)))
+        self.mesh.decode_against(Some((held, self.reuses_depths, &self.fresh)))
     }
 }
 
@@ -388,7 +393,7 @@ impl MeshStream {
 
     /// Decodes the mesh, its bits coded against `held` with the held depths
     /// reused or not ([`MeshChange`]).
-    fn decode_against(&self, held: Option<(&DecodedMesh, bool)>) -> Result<DecodedMesh, CompactError> {
+    fn decode_against(&self, held: Option<(&DecodedMesh, bool, &Connectivity)>) -> Result<DecodedMesh, CompactError> {
         if self.version != COMPACT_VERSION {
             return Err(CompactError(format!(
                 "version {} is not {COMPACT_VERSION}",
@@ -418,15 +423,22 @@ impl MeshStream {
             return Err("the error bound must be finite and not negative".into());
         }
         let context = held
-            .map(|(m, _)| connectivity::Context::of(&f, &m.shape))
+            .map(|(m, ..)| connectivity::Context::of(&f, &m.shape))
             .transpose()
             .map_err(CompactError)?;
-        let shape = connectivity::decode_against(&f, &self.connectivity, self.triangles as usize, context.as_ref())?;
+        let empty = Connectivity::default();
+        let shape = connectivity::decode_against(
+            &f,
+            &self.connectivity,
+            held.map_or(&empty, |h| h.2),
+            self.triangles as usize,
+            context.as_ref(),
+        )?;
         if shape.vertices.iter().any(|&(i, j)| i >= w || j >= h) {
             return Err("a vertex lies outside the reference image".into());
         }
         let known: Option<Vec<Option<f32>>> = match held {
-            Some((m, true)) => {
+            Some((m, true, _)) => {
                 if !m.complete || m.lattice != self.lattice || self.lattice.is_none() {
                     return Err("the change reuses depths the held mesh does not have".into());
                 }
