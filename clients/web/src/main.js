@@ -145,7 +145,7 @@ const stats = {
   frame_ms: 0,
   retries: 0,
   /** The balanced policy's last round: frame, holes by kind, refreshed, budget (triangles). */
-  walk: { frame: 0, holes: 0, missing: 0, stale: 0, uncovered: 0, refreshed: 0, budget: 0, planned: 0 },
+  walk: { frame: 0, holes: 0, missing: 0, stale: 0, uncovered: 0, refreshed: 0, budget: 0, planned: 0, changes: 0, refetched: 0 },
   /** @type {{view: string, age: number}[]} ages of the held meshes drawn */
   ages: [],
   context_restores: 0,
@@ -258,7 +258,7 @@ function decode(body, format, lines, camera) {
  * the change from it. @param {ArrayBuffer} body @param {boolean} compact
  * @param {boolean} lines @param {CameraJson} camera
  * @param {{key: string, etag: string | null, held: string | null}} [names]
- * @returns {Promise<{strips: any, lines: Uint32Array | null}>} */
+ * @returns {Promise<{strips: any, lines: Uint32Array | null, change?: boolean}>} */
 function decodeStrips(body, compact, lines, camera, names) {
   const id = nextId++;
   return new Promise((resolve, reject) => {
@@ -513,8 +513,10 @@ async function fetchStrips(v, cam) {
   const bytes = buffer.byteLength;
   const etag = r.headers.get('etag');
   compactHeld.delete(key);
-  const { strips, lines } = await decodeStrips(buffer, compact, state.mode === 'wireframe', cam, { key, etag, held: from?.etag ?? null });
+  const { strips, lines, change } = await decodeStrips(buffer, compact, state.mode === 'wireframe', cam, { key, etag, held: from?.etag ?? null });
   if (compact && etag) compactHeld.set(key, { etag, camera: cam });
+  // Meshes fetched again, and of those, how many came as the change from the held one.
+  if (from) { stats.walk.refetched++; if (change) stats.walk.changes++; }
   return { v, strips, lines, bytes, extract: serverTiming(r.headers.get('server-timing')).extract ?? strips.extract_ms };
 }
 
@@ -576,6 +578,7 @@ async function updateBalanced() {
     const extract = got.reduce((s, g) => s + g.extract, 0);
     const done = shown(generation, drawn, renderer.views, (view) => /** @type {any} */ (held.get(view)).age, {
       walk: {
+        changes: stats.walk.changes, refetched: stats.walk.refetched,
         frame: stats.walk.frame + 1, holes: p.holes.length, missing: count('missing'), stale: count('stale'),
         uncovered: count('uncovered'), refreshed: p.refresh.length, budget: p.budget, planned: p.plannedHoles + p.plannedRefresh,
       },

@@ -56,7 +56,7 @@ self.onmessage = (/** @type {MessageEvent} */ e) => {
       /** @type {Transferable[]} */
       const transfer = [s.ij.buffer, s.normal.buffer, s.rho.buffer, s.depth.buffer, s.indices.buffer];
       if (wire) transfer.push(wire.buffer);
-      self.postMessage({ id, strips: s, lines: wire, decodeMs: performance.now() - start }, { transfer });
+      self.postMessage({ id, strips: s, lines: wire, change: !!answer.change, decodeMs: performance.now() - start }, { transfer });
       return;
     }
     if (kind === 'strips') {
