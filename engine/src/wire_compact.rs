@@ -34,6 +34,14 @@ pub fn mesh_stream(
     with_input(mesh, grid, scene, view, camera, raw_grid, planes, etag, compact::encode)
 }
 
+/// `mesh` as a client holding it with `planes` planes decoded it, as far as
+/// a change against it needs ([`DecodedMesh::held`]).
+pub fn held(mesh: &Mesh, raw_grid: Option<dmesh_proto::RawGrid>, planes: Option<u8>) -> DecodedMesh {
+    let ij: Vec<(u16, u16)> = mesh.vertices.iter().map(|v| (v.i, v.j)).collect();
+    let depths: Vec<f32> = mesh.vertices.iter().map(|v| v.depth).collect();
+    DecodedMesh::held(&ij, &depths, &mesh.triangles, raw_grid, planes.is_none())
+}
+
 /// [`mesh_stream`] as its difference from `held`, another mesh of the same
 /// view as a client decoded it.
 #[allow(clippy::too_many_arguments)]

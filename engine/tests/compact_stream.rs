@@ -7,7 +7,7 @@
 use dmesh_engine::camera::Camera;
 use dmesh_engine::image::DepthImage;
 use dmesh_engine::mesh::{decode_strips, DepthMesh, Lod, Segmentation};
-use dmesh_engine::wire_compact::{mesh_change, mesh_stream, strip_response};
+use dmesh_engine::wire_compact::{held as held_of, mesh_change, mesh_stream, strip_response};
 use dmesh_proto::{Depths, RawGrid};
 use proptest::prelude::*;
 
@@ -114,6 +114,10 @@ proptest! {
         let mesh = hier.extract(Lod::Tau { tau: tols.1, view: &after }).unwrap();
         let whole = mesh_stream(&mesh, hier.grid(), "s", "v", &cam, raw, planes, String::new()).unwrap();
         let change = mesh_change(&mesh, hier.grid(), "s", "v", &cam, raw, planes, String::new(), &held).unwrap();
+        // What the server codes against (the held mesh derived, not decoded) gives the same change.
+        let derived = held_of(&held_mesh, raw, planes);
+        let same = mesh_change(&mesh, hier.grid(), "s", "v", &cam, raw, planes, String::new(), &derived).unwrap();
+        prop_assert_eq!(&same, &change);
         let got = change.apply(&held).unwrap();
         let want = whole.decode().unwrap();
         prop_assert_eq!(&got.shape, &want.shape);

@@ -131,18 +131,7 @@ fn extract_compact(
     if let Some(Held::Mesh(held)) = &held {
         // The held mesh as the client decoded it, derived again.
         let (before, _) = render_plan::extract_mesh(h, held, |_| 0.0)?;
-        let held_stream = wire_compact::mesh_stream(
-            &before,
-            h.grid(),
-            scene,
-            view,
-            h.camera(),
-            loaded.raw_grid,
-            held.bits,
-            String::new(),
-        )
-        .map_err(encoding)?;
-        let decoded = held_stream.decode().map_err(encoding)?;
+        let decoded = wire_compact::held(&before, loaded.raw_grid, held.bits);
         let change = wire_compact::mesh_change(
             &mesh,
             h.grid(),

@@ -191,10 +191,13 @@ fn bit_length(m: u64) -> u8 {
     (64 - m.leading_zeros()) as u8
 }
 
+/// Bits of the largest depth on the lattice of a view without an integer one.
+pub const LATTICE_BITS: i32 = 20;
+
 /// The lattice a mesh's depths are coded on: `raw` when every depth lies on
 /// it, else the finest power-of-two lattice on which the largest depth
-/// needs at most 24 bits (so a depth rounds by at most half a unit in the
-/// last place of `f32` at the mesh's largest depth). A depth's value on it,
+/// needs at most [`LATTICE_BITS`] bits (so a depth rounds by at most
+/// 2^-21 of the mesh's largest depth: 4 micrometres at 8 m). A depth's value on it,
 /// and so every all-plane answer, depends on the depth alone, not on the
 /// mesh: what lets a client holding one mesh take another's depths
 /// ([`super::MeshChange`]).
@@ -207,10 +210,10 @@ pub fn lattice_for(depths: &[f32], raw: Option<RawGrid>) -> RawGrid {
         .copied()
         .filter(|z| valid(*z))
         .fold(f32::MIN_POSITIVE, f32::max);
-    // 2^e > top: the scale is 2^(e - 24).
+    // 2^e > top: the scale is 2^(e - LATTICE_BITS).
     let e = f64::from(top).log2().floor() as i32 + 1;
     RawGrid {
-        scale: 2f64.powi(e - 24),
+        scale: 2f64.powi(e - LATTICE_BITS),
         offset: 0.0,
     }
 }

@@ -369,6 +369,35 @@ fn assemble_stream(
     })
 }
 
+impl DecodedMesh {
+    /// A mesh as a client holding it decoded it, from the encoder's side:
+    /// vertices `ij` with `depths`, `triangles` indexing them, coded on
+    /// [`bitplanes::lattice_for`] `raw`. `complete` when the client holds
+    /// all its planes; only then are its depths the decoded ones (a change
+    /// reuses no others). What a server needs to code a change against it,
+    /// without coding it again.
+    pub fn held(
+        ij: &[(u16, u16)],
+        depths: &[f32],
+        triangles: &[[u32; 3]],
+        raw: Option<RawGrid>,
+        complete: bool,
+    ) -> Self {
+        let lattice = bitplanes::lattice_for(depths, raw);
+        Self {
+            shape: Shape {
+                vertices: ij.iter().map(|&(i, j)| (u32::from(i), u32::from(j))).collect(),
+                triangles: triangles.to_vec(),
+            },
+            depths: depths.iter().map(|&z| bitplanes::on(lattice, z)).collect(),
+            max_error: 0.0,
+            planes: 0,
+            lattice: Some(lattice),
+            complete,
+        }
+    }
+}
+
 impl MeshChange {
     /// The new mesh, from `held`: the decoded mesh the request named.
     pub fn apply(&self, held: &DecodedMesh) -> Result<DecodedMesh, CompactError> {
