@@ -203,6 +203,36 @@ test('malformed and mutated bodies are refused with a WireError, never another e
     }
   }
   assert.ok(refused > runs / 4, `${refused} of ${runs} mutated bodies refused`);
+  // Changes, mutated, applied to the mesh they were asked against.
+  const moved = structuredClone(camera);
+  moved.pose.translation[0] += 0.05;
+  const a = await strips('v04', { camera, lod: { tau: 4 } });
+  const held = decodeMesh(/** @type {any} */ (readMeshBody(a.body).mesh), camera);
+  const change = new Uint8Array((await strips('v04', { camera: moved, lod: { tau: 2 }, held: a.etag, held_camera: camera })).body);
+  assert.ok(readMeshBody(change.slice().buffer).change, 'a change to mutate');
+  let changesRefused = 0;
+  let changeRuns = 0;
+  const until = performance.now() + 10_000;
+  for (; changeRuns < 1500 && performance.now() < until; changeRuns++) {
+    const b = change.slice();
+    for (let e = 0; e < 1 + Math.floor(rnd() * 4); e++) {
+      const at = Math.floor(rnd() * b.length);
+      b[at] = rnd() < 0.5 ? b[at] ^ (1 << Math.floor(rnd() * 8)) : Math.floor(rnd() * 256);
+    }
+    try {
+      const body = readMeshBody(b.buffer);
+      const c = body.change;
+      const s = c ? decodeMesh(c.mesh, moved, held, c.reusesDepths, c.fresh) : body.mesh ? decodeMesh(body.mesh, moved) : null;
+      if (s) {
+        for (const z of s.depth) assert.ok(Number.isFinite(z) && z > 0, 'decoded depths are finite and positive');
+        for (const i of s.indices) assert.ok(i < s.vertexCount, 'indices stay inside the vertices');
+      }
+    } catch (e) {
+      if (!(e instanceof WireError)) throw new Error(`change run ${changeRuns}: ${e instanceof Error ? e.stack : e}`);
+      changesRefused++;
+    }
+  }
+  assert.ok(changesRefused > changeRuns / 4, `${changesRefused} of ${changeRuns} mutated changes refused`);
 });
 
 test('decode rate in Node, per 100,000 triangles', async () => {
