@@ -59,8 +59,11 @@ pub struct DepthCode {
     /// little-endian `f32`, byte-shuffled (all first bytes, then all
     /// second bytes, ...).
     pub exact: Vec<u8>,
-    /// Plane `t` at index `t - 1`: magnitude bits, then sign bits (all of them).
+    /// Plane `t` at index `t - 1`: magnitude bits, then sign bits (the
+    /// planes sent).
     pub planes: Vec<Vec<u8>>,
+    /// The planes the code has in all (the largest level's).
+    pub total: u8,
     /// The planes to send: `min(asked, planes.len())`.
     pub sent: usize,
     /// Largest `|decoded - true|` depth in metres holding the first `sent` planes.
@@ -129,10 +132,12 @@ impl Units {
     fn predict(self, p: Pred, held: &[f64]) -> f64 {
         match p {
             Pred::Two(a, b) => {
-                let mid = (held[a as usize] + held[b as usize]) * 0.5;
+                let (a, b) = (held[a as usize], held[b as usize]);
                 match self.0 {
-                    None => mid,
-                    Some(_) => mid.floor(),
+                    None => (a + b) * 0.5,
+                    // Integers below 2^50: the floor of their mean, exactly,
+                    // without a call to `floor`.
+                    Some(_) => ((a as i64 + b as i64) >> 1) as f64,
                 }
             }
             Pred::One(a) => held[a as usize],
@@ -287,7 +292,12 @@ pub fn encode(
         let lc = levels[level[k]];
         let pred = units.predict(p, &held);
         let r = truth[k] - pred;
-        let m = (r.abs() / f64::from(lc.step)).round();
+        // On the lattice (step 1) the residual is a whole number already.
+        let m = if lc.step == 1.0 {
+            r.abs()
+        } else {
+            (r.abs() / f64::from(lc.step)).round()
+        };
         let negative = r < 0.0 && m >= 1.0;
         let fits = m < f64::from(1u32 << lc.planes);
         let d = fits
@@ -308,28 +318,14 @@ pub fn encode(
     }
     let total = levels.iter().map(|l| l.planes).max().unwrap_or(0);
     let sent = planes.map_or(total, |p| p.min(total));
-    let mut planes = Vec::with_capacity(usize::from(total));
-    for t in 1..=total {
-        let mut w = super::bits::BitWriter::default();
-        let part = || (0..vertices.len()).filter(|&k| coded[k] && levels[level[k]].planes >= t);
-        for k in part() {
-            let shift = u32::from(levels[level[k]].planes - t);
-            w.bit(mags[k].0 >> shift & 1 == 1);
-        }
-        for k in part() {
-            let shift = u32::from(levels[level[k]].planes - t);
-            if mags[k].0 >> shift == 1 {
-                w.bit(mags[k].1);
-            }
-        }
-        planes.push(w.finish());
-    }
+    let planes = plane_bits(&levels, &level, &coded, &mags, sent)?;
     let mut code = DepthCode {
         lattice: units.0,
         levels,
         escapes: escapes.finish(),
         exact: shuffle(&exact),
         planes,
+        total,
         sent: usize::from(sent),
         max_error: 0.0,
     };
@@ -361,6 +357,47 @@ pub fn encode(
         got.iter().zip(depths).map(|(a, b)| (a - b).abs()).fold(0f32, f32::max) == code.max_error
     });
     Ok(code)
+}
+
+/// The first `sent` planes of the coded vertices' magnitudes `mags`
+/// (`coded` marks them; `level` is each vertex's level, non-decreasing, as
+/// the connectivity decoder numbers vertices). A plane's vertices are those
+/// of the levels with that many planes, in vertex order: whole level blocks.
+fn plane_bits(
+    levels: &[LevelCode],
+    level: &[usize],
+    coded: &[bool],
+    mags: &[(u32, bool)],
+    sent: u8,
+) -> Result<Vec<Vec<u8>>, String> {
+    if level.windows(2).any(|w| w[0] > w[1]) {
+        return Err("vertices must come coarse to fine".to_string());
+    }
+    // Per level: its coded vertices' magnitudes and signs, in vertex order.
+    let mut blocks: Vec<Vec<(u32, bool)>> = vec![Vec::new(); levels.len()];
+    for k in (0..mags.len()).filter(|&k| coded[k]) {
+        blocks[level[k]].push(mags[k]);
+    }
+    let mut out = Vec::with_capacity(usize::from(sent));
+    for t in 1..=sent {
+        let mut w = super::bits::BitWriter::default();
+        let mut signs = Vec::new();
+        for (lc, block) in levels.iter().zip(&blocks).filter(|(lc, _)| lc.planes >= t) {
+            let shift = u32::from(lc.planes - t);
+            for &(m, negative) in block {
+                let top = m >> shift;
+                w.bit(top & 1 == 1);
+                if top == 1 {
+                    signs.push(negative);
+                }
+            }
+        }
+        for negative in signs {
+            w.bit(negative);
+        }
+        out.push(w.finish());
+    }
+    Ok(out)
 }
 
 /// Decodes the depths of `vertices` from the first `held` planes of `code`

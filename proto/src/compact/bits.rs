@@ -2,11 +2,12 @@
 //! into bytes, each field byte-aligned on its own so a general-purpose
 //! compressor sees like next to like (PROTOCOL.md, "Protocol 6").
 
-/// Appends bits.
+/// Appends bits (64 at a time into the bytes: least significant first in
+/// a little-endian word is least significant first in each byte).
 #[derive(Default)]
 pub struct BitWriter {
     bytes: Vec<u8>,
-    acc: u8,
+    acc: u64,
     filled: u32,
 }
 
@@ -14,10 +15,10 @@ impl BitWriter {
     /// One bit.
     #[inline]
     pub fn bit(&mut self, b: bool) {
-        self.acc |= u8::from(b) << self.filled;
+        self.acc |= u64::from(b) << self.filled;
         self.filled += 1;
-        if self.filled == 8 {
-            self.bytes.push(self.acc);
+        if self.filled == 64 {
+            self.bytes.extend_from_slice(&self.acc.to_le_bytes());
             self.acc = 0;
             self.filled = 0;
         }
@@ -35,9 +36,8 @@ impl BitWriter {
 
     /// The bytes, the last one padded with zeros.
     pub fn finish(mut self) -> Vec<u8> {
-        if self.filled > 0 {
-            self.bytes.push(self.acc);
-        }
+        let tail = self.filled.div_ceil(8) as usize;
+        self.bytes.extend_from_slice(&self.acc.to_le_bytes()[..tail]);
         self.bytes
     }
 }

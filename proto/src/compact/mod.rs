@@ -343,8 +343,7 @@ fn assemble_stream(
     triangles: usize,
 ) -> Result<MeshStream, CompactError> {
     let f = input.forest;
-    let sent = code.sent;
-    let total_planes = u8::try_from(code.planes.len()).map_err(|_| "more than 255 planes")?;
+    let total_planes = code.total;
     Ok(MeshStream {
         version: COMPACT_VERSION,
         scene: input.scene.to_string(),
@@ -361,7 +360,7 @@ fn assemble_stream(
         levels: code.levels,
         escapes: code.escapes,
         exact: code.exact,
-        planes: code.planes[..sent].to_vec(),
+        planes: code.planes,
         total_planes,
         max_error: code.max_error,
         reach: input.reach.map(|(s, c)| compact_reach(s, c)),
@@ -485,6 +484,7 @@ impl MeshStream {
             escapes: self.escapes.clone(),
             exact: self.exact.clone(),
             planes: self.planes.clone(),
+            total: self.total_planes,
             sent: self.planes.len(),
             max_error: self.max_error,
         };
