@@ -431,3 +431,49 @@ async fn responses_are_compressed_when_asked(kind: Store) {
         assert_eq!(headers[header::CONTENT_ENCODING], encoding);
     }
 }
+
+/// A 16-bit PGM depth (a depth camera's raw frame) is read as the same
+/// samples in a 16-bit PNG are: the same mesh, the same depths, and the
+/// integer lattice kept (all planes of the compact stream lossless).
+#[tokio::test]
+async fn a_pgm_depth_is_the_png_depth_it_holds() {
+    let store = Backing::new(Store::File);
+    let router = start(store.state(Settings::default()), Pipeline::default()).await;
+    let samples: Vec<u16> = (0..W * H).map(|k| 2000 + ((k % W) * 3 + k / W) as u16).collect();
+    let pgm = dmesh::image::pgm::encode16(W, H, &samples);
+    for (view, bytes) in [("png", png16_depth()), ("pgm", pgm)] {
+        let body = upload_body(&bytes, &[("scale", b"0.001")], &camera_json(0.0, 0.0));
+        let (status, _, body) = send(&router, put(&format!("/v1/scenes/s/views/{view}"), body)).await;
+        assert_eq!(status, StatusCode::CREATED, "{}", String::from_utf8_lossy(&body));
+    }
+    let strips = |view: &str| {
+        Request::get(format!("/v1/scenes/s/views/{view}/strips?epsilon=0.0005"))
+            .header(header::ACCEPT, "application/json")
+            .body(Body::empty())
+            .unwrap()
+    };
+    let (_, _, png) = send(&router, strips("png")).await;
+    let (_, _, pgm) = send(&router, strips("pgm")).await;
+    let (mut png, mut pgm): (StripResponse, StripResponse) = (
+        serde_json::from_slice(&png).unwrap(),
+        serde_json::from_slice(&pgm).unwrap(),
+    );
+    assert!(png.triangles > 100);
+    (png.view, png.extract_ms, pgm.view, pgm.extract_ms) = (String::new(), 0.0, String::new(), 0.0);
+    assert_eq!(png, pgm);
+    // Lossless on its lattice: all compact planes decode to the stored depths.
+    let (status, _, body) = send(
+        &router,
+        Request::get("/v1/scenes/s/views/pgm/strips?epsilon=0.0005")
+            .header(header::ACCEPT, dmesh_proto::MESH_MEDIA_TYPE)
+            .body(Body::empty())
+            .unwrap(),
+    )
+    .await;
+    assert_eq!(status, StatusCode::OK);
+    let dmesh_proto::MeshBody::Mesh(mesh) = dmesh_proto::from_bincode(&body).unwrap() else {
+        panic!("a whole mesh")
+    };
+    assert_eq!(mesh.max_error, 0.0);
+    assert_eq!(mesh.lattice.map(|g| g.scale), Some(0.001));
+}

@@ -120,7 +120,7 @@ pub async fn put_view(
             .ok_or_else(|| AppError::BadRequest("field camera (JSON) is missing".into()))?,
         depth: u
             .depth
-            .ok_or_else(|| AppError::BadRequest("field depth (EXR, PNG or PFM) is missing".into()))?
+            .ok_or_else(|| AppError::BadRequest("field depth (EXR, PNG, PFM or PGM) is missing".into()))?
             .to_vec(),
         color: u
             .color

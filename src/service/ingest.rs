@@ -18,7 +18,7 @@ use super::state::{AppState, Loaded};
 pub struct Upload {
     /// Camera JSON.
     pub camera: String,
-    /// Depth image bytes (EXR, PNG or PFM).
+    /// Depth image bytes (EXR, PNG, PFM or PGM).
     pub depth: Vec<u8>,
     /// Colour image bytes (PNG or JPEG).
     pub color: Vec<u8>,

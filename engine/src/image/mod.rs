@@ -12,6 +12,7 @@
 mod color;
 mod exr_depth;
 mod pfm;
+pub mod pgm;
 mod png_depth;
 mod view;
 
@@ -209,6 +210,8 @@ pub enum Format {
     Exr,
     /// Portable float map, `Pf` (grey) or `PF` (colour).
     Pfm,
+    /// Binary greyscale portable graymap, `P5`.
+    Pgm,
     /// JPEG, `ff d8 ff`.
     Jpeg,
 }
@@ -221,6 +224,8 @@ pub fn sniff(bytes: &[u8]) -> Option<Format> {
         Some(Format::Exr)
     } else if bytes.starts_with(b"Pf") || bytes.starts_with(b"PF") {
         Some(Format::Pfm)
+    } else if bytes.starts_with(b"P5") {
+        Some(Format::Pgm)
     } else if bytes.starts_with(&[0xff, 0xd8, 0xff]) {
         Some(Format::Jpeg)
     } else {
@@ -228,21 +233,22 @@ pub fn sniff(bytes: &[u8]) -> Option<Format> {
     }
 }
 
-/// Decodes a depth image (EXR, PNG 8/16-bit grey, PFM) and converts it to `z`
+/// Decodes a depth image (EXR, PNG 8/16-bit grey, PFM, PGM 8/16-bit) and converts it to `z`
 /// for `camera`, whose size must match the image.
 pub fn decode_depth(bytes: &[u8], options: &DepthOptions, camera: &Camera, limits: &Limits) -> Result<DepthImage> {
     let raw = match sniff(bytes) {
         Some(Format::Png) => png_depth::decode(bytes, limits)?,
         Some(Format::Exr) => exr_depth::decode(bytes, options.channel.as_deref(), limits)?,
         Some(Format::Pfm) => pfm::decode(bytes, limits)?,
+        Some(Format::Pgm) => pgm::decode(bytes, limits)?,
         Some(Format::Jpeg) => {
             return Err(Error::decode(
-                "depth image is a JPEG; use EXR, 8/16-bit greyscale PNG or PFM",
+                "depth image is a JPEG; use EXR, 8/16-bit greyscale PNG or PGM, or PFM",
             ))
         }
         None => {
             return Err(Error::decode(
-                "depth image is not EXR, PNG or PFM (unrecognised magic bytes)",
+                "depth image is not EXR, PNG, PFM or PGM (unrecognised magic bytes)",
             ))
         }
     };

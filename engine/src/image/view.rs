@@ -10,7 +10,7 @@ use crate::error::{Error, Result};
 /// The encoded parts of a view.
 #[derive(Clone, Copy, Debug)]
 pub struct ViewFiles<'a> {
-    /// The depth image (EXR, PNG or PFM).
+    /// The depth image (EXR, PNG, PFM or PGM).
     pub depth: &'a [u8],
     /// A mask of valid samples (PNG, nonzero keeps a sample), if any.
     pub mask: Option<&'a [u8]>,
