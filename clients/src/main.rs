@@ -123,6 +123,10 @@ enum Command {
     /// fetching by strategy (Qu et al.'s workload balancing); prints the
     /// frame-time comparison of the strategies run.
     Walkthrough(commands::walkthrough::WalkthroughArgs),
+    /// Replace one view's depth as a live sequence at a fixed rate (a folder
+    /// of frames, or a simulated scene whose objects sway): progress, then
+    /// the achieved rate and upload times.
+    Stream(commands::stream::StreamArgs),
     /// PSNR (valid mask) and inverse-depth RMSE between two images.
     Compare {
         /// First image (PNG).
@@ -415,6 +419,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Report(args) => commands::report::run(args),
         Command::Decode(args) => commands::decode::run(args),
         Command::Walkthrough(args) => commands::walkthrough::run(args, &rt),
+        Command::Stream(args) => commands::stream::run(args, &rt),
         Command::Compare {
             a,
             b,

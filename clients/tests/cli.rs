@@ -1,4 +1,6 @@
-//! The `dmesh-client` binary: compare's JSON, one-line errors.
+//! The `dmesh-client` binary: compare's JSON, one-line errors, and `stream` against a real server.
+
+mod common;
 
 use std::process::Command;
 
@@ -99,4 +101,67 @@ fn walkthrough_refuses_bad_input_in_one_line_before_any_request() {
         assert!(err.contains(want), "{args:?}: {err}");
         assert_eq!(err.trim().lines().count(), 1, "{args:?}: {err}");
     }
+}
+
+/// `stream` replaces one view frame by frame at the offered rate, the
+/// simulated objects moving: every frame stored, the view's mesh changed.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn stream_replaces_a_view_at_the_offered_rate() {
+    let running = common::start().await;
+    let stream = |frames: &str, format: &str| {
+        let base = running.base.clone();
+        let (frames, format) = (frames.to_string(), format.to_string());
+        tokio::task::spawn_blocking(move || {
+            client(&[
+                "stream",
+                "--server",
+                &base,
+                "--scene",
+                "live",
+                "--simulate",
+                "demo",
+                "--fps",
+                "8",
+                "--frames",
+                &frames,
+                "--format",
+                &format,
+                "--json",
+            ])
+        })
+    };
+    let server = dmesh_client::http::Server::new(&running.base, None);
+    let request = dmesh_proto::StripRequest {
+        lod: dmesh_proto::Lod::Epsilon(0.01),
+        camera: None,
+        bits: None,
+        held: None,
+        held_camera: None,
+    };
+    let (code, _, err) = stream("1", "pfm").await.unwrap();
+    assert_eq!(code, 0, "{err}");
+    let (first, _) = server.strips("live", "live", &request).await.unwrap();
+    for format in ["pfm", "pgm"] {
+        let (code, out, err) = stream("6", format).await.unwrap();
+        assert_eq!(code, 0, "{err}");
+        let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
+        assert_eq!(
+            (v["frames"].as_u64(), v["failed"].as_u64()),
+            (Some(6), Some(0)),
+            "{out}"
+        );
+        let fps = v["achieved_fps"].as_f64().unwrap();
+        assert!(
+            fps > 4.0 && fps < 12.0,
+            "achieved {fps} frames per second at 8 offered: {out}"
+        );
+        assert!(v["upload_p50_ms"].as_f64().unwrap() > 0.0);
+    }
+    // The last frame (the objects swayed) is another mesh than the first.
+    let (last, _) = server.strips("live", "live", &request).await.unwrap();
+    assert_ne!(first.vertices, last.vertices);
+    // Neither a scene nor a folder: a one-line error before any request.
+    let (code, _, err) = client(&["stream", "--scene", "s", "--server", "http://127.0.0.1:9"]);
+    assert_ne!(code, 0);
+    assert!(err.contains("--simulate") && err.lines().count() == 1, "{err}");
 }

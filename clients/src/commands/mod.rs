@@ -3,4 +3,5 @@
 
 pub mod decode;
 pub mod report;
+pub mod stream;
 pub mod walkthrough;

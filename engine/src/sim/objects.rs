@@ -129,6 +129,21 @@ fn aabb(o: DVec3, d: DVec3, min: DVec3, max: DVec3, tmin: f64) -> Option<(f64, D
 }
 
 impl Object {
+    /// The object translated by `by` (a plane stays: it is the background a
+    /// moving scene's objects move in front of).
+    pub fn moved(&self, by: [f64; 3]) -> Self {
+        let add = |p: [f64; 3]| [p[0] + by[0], p[1] + by[1], p[2] + by[2]];
+        let mut o = self.clone();
+        match &mut o {
+            Self::Plane { .. } => {}
+            Self::Box { min, max, .. } => (*min, *max) = (add(*min), add(*max)),
+            Self::Sphere { center, .. } => *center = add(*center),
+            Self::Staircase { origin, .. } | Self::Terrain { origin, .. } => *origin = add(*origin),
+            Self::Pole { base, .. } => *base = add(*base),
+        }
+        o
+    }
+
     /// Checks every number.
     pub fn validate(&self) -> crate::Result<()> {
         match self {
