@@ -122,3 +122,64 @@ fn acknowledged_uploads_survive_sigkill() {
         acknowledged.len()
     );
 }
+
+/// Live frames (`?live=true`, not made durable per frame) survive a killed
+/// process: the kernel holds what was renamed into place. With
+/// `--live-persist-secs 3600` nothing is made durable before the kill, so
+/// the view found after the restart is the latest acknowledged frame (or
+/// one the server stored as the connection died), whole.
+#[test]
+fn acknowledged_live_frames_survive_a_killed_process() {
+    let dir = tempfile::tempdir().unwrap();
+    let (mut child, addr) = start_with(dir.path(), &["--live-persist-secs", "3600"]);
+    let mut acknowledged = None;
+    for seed in 0..60u32 {
+        match http(
+            addr,
+            "PUT",
+            "/v1/scenes/live/views/cam?live=true",
+            Some("multipart/form-data; boundary=B"),
+            &upload_body(seed),
+        ) {
+            Ok((201, _)) => acknowledged = Some(seed),
+            Ok((status, body)) => panic!("frame {seed}: {status}: {}", String::from_utf8_lossy(&body)),
+            Err(e) => panic!("frame {seed}: {e}"),
+        }
+    }
+    let last = acknowledged.expect("frames acknowledged");
+    let _ = child.kill(); // SIGKILL, no shutdown
+    let _ = child.wait();
+    let (mut child, addr) = start(dir.path());
+    let (status, body) = http(addr, "GET", "/v1/scenes/live/views/cam/color", None, b"").unwrap();
+    assert_eq!(status, 200, "{}", String::from_utf8_lossy(&body));
+    let color = image::load_from_memory(&body).unwrap().to_rgb8();
+    // The colour's blue channel is the frame's seed.
+    assert_eq!(
+        u32::from(color.get_pixel(0, 0)[2]),
+        last,
+        "the latest acknowledged frame is kept"
+    );
+    let (status, _) = http(addr, "GET", "/v1/scenes/live/views/cam/strips?epsilon=0", None, b"").unwrap();
+    assert_eq!(status, 200);
+    // A frame that is not live ends the live frames; bad queries are refused.
+    let (status, _) = http(
+        addr,
+        "PUT",
+        "/v1/scenes/live/views/cam?live=maybe",
+        Some("multipart/form-data; boundary=B"),
+        &upload_body(1),
+    )
+    .unwrap();
+    assert_eq!(status, 400);
+    let (status, _) = http(
+        addr,
+        "PUT",
+        "/v1/scenes/live/views/cam?fast=1",
+        Some("multipart/form-data; boundary=B"),
+        &upload_body(1),
+    )
+    .unwrap();
+    assert_eq!(status, 400);
+    let _ = child.kill();
+    let _ = child.wait();
+}

@@ -477,3 +477,58 @@ async fn a_pgm_depth_is_the_png_depth_it_holds() {
     assert_eq!(mesh.max_error, 0.0);
     assert_eq!(mesh.lattice.map(|g| g.scale), Some(0.001));
 }
+
+/// `PUT ...?live=true` stores a frame that readers see at once; the server
+/// makes the latest frame of each live view durable once it is due, and a
+/// frame that is not live, or a delete, ends the view's live frames.
+#[tokio::test]
+async fn live_frames_are_visible_at_once_and_made_durable_when_due() {
+    let store = Backing::new(Store::File);
+    let state = store.state(Settings::default());
+    let router = start(state.clone(), Pipeline::default()).await;
+    let frame = |live: bool| {
+        let uri = if live {
+            "/v1/scenes/s/views/cam?live=true"
+        } else {
+            "/v1/scenes/s/views/cam"
+        };
+        put(
+            uri,
+            upload_body(&png16_depth(), &[("scale", b"0.001")], &camera_json(0.0, 0.0)),
+        )
+    };
+    let hour = std::time::Duration::from_secs(3600);
+    let now = std::time::Duration::ZERO;
+    for _ in 0..3 {
+        let (status, _, body) = send(&router, frame(true)).await;
+        assert_eq!(status, StatusCode::CREATED, "{}", String::from_utf8_lossy(&body));
+        let (status, _, _) = send(
+            &router,
+            Request::get("/v1/scenes/s/views/cam").body(Body::empty()).unwrap(),
+        )
+        .await;
+        assert_eq!(status, StatusCode::OK, "a live frame is visible at once");
+    }
+    assert_eq!(state.persist_live(hour).unwrap(), 0, "not due yet");
+    assert_eq!(state.persist_live(now).unwrap(), 1, "one live view, its latest frame");
+    assert_eq!(state.persist_live(now).unwrap(), 0, "nothing left");
+    send(&router, frame(true)).await;
+    send(&router, frame(false)).await;
+    assert_eq!(
+        state.persist_live(now).unwrap(),
+        0,
+        "a durable frame ends the live ones"
+    );
+    send(&router, frame(true)).await;
+    let (status, _, _) = send(
+        &router,
+        Request::delete("/v1/scenes/s/views/cam").body(Body::empty()).unwrap(),
+    )
+    .await;
+    assert_eq!(status, StatusCode::NO_CONTENT);
+    assert_eq!(
+        state.persist_live(now).unwrap(),
+        0,
+        "a deleted view has nothing to keep"
+    );
+}

@@ -150,6 +150,24 @@ impl Server {
         color: &[u8],
         fields: &[(&str, String)],
     ) -> anyhow::Result<dmesh_proto::ViewSummary> {
+        self.put_frame(scene, view, camera_json, depth, color, fields, false)
+            .await
+    }
+
+    /// [`Self::put_view_with`], as a frame of a live view when `live`
+    /// (`?live=true`: visible at once, made durable within the server's
+    /// `--live-persist-secs`).
+    #[allow(clippy::too_many_arguments)]
+    pub async fn put_frame(
+        &self,
+        scene: &str,
+        view: &str,
+        camera_json: &str,
+        depth: &[u8],
+        color: &[u8],
+        fields: &[(&str, String)],
+        live: bool,
+    ) -> anyhow::Result<dmesh_proto::ViewSummary> {
         let boundary = "dmesh-client-boundary";
         let mut body = Vec::new();
         let extra = fields.iter().map(|(k, v)| (*k, v.as_bytes()));
@@ -168,7 +186,10 @@ impl Server {
         let (_, _, bytes) = self
             .call(
                 Method::PUT,
-                &format!("/v1/scenes/{scene}/views/{view}"),
+                &format!(
+                    "/v1/scenes/{scene}/views/{view}{}",
+                    if live { "?live=true" } else { "" }
+                ),
                 &[(header::CONTENT_TYPE, ct)],
                 body,
             )

@@ -24,6 +24,11 @@ pub struct ServeArgs {
     /// replica's replace may go unseen).
     #[arg(long, default_value_t = 0)]
     revalidate_ms: u64,
+    /// The longest a live view's latest frame (`PUT ...?live=true`) waits
+    /// before it is made durable; a live frame is visible at once, and a
+    /// crash of the machine (not of the process) may lose this much.
+    #[arg(long, default_value_t = 2.0)]
+    live_persist_secs: f64,
     /// Bytes of built hierarchies kept in memory.
     #[arg(long, default_value_t = 1 << 30)]
     cache_bytes: usize,
@@ -102,6 +107,10 @@ pub fn run(a: &ServeArgs) -> Result<()> {
         },
         cache_bytes: a.cache_bytes,
         revalidate: std::time::Duration::from_millis(a.revalidate_ms),
+        live_persist: std::time::Duration::try_from_secs_f64(a.live_persist_secs)
+            .ok()
+            .filter(|d| d.as_secs() <= 3600)
+            .context("--live-persist-secs must be 0 to 3600 seconds")?,
     };
     if a.demo {
         ingest_demo(store.as_ref())?;

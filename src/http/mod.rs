@@ -202,11 +202,33 @@ pub async fn serve_on(
     state: Arc<AppState>,
     pipeline: Pipeline,
 ) -> std::io::Result<()> {
-    axum::serve(listener, app(state, pipeline))
+    // Live views' latest frames reach the disk within `live_persist`.
+    let every = state.settings.live_persist;
+    let persister = {
+        let state = state.clone();
+        tokio::spawn(async move {
+            let tick = (every / 4).clamp(Duration::from_millis(10), Duration::from_millis(250));
+            loop {
+                tokio::time::sleep(tick).await;
+                let st = state.clone();
+                if let Ok(Err(e)) = tokio::task::spawn_blocking(move || st.persist_live(every)).await {
+                    tracing::warn!(error = ?e, "making live frames durable");
+                }
+            }
+        })
+    };
+    let served = axum::serve(listener, app(state.clone(), pipeline))
         .with_graceful_shutdown(async {
             let _ = tokio::signal::ctrl_c().await;
         })
-        .await
+        .await;
+    persister.abort();
+    // What is still waiting reaches the disk before the server exits.
+    let st = state.clone();
+    if let Ok(Err(e)) = tokio::task::spawn_blocking(move || st.persist_live(Duration::ZERO)).await {
+        tracing::warn!(error = ?e, "making live frames durable at shutdown");
+    }
+    served
 }
 
 #[cfg(test)]

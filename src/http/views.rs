@@ -102,13 +102,24 @@ async fn read_upload(mut multipart: Multipart) -> Result<Fields, AppError> {
     Ok(u)
 }
 
-/// `PUT /v1/scenes/{scene}/views/{view}` (multipart).
+/// Query of `PUT .../views/{view}`: `live=true` for a frame of a live view
+/// (visible at once, made durable within `--live-persist-secs`).
+#[derive(Debug, Default, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PutQuery {
+    #[serde(default)]
+    live: bool,
+}
+
+/// `PUT /v1/scenes/{scene}/views/{view}[?live=true]` (multipart).
 pub async fn put_view(
     State(state): State<Arc<AppState>>,
     Path((scene, view)): Path<(String, String)>,
+    query: Result<axum::extract::Query<PutQuery>, axum::extract::rejection::QueryRejection>,
     headers: HeaderMap,
     multipart: Result<Multipart, axum::extract::multipart::MultipartRejection>,
 ) -> Result<Response, AppError> {
+    let axum::extract::Query(query) = query.map_err(|e| AppError::BadRequest(format!("query: {}", e.body_text())))?;
     validate_id("scene", &scene)?;
     validate_id("view", &view)?;
     let multipart =
@@ -132,7 +143,8 @@ pub async fn put_view(
     };
     let st = state.clone();
     let (sc, vw) = (scene.clone(), view.clone());
-    let loaded = tokio::task::spawn_blocking(move || ingest(&st, &sc, &vw, upload)).await??;
+    let live = query.live;
+    let loaded = tokio::task::spawn_blocking(move || ingest(&st, &sc, &vw, upload, live)).await??;
     let mut response = encode(&headers, &summary(&scene, &view, &loaded))?;
     *response.status_mut() = StatusCode::CREATED;
     Ok(response)

@@ -31,8 +31,9 @@ pub struct Upload {
 }
 
 /// Decodes, checks, builds and stores `upload` as `scene/view` (blocking:
-/// call off the async workers). Returns the cached view.
-pub fn ingest(state: &AppState, scene: &str, view: &str, upload: Upload) -> Result<Arc<Loaded>, AppError> {
+/// call off the async workers); a `live` frame is made durable later
+/// ([`AppState::persist_live`]). Returns the cached view.
+pub fn ingest(state: &AppState, scene: &str, view: &str, upload: Upload, live: bool) -> Result<Arc<Loaded>, AppError> {
     upload.segmentation.validate()?;
     upload.segmentation.to_engine().validate()?;
     let camera: Camera = camera_from_json(&upload.camera)?;
@@ -55,5 +56,5 @@ pub fn ingest(state: &AppState, scene: &str, view: &str, upload: Upload) -> Resu
     };
     // Build before storing: a view that cannot be meshed is not kept.
     let loaded = Loaded::from_stored(&stored, String::new())?;
-    state.store_view(scene, view, &stored, loaded)
+    state.store_view(scene, view, &stored, loaded, live)
 }

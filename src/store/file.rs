@@ -90,8 +90,11 @@ impl FileStore {
     }
 }
 
-impl ViewStore for FileStore {
-    fn put(&self, scene: &str, view: &str, v: &StoredView) -> Result<Version, StoreError> {
+impl FileStore {
+    /// Writes a view to a temporary file and renames it into place; with
+    /// `durable`, the file and its directory reach the disk before the
+    /// rename counts.
+    fn write(&self, scene: &str, view: &str, v: &StoredView, durable: bool) -> Result<Version, StoreError> {
         let target = self.view_path(scene, view)?;
         let scene_dir = self.scene_dir(scene)?;
         if !scene_dir.exists() {
@@ -104,16 +107,47 @@ impl ViewStore for FileStore {
         let written = (|| {
             let mut f = File::create(&tmp)?;
             f.write_all(&bytes)?;
-            f.sync_all()?;
+            if durable {
+                f.sync_all()?;
+            }
             let version = version_of(&f.metadata()?);
             fs::rename(&tmp, &target)?;
-            sync_dir(&scene_dir)?;
+            if durable {
+                sync_dir(&scene_dir)?;
+            }
             Ok(version)
         })();
         if written.is_err() {
             let _ = fs::remove_file(&tmp);
         }
         written
+    }
+}
+
+impl ViewStore for FileStore {
+    fn put(&self, scene: &str, view: &str, v: &StoredView) -> Result<Version, StoreError> {
+        self.write(scene, view, v, true)
+    }
+
+    /// Written and renamed into place like any view, without waiting for
+    /// the disk: a process that dies keeps it (the kernel has it); a machine
+    /// that loses power may come back with an earlier frame.
+    fn put_live(&self, scene: &str, view: &str, v: &StoredView) -> Result<Version, StoreError> {
+        self.write(scene, view, v, false)
+    }
+
+    fn persist(&self, scene: &str, view: &str) -> Result<(), StoreError> {
+        let path = self.view_path(scene, view)?;
+        match File::open(&path) {
+            Ok(f) => {
+                f.sync_all()?;
+                sync_dir(&self.scene_dir(scene)?)?;
+                Ok(())
+            }
+            // Deleted meanwhile: nothing to keep.
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
+            Err(e) => Err(e.into()),
+        }
     }
 
     fn get(&self, scene: &str, view: &str) -> Result<Option<(StoredView, Version)>, StoreError> {

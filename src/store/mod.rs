@@ -147,6 +147,17 @@ pub type Version = String;
 pub trait ViewStore: Send + Sync {
     /// Stores (or atomically replaces) a view; returns its new version.
     fn put(&self, scene: &str, view: &str, v: &StoredView) -> Result<Version, StoreError>;
+    /// [`ViewStore::put`] of one frame of a live view: atomic and visible
+    /// to readers at once, but not yet durable; [`ViewStore::persist`] makes
+    /// the view's latest frame durable. By default a live frame is put like
+    /// any other.
+    fn put_live(&self, scene: &str, view: &str, v: &StoredView) -> Result<Version, StoreError> {
+        self.put(scene, view, v)
+    }
+    /// Makes a view's latest frame durable (after [`ViewStore::put_live`]).
+    fn persist(&self, _scene: &str, _view: &str) -> Result<(), StoreError> {
+        Ok(())
+    }
     /// Reads a view and its version, `None` when absent.
     fn get(&self, scene: &str, view: &str) -> Result<Option<(StoredView, Version)>, StoreError>;
     /// Reads only a view's camera (no depth, no colour) and its version,

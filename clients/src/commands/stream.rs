@@ -56,6 +56,10 @@ pub struct StreamArgs {
     /// (16-bit millimetres, `scale` 0.001; the lattice is kept).
     #[arg(long, default_value = "pfm")]
     pub format: String,
+    /// Send frames as a live view's (`?live=true`): visible at once, made
+    /// durable by the server within its `--live-persist-secs`.
+    #[arg(long)]
+    pub live: bool,
     /// Print the summary as JSON.
     #[arg(long)]
     pub json: bool,
@@ -236,13 +240,14 @@ pub async fn stream(args: &StreamArgs) -> Result<Summary> {
         let frame = &sequence.frames[k as usize % sequence.frames.len()];
         let sent = Instant::now();
         match server
-            .put_view_with(
+            .put_frame(
                 &args.scene,
                 &args.view,
                 &sequence.camera,
                 &frame.depth,
                 &sequence.color,
                 &frame.fields,
+                args.live,
             )
             .await
         {
