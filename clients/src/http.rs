@@ -272,30 +272,8 @@ impl Server {
         view: &str,
         request: &dmesh_proto::StripRequest,
     ) -> anyhow::Result<(dmesh_proto::StripResponse, usize)> {
-        let (_, _, bytes, size) = self
-            .post_json(
-                &format!("/v1/scenes/{scene}/views/{view}/strips"),
-                serde_json::to_vec(request)?,
-            )
-            .await?;
-        match self.wire {
-            Wire::Bincode => Ok((dmesh_proto::from_bincode(&bytes)?, size)),
-            Wire::Compact => {
-                let body: dmesh_proto::MeshBody = dmesh_proto::from_bincode(&bytes)?;
-                let dmesh_proto::MeshBody::Mesh(stream) = body else {
-                    anyhow::bail!("the server sent planes for a request that held no mesh");
-                };
-                let camera = request
-                    .camera
-                    .as_ref()
-                    .map(dmesh_engine::camera::Camera::try_from)
-                    .transpose()?;
-                Ok((
-                    dmesh_engine::wire_compact::strip_response(&stream, camera.as_ref())?,
-                    size,
-                ))
-            }
-        }
+        let (mesh, _, size) = self.strips_from(scene, view, request, None).await?;
+        Ok((mesh, size))
     }
 
     /// One view's mesh as [`Self::strips`] gives it, naming `held` (another
@@ -310,8 +288,13 @@ impl Server {
         held: Option<&HeldMesh>,
     ) -> anyhow::Result<(dmesh_proto::StripResponse, Option<HeldMesh>, usize)> {
         if self.wire == Wire::Bincode {
-            let (mesh, size) = self.strips(scene, view, request).await?;
-            return Ok((mesh, None, size));
+            let (_, _, bytes, size) = self
+                .post_json(
+                    &format!("/v1/scenes/{scene}/views/{view}/strips"),
+                    serde_json::to_vec(request)?,
+                )
+                .await?;
+            return Ok((dmesh_proto::from_bincode(&bytes)?, None, size));
         }
         let mut request = request.clone();
         request.held = held.map(|h| h.etag.clone());

@@ -37,9 +37,13 @@ pub fn mesh_stream(
 /// `mesh` as a client holding it with `planes` planes decoded it, as far as
 /// a change against it needs ([`DecodedMesh::held`]).
 pub fn held(mesh: &Mesh, raw_grid: Option<dmesh_proto::RawGrid>, planes: Option<u8>) -> DecodedMesh {
-    let ij: Vec<(u16, u16)> = mesh.vertices.iter().map(|v| (v.i, v.j)).collect();
-    let depths: Vec<f32> = mesh.vertices.iter().map(|v| v.depth).collect();
+    let (ij, depths) = vertex_arrays(mesh);
     DecodedMesh::held(&ij, &depths, &mesh.triangles, raw_grid, planes.is_none())
+}
+
+/// The grid coordinates and depths of `mesh`'s vertices, as the coder takes them.
+fn vertex_arrays(mesh: &Mesh) -> (Vec<(u16, u16)>, Vec<f32>) {
+    mesh.vertices.iter().map(|v| ((v.i, v.j), v.depth)).unzip()
 }
 
 /// [`mesh_stream`] as its difference from `held`, another mesh of the same
@@ -73,8 +77,7 @@ fn with_input<T>(
     etag: String,
     encode: impl FnOnce(MeshInput<'_>) -> std::result::Result<T, CompactError>,
 ) -> std::result::Result<T, CompactError> {
-    let ij: Vec<(u16, u16)> = mesh.vertices.iter().map(|v| (v.i, v.j)).collect();
-    let depths: Vec<f32> = mesh.vertices.iter().map(|v| v.depth).collect();
+    let (ij, depths) = vertex_arrays(mesh);
     let spheres: Option<Vec<[f64; 4]>> = mesh.reach.as_ref().map(|r| r.culled.clone());
     encode(MeshInput {
         scene,

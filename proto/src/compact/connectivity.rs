@@ -247,17 +247,13 @@ impl Decide for Encoder<'_> {
 }
 
 /// Codes the triangles `triangles` (grid coordinates of their corners) of a
-/// mesh on `forest`, with the shape the decoder will rebuild. Fails when a
-/// triangle is not one of the forest's, or the triangles are not the
-/// leaves of one conforming walk.
-pub fn encode(forest: &Forest, triangles: &[[Pt; 3]]) -> Result<(Connectivity, Shape), String> {
-    let (bits, _, shape) = encode_against(forest, triangles, None)?;
-    Ok((bits, shape))
-}
-
-/// [`encode`] against `held`: the bits of triangles the held mesh reached,
-/// as differences from their fate there, and the bits of the others (fresh).
-pub fn encode_against(
+/// mesh on `forest`, with the shape the decoder will rebuild: the bits, the
+/// fresh bits, the shape. Without `held` every bit is plain and the fresh
+/// bits are empty; against `held`, the bits of triangles the held mesh
+/// reached are differences from their fate there, and the others' are the
+/// fresh bits. Fails when a triangle is not one of the forest's, or the
+/// triangles are not the leaves of one conforming walk.
+pub fn encode(
     forest: &Forest,
     triangles: &[[Pt; 3]],
     held: Option<&Context>,
@@ -371,13 +367,9 @@ impl Decide for Decoder<'_> {
     }
 }
 
-/// Rebuilds the mesh that [`encode`] coded, expecting `triangles` of them.
-pub fn decode(forest: &Forest, bits: &Connectivity, triangles: usize) -> Result<Shape, &'static str> {
-    decode_against(forest, bits, &Connectivity::default(), triangles, None)
-}
-
-/// [`decode`] of the bits [`encode_against`] coded against `held`.
-pub fn decode_against(
+/// Rebuilds the mesh that [`encode`] coded (against `held`, with its fresh
+/// bits `fresh`), expecting `triangles` of them.
+pub fn decode(
     forest: &Forest,
     bits: &Connectivity,
     fresh: &Connectivity,

@@ -231,6 +231,27 @@ pub struct DecodedMesh {
 
 /// Encodes a mesh.
 pub fn encode(input: MeshInput<'_>) -> Result<MeshStream, CompactError> {
+    Ok(encode_against(input, None)?.0)
+}
+
+/// Encodes the mesh of `input` as its difference from `held`, a mesh of
+/// the same view the client decoded. Its depths are reused when `held` is
+/// complete, all planes are asked for, and both lie on one lattice.
+pub fn encode_change(input: MeshInput<'_>, held: &DecodedMesh) -> Result<MeshChange, CompactError> {
+    let (mesh, fresh, reuses_depths) = encode_against(input, Some(held))?;
+    Ok(MeshChange {
+        mesh,
+        reuses_depths,
+        fresh,
+    })
+}
+
+/// The mesh of `input`, whole or (with `held`) as a change: the stream, the
+/// fresh connectivity bits, and whether the held depths are reused.
+fn encode_against(
+    input: MeshInput<'_>,
+    held: Option<&DecodedMesh>,
+) -> Result<(MeshStream, Connectivity, bool), CompactError> {
     let f = input.forest;
     if input.ij.len() != input.depths.len() {
         return Err(CompactError(format!(
@@ -239,16 +260,38 @@ pub fn encode(input: MeshInput<'_>) -> Result<MeshStream, CompactError> {
             input.ij.len()
         )));
     }
+    let context = held
+        .map(|h| connectivity::Context::of(&f, &h.shape))
+        .transpose()
+        .map_err(CompactError)?;
     let corners = corners_of(&input)?;
-    let (connectivity, shape) = connectivity::encode(&f, &corners).map_err(CompactError)?;
+    let (connectivity, fresh, shape) = connectivity::encode(&f, &corners, context.as_ref()).map_err(CompactError)?;
     let depths = depths_in(&input, &shape)?;
-    let code =
-        bitplanes::encode(&f, &shape.vertices, &depths, input.raw_grid, input.planes, None).map_err(CompactError)?;
-    assemble_stream(input, connectivity, code, corners.len())
+    let known = held.filter(|h| h.complete && input.planes.is_none()).and_then(|h| {
+        let lattice = bitplanes::lattice_for(&depths, input.raw_grid);
+        let at = h.depths_at(&shape.vertices);
+        // The reuse holds only if the held depths are these depths' values.
+        let agree = h.lattice == Some(lattice)
+            && at
+                .iter()
+                .zip(&depths)
+                .all(|(h, &z)| h.is_none_or(|h| h == bitplanes::on(lattice, z)));
+        agree.then(|| at.iter().map(Option::is_some).collect::<Vec<bool>>())
+    });
+    let code = bitplanes::encode(
+        &f,
+        &shape.vertices,
+        &depths,
+        input.raw_grid,
+        input.planes,
+        known.as_deref(),
+    )
+    .map_err(CompactError)?;
+    let stream = assemble_stream(input, connectivity, code, corners.len())?;
+    Ok((stream, fresh, known.is_some()))
 }
 
-/// The triangles of `input` as grid points, and its depths in the order
-/// of the `shape` the connectivity coder numbered.
+/// The triangles of `input` as grid points.
 fn corners_of(input: &MeshInput<'_>) -> Result<Vec<[Pt; 3]>, CompactError> {
     let at = |v: u32| -> Result<(u32, u32), CompactError> {
         let (i, j) = *input
@@ -264,6 +307,8 @@ fn corners_of(input: &MeshInput<'_>) -> Result<Vec<[Pt; 3]>, CompactError> {
         .collect()
 }
 
+/// The depths of `input` in the order of the `shape` the connectivity
+/// coder numbered.
 fn depths_in(input: &MeshInput<'_>, shape: &Shape) -> Result<Vec<f32>, CompactError> {
     // The engine's own numbering, unless the mesh came numbered otherwise.
     let same = shape.vertices.len() == input.ij.len()
@@ -284,56 +329,6 @@ fn depths_in(input: &MeshInput<'_>, shape: &Shape) -> Result<Vec<f32>, CompactEr
         .iter()
         .map(|p| depth_at.get(p).copied().ok_or("a drawn vertex has no depth"))
         .collect::<Result<Vec<f32>, _>>()?)
-}
-
-/// Encodes the mesh of `input` as its difference from `held`, a mesh of
-/// the same view the client decoded. Its depths are reused when `held` is
-/// complete, all planes are asked for, and both lie on one lattice.
-pub fn encode_change(input: MeshInput<'_>, held: &DecodedMesh) -> Result<MeshChange, CompactError> {
-    let f = input.forest;
-    if input.ij.len() != input.depths.len() {
-        return Err(CompactError(format!(
-            "{} depths for {} vertices",
-            input.depths.len(),
-            input.ij.len()
-        )));
-    }
-    let context = connectivity::Context::of(&f, &held.shape).map_err(CompactError)?;
-    let corners = corners_of(&input)?;
-    let (connectivity, fresh, shape) =
-        connectivity::encode_against(&f, &corners, Some(&context)).map_err(CompactError)?;
-    let depths = depths_in(&input, &shape)?;
-    let lattice = bitplanes::lattice_for(&depths, input.raw_grid);
-    let mut known = None;
-    if held.complete && input.planes.is_none() && held.lattice == Some(lattice) {
-        let mut slot = std::collections::HashMap::with_capacity(held.shape.vertices.len());
-        for (p, &z) in held.shape.vertices.iter().zip(&held.depths) {
-            slot.insert(*p, z);
-        }
-        let mask: Vec<bool> = shape.vertices.iter().map(|p| slot.contains_key(p)).collect();
-        // The reuse holds only if the held depths are these depths' values.
-        let agree = shape
-            .vertices
-            .iter()
-            .zip(&depths)
-            .all(|(p, &z)| slot.get(p).is_none_or(|&h| h == bitplanes::on(lattice, z)));
-        known = agree.then_some(mask);
-    }
-    let code = bitplanes::encode(
-        &f,
-        &shape.vertices,
-        &depths,
-        input.raw_grid,
-        input.planes,
-        known.as_deref(),
-    )
-    .map_err(CompactError)?;
-    let reuses_depths = known.is_some();
-    Ok(MeshChange {
-        mesh: assemble_stream(input, connectivity, code, corners.len())?,
-        reuses_depths,
-        fresh,
-    })
 }
 
 fn assemble_stream(
@@ -369,6 +364,18 @@ fn assemble_stream(
 }
 
 impl DecodedMesh {
+    /// Its depth at each of `points`, `None` where it has no vertex.
+    fn depths_at(&self, points: &[Pt]) -> Vec<Option<f32>> {
+        let at: std::collections::HashMap<Pt, f32> = self
+            .shape
+            .vertices
+            .iter()
+            .copied()
+            .zip(self.depths.iter().copied())
+            .collect();
+        points.iter().map(|p| at.get(p).copied()).collect()
+    }
+
     /// A mesh as a client holding it decoded it, from the encoder's side:
     /// vertices `ij` with `depths`, `triangles` indexing them, coded on
     /// [`bitplanes::lattice_for`] `raw`. `complete` when the client holds
@@ -455,7 +462,7 @@ impl MeshStream {
             .transpose()
             .map_err(CompactError)?;
         let empty = Connectivity::default();
-        let shape = connectivity::decode_against(
+        let shape = connectivity::decode(
             &f,
             &self.connectivity,
             held.map_or(&empty, |h| h.2),
@@ -470,11 +477,7 @@ impl MeshStream {
                 if !m.complete || m.lattice != self.lattice || self.lattice.is_none() {
                     return Err("the change reuses depths the held mesh does not have".into());
                 }
-                let mut slot = std::collections::HashMap::with_capacity(m.shape.vertices.len());
-                for (p, &z) in m.shape.vertices.iter().zip(&m.depths) {
-                    slot.insert(*p, z);
-                }
-                Some(shape.vertices.iter().map(|p| slot.get(p).copied()).collect())
+                Some(m.depths_at(&shape.vertices))
             }
             _ => None,
         };
