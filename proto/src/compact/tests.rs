@@ -335,7 +335,7 @@ fn culled_spheres_stay_within_their_quantised_ones() {
             [t.sin() * 3.0, t * 0.01, 2.0 + t.cos(), 0.05 + 0.001 * t]
         })
         .collect();
-    let r = compact_reach(&spheres, Some(1.5));
+    let r = reach::compact_reach(&spheres, Some(1.5));
     assert!(r.culled.len() <= MAX_COMPACT_CULLED);
     let stream_culled = MeshStream {
         reach: Some(r),
