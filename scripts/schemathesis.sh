@@ -17,7 +17,7 @@ if [ "$(schemathesis --version 2>/dev/null | awk '{print $NF}')" != "$want" ]; t
 fi
 data=$(mktemp -d)
 log=$(mktemp)
-"$bin" serve --demo --listen 127.0.0.1:0 --data "$data" 2>"$log" &
+"$bin" serve --demo --demo-live-fps 2 --listen 127.0.0.1:0 --data "$data" 2>"$log" &
 server=$!
 trap 'kill $server 2>/dev/null; wait $server 2>/dev/null; rm -rf "$data" "$log"' EXIT
 url=

@@ -13,7 +13,7 @@ out=${1:-docs/walkthrough}
 port=${PORT:-8093}
 cargo build --release -q -p dmesh -p dmesh-client --bins
 data=$(mktemp -d)
-./target/release/dmesh serve --demo --listen "127.0.0.1:$port" --data "$data" --queue-wait-ms 200 >"$data/server.log" 2>&1 &
+./target/release/dmesh serve --demo --demo-live-fps 0 --listen "127.0.0.1:$port" --data "$data" --queue-wait-ms 200 >"$data/server.log" 2>&1 &
 server=$!
 trap 'kill $server 2>/dev/null; rm -rf "$data"' EXIT
 for _ in $(seq 100); do

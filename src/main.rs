@@ -10,6 +10,7 @@
 mod cli;
 mod commands {
     pub mod demo;
+    pub mod demo_live;
     pub mod mesh;
     pub mod serve;
 }

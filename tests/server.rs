@@ -509,11 +509,29 @@ async fn live_frames_are_visible_at_once_and_made_durable_when_due() {
         .await;
         assert_eq!(status, StatusCode::OK, "a live frame is visible at once");
     }
+    // Answers drawn from a live frame say how old it is; others do not.
+    let frame_age = || async {
+        let (status, headers, _) = send(
+            &router,
+            Request::get("/v1/scenes/s/views/cam/strips?epsilon=0.001")
+                .header(header::ACCEPT, "application/json")
+                .body(Body::empty())
+                .unwrap(),
+        )
+        .await;
+        assert_eq!(status, StatusCode::OK);
+        headers
+            .get(dmesh::http::strips::FRAME_AGE)
+            .map(|v| v.to_str().unwrap().parse::<f64>().unwrap())
+    };
+    let age = frame_age().await.expect("a live frame's age");
+    assert!((0.0..60_000.0).contains(&age), "age {age} ms");
     assert_eq!(state.persist_live(hour).unwrap(), 0, "not due yet");
     assert_eq!(state.persist_live(now).unwrap(), 1, "one live view, its latest frame");
     assert_eq!(state.persist_live(now).unwrap(), 0, "nothing left");
     send(&router, frame(true)).await;
     send(&router, frame(false)).await;
+    assert_eq!(frame_age().await, None, "a frame that is not live has no age");
     assert_eq!(
         state.persist_live(now).unwrap(),
         0,

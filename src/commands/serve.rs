@@ -52,9 +52,13 @@ pub struct ServeArgs {
     /// Request timeout, seconds.
     #[arg(long, default_value_t = 30)]
     timeout_secs: u64,
-    /// Ingest the simulated demo scene (scene id `demo`) when it is not stored yet.
+    /// Ingest the simulated demo scene (scene id `demo`) when it is not
+    /// stored yet, and feed the moving scene `demo-live` (one live view).
     #[arg(long)]
     demo: bool,
+    /// With --demo: frames per second of `demo-live` (0: no live scene).
+    #[arg(long, default_value_t = 10.0, requires = "demo")]
+    demo_live_fps: f64,
 }
 
 /// Stores the simulated demo scene's reference views as scene `demo`, unless present.
@@ -116,6 +120,16 @@ pub fn run(a: &ServeArgs) -> Result<()> {
         ingest_demo(store.as_ref())?;
     }
     let state = std::sync::Arc::new(AppState::new(store, settings));
+    if a.demo && a.demo_live_fps != 0.0 {
+        if !(a.demo_live_fps.is_finite() && (0.1..=60.0).contains(&a.demo_live_fps)) {
+            anyhow::bail!("--demo-live-fps must be 0 (off) or 0.1 to 60");
+        }
+        let (state, fps) = (state.clone(), a.demo_live_fps);
+        std::thread::Builder::new()
+            .name("demo-live".into())
+            .spawn(move || super::demo_live::feed(state, fps))
+            .context("starting the demo-live feed")?;
+    }
     let defaults = Pipeline::default();
     let pipeline = Pipeline {
         max_concurrency: a.max_concurrency.unwrap_or(defaults.max_concurrency),

@@ -203,6 +203,7 @@ async fn strips(
 ) -> Result<Response, AppError> {
     let ask = Ask::new(lod, camera, bits)?;
     let loaded = load(&state, &scene, &view).await?;
+    let live_age = loaded.live_age_ms();
     if wants_compact(&headers) {
         // Every compact mesh but a time budget's is a function of the stored
         // view and the request, named by its tag.
@@ -220,6 +221,7 @@ async fn strips(
         let ms = start.elapsed().as_secs_f64() * 1e3;
         let mut out = encode_compact(&body)?;
         server_timing(&mut out, ms, ms);
+        live_frame_age(&mut out, live_age);
         if let (false, Ok(v)) = (etag.is_empty(), etag.parse()) {
             out.headers_mut().insert(header::ETAG, v);
         }
@@ -236,6 +238,7 @@ async fn strips(
     let response = tokio::task::spawn_blocking(move || extract(&st, &scene, &view, &loaded, &ask)).await??;
     let mut out = encode(&headers, &response)?;
     server_timing(&mut out, response.extract_ms, response.extract_ms);
+    live_frame_age(&mut out, live_age);
     if let Some(tag) = etag {
         if let Ok(v) = tag.parse() {
             out.headers_mut().insert(header::ETAG, v);
@@ -307,7 +310,7 @@ pub async fn render(
     let ask = Ask::new(req.lod, requesting, req.bits)?;
     let compact = wants_compact(&headers);
     let st = state.clone();
-    let response = tokio::task::spawn_blocking(move || -> Result<Rendered, AppError> {
+    let (response, live_age) = tokio::task::spawn_blocking(move || -> Result<(Rendered, Option<f64>), AppError> {
         // Select from the cameras alone; only the selected views are loaded.
         let candidates = st.scene_cameras(&scene)?;
         let cameras: Vec<Camera> = candidates.iter().map(|l| l.camera).collect();
@@ -321,6 +324,11 @@ pub async fn render(
                 Ok((w.weight, &listed.name, st.load_listed(&scene, listed)?))
             })
             .collect::<Result<Vec<_>, AppError>>()?;
+        // The youngest live frame among them, read before extracting.
+        let live_age = loaded
+            .iter()
+            .filter_map(|(_, _, l)| l.live_age_ms())
+            .min_by(f64::total_cmp);
         let timings = |t: Instant| Timings {
             select_ms,
             extract_ms: t.elapsed().as_secs_f64() * 1e3,
@@ -344,11 +352,14 @@ pub async fn render(
                     })
                 })
                 .collect::<Result<Vec<_>, AppError>>()?;
-            return Ok(Rendered::Compact(RenderStream {
-                version: dmesh_proto::COMPACT_VERSION,
-                views,
-                timings: timings(t),
-            }));
+            return Ok((
+                Rendered::Compact(RenderStream {
+                    version: dmesh_proto::COMPACT_VERSION,
+                    views,
+                    timings: timings(t),
+                }),
+                live_age,
+            ));
         }
         let views = loaded
             .iter()
@@ -360,11 +371,14 @@ pub async fn render(
                 })
             })
             .collect::<Result<Vec<_>, AppError>>()?;
-        Ok(Rendered::Strips(RenderResponse {
-            version: PROTOCOL_VERSION,
-            views,
-            timings: timings(t),
-        }))
+        Ok((
+            Rendered::Strips(RenderResponse {
+                version: PROTOCOL_VERSION,
+                views,
+                timings: timings(t),
+            }),
+            live_age,
+        ))
     })
     .await??;
     let (mut out, timings) = match &response {
@@ -372,8 +386,21 @@ pub async fn render(
         Rendered::Strips(r) => (encode(&headers, r)?, r.timings),
     };
     server_timing(&mut out, timings.extract_ms, timings.total_ms);
+    live_frame_age(&mut out, live_age);
     Ok(out)
 }
+
+/// `Dmesh-Frame-Age: MS` on an answer drawn from live frames: how long
+/// the youngest had been visible when it was read. A viewer that sees it
+/// keeps asking, and so follows the live view.
+fn live_frame_age(out: &mut Response, age_ms: Option<f64>) {
+    if let Some(v) = age_ms.and_then(|a| format!("{a:.1}").parse().ok()) {
+        out.headers_mut().insert(FRAME_AGE, v);
+    }
+}
+
+/// The header [`live_frame_age`] sets.
+pub const FRAME_AGE: &str = "dmesh-frame-age";
 
 /// A render answer in the encoding the client asked for.
 enum Rendered {

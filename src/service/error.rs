@@ -31,6 +31,26 @@ pub enum AppError {
     Internal(String),
 }
 
+impl std::fmt::Display for AppError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::BadRequest(m)
+            | Self::NotFound(m)
+            | Self::TooLarge(m)
+            | Self::UnsupportedMedia(m)
+            | Self::Undecodable(m)
+            | Self::Conflict(m)
+            | Self::Unavailable(m, _)
+            | Self::Internal(m) => f.write_str(m),
+            Self::MethodNotAllowed => f.write_str("method not allowed"),
+            Self::Timeout => f.write_str("timed out"),
+            Self::Overloaded(after) => write!(f, "overloaded; retry after {after} s"),
+        }
+    }
+}
+
+impl std::error::Error for AppError {}
+
 impl From<crate::Error> for AppError {
     fn from(e: crate::Error) -> Self {
         match e {

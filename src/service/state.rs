@@ -43,6 +43,18 @@ pub struct Loaded {
     pub valid_samples: u64,
     /// The integer grid of the uploaded depth, for lossless residual coding.
     pub raw_grid: Option<dmesh_proto::RawGrid>,
+    /// When this frame became visible, for a live frame (`PUT ...?live=true`)
+    /// this process received; `None` otherwise.
+    pub live_since: Option<std::time::SystemTime>,
+}
+
+impl Loaded {
+    /// Milliseconds since this live frame became visible (`None`: not a
+    /// live frame of this process).
+    pub fn live_age_ms(&self) -> Option<f64> {
+        let since = self.live_since?;
+        Some(since.elapsed().map_or(0.0, |d| d.as_secs_f64() * 1e3))
+    }
 }
 
 impl Loaded {
@@ -74,6 +86,7 @@ impl Loaded {
             content: h.finish(),
             valid_samples: depth.valid_count() as u64,
             raw_grid: v.raw_grid,
+            live_since: None,
             hierarchy,
             camera,
             color: v.color.clone(),
@@ -354,7 +367,10 @@ impl AppState {
             self.unpersisted().remove(&key);
             version
         };
-        let loaded = Arc::new(loaded.at_version(version));
+        let loaded = Arc::new(Loaded {
+            live_since: live.then(std::time::SystemTime::now),
+            ..loaded.at_version(version)
+        });
         {
             let mut c = self.cache();
             self.changes.bump(scene, Some(view));

@@ -4,9 +4,8 @@
 //! run-time"; issue 27).
 //!
 //! Frames come from a folder (depth files in name order, one camera and one
-//! colour image) or from a simulated scene whose objects move: every object
-//! but the planes slides along x by `SWAY_M * sin(2 pi t / PERIOD_S)`, seen
-//! from the scene's first reference camera. Each frame is sent at its due
+//! colour image) or from a simulated scene whose objects move
+//! (`SceneSpec::swayed`), seen from the scene's first reference camera. Each frame is sent at its due
 //! time, or at once when the previous upload ended after it: a late frame is
 //! sent late, never skipped, so the achieved rate says whether the server
 //! keeps up.
@@ -19,10 +18,7 @@ use dmesh_client::http::Server;
 
 use crate::{png, read, scene_spec};
 
-/// How far a simulated scene's objects sway, metres.
-pub const SWAY_M: f64 = 0.3;
-/// The period of the sway, seconds.
-pub const PERIOD_S: f64 = 4.0;
+use dmesh_engine::sim::SWAY_PERIOD_S as PERIOD_S;
 /// Distinct frames of a simulated scene rendered before sending (a period
 /// at most; the sequence repeats them).
 const MAX_SIMULATED: u32 = 120;
@@ -114,10 +110,7 @@ fn simulated(name: &str, fps: f64, count: u32, format: &str) -> Result<Sequence>
     let mut color = Vec::new();
     let mut frames = Vec::with_capacity(distinct as usize);
     for k in 0..distinct {
-        let t = f64::from(k) / fps;
-        let x = SWAY_M * (std::f64::consts::TAU * t / PERIOD_S).sin();
-        let mut moved = spec.clone();
-        moved.objects = spec.objects.iter().map(|o| o.moved([x, 0.0, 0.0])).collect();
+        let moved = spec.swayed(f64::from(k) / fps);
         let view = dmesh_engine::sim::render_view(&moved, &camera, true, u64::from(k))?;
         if k == 0 {
             color = png(view.color.width, view.color.height, &view.color.rgb)?;

@@ -3,7 +3,7 @@
 // blends them on the GPU (renderer.js). The page state lives in the URL:
 //   ?scene=ID&camera=<camera JSON>&tau=1 (or epsilon, max_triangles, budget_ms)
 //   &bits=B&cos_k=K&relight=1|x,y,z&mode=blend|coverage|wireframe&fill=0..2&w=W&h=H
-//   &policy=render|balanced&wire=compact|bincode
+//   &policy=render|balanced&wire=compact|bincode&follow=0|1
 // At most one round of requests is in flight: while it runs, camera moves
 // only mark the state stale, and the latest camera goes out when it returns.
 // Between answers every frame redraws the held meshes from the current
@@ -12,6 +12,9 @@
 // `policy=balanced` (walkthrough.js, Qu et al.'s workload balancing) it is
 // the strips of the frame's holes plus the oldest held meshes that fit one
 // view's worth of triangles, and the held meshes' ages show in the overlay.
+// A render answer drawn from live frames (`PUT ...?live=true`) says so in
+// its `Dmesh-Frame-Age` header; the page then keeps asking (`follow=0`
+// stops it), so the picture follows the live view, and shows the frame's age.
 
 import { MESH } from './compact.js';
 import { BINCODE } from './protocol.js';
@@ -104,7 +107,10 @@ function readUrl() {
   // Meshes travel in the compact stream (protocol 6) unless the URL asks for protocol 5.
   let wire = q.get('wire') || 'compact';
   if (!['compact', 'bincode'].includes(wire)) { problems.push(`wire=${wire}: use compact or bincode`); wire = 'compact'; }
-  return { scene: q.get('scene'), camera, lodKind, lodValue, bits, cosK, light, mode, w, h, fill: fill ?? 2, policy, wire, problems };
+  const followText = q.get('follow') ?? '1';
+  if (!['0', '1'].includes(followText)) problems.push(`follow=${followText}: use 1 (follow live views, the default) or 0`);
+  const follow = followText !== '0';
+  return { scene: q.get('scene'), camera, lodKind, lodValue, bits, cosK, light, mode, w, h, fill: fill ?? 2, policy, wire, follow, problems };
 }
 
 const url = readUrl();
@@ -126,6 +132,8 @@ const state = {
   policy: /** @type {'render' | 'balanced'} */ (url.policy),
   /** How meshes travel. */
   wire: /** @type {'compact' | 'bincode'} */ (url.wire),
+  /** Whether answers drawn from live frames are followed by the next request. */
+  follow: url.follow,
 };
 
 /** The figures the overlay shows; also `window.dmeshStats`. */
@@ -149,6 +157,10 @@ const stats = {
   /** @type {{view: string, age: number}[]} ages of the held meshes drawn */
   ages: [],
   context_restores: 0,
+  /** The youngest live frame drawn: its age when the answer left the server, ms (null: no live frame). */
+  frame_age_ms: /** @type {number | null} */ (null),
+  /** Answers drawn from live frames. */
+  live_frames: 0,
   accum_format: '',
   width: 0,
   height: 0,
@@ -221,6 +233,7 @@ function writeUrl() {
     if (state.h !== null) q.set('h', String(state.h));
     if (state.policy !== 'render') q.set('policy', state.policy);
     if (state.wire !== 'compact') q.set('wire', state.wire);
+    if (!state.follow) q.set('follow', '0');
     history.replaceState(null, '', `${location.pathname}?${q}`);
   }, 150);
 }
@@ -417,8 +430,12 @@ async function update() {
     const bytes = body.byteLength;
     const entries = performance.getEntriesByName(new URL(path, location.href).href);
     const last = /** @type {PerformanceResourceTiming | undefined} */ (entries[entries.length - 1]);
+    const age = r.headers.get('dmesh-frame-age');
+    const live = age !== null && Number.isFinite(Number(age));
     const { response, lines, decodeMs } = await decode(body, format, state.mode === 'wireframe', cam);
     if (response.views.length === 0) throw new Error('The server selected no reference view for this camera: turn towards the scene.');
+    // A live view's colour may have changed with its frame: revalidate it.
+    if (live) for (const v of response.views) fresh.delete(v.color_url);
     for (const v of response.views) await texture(v.color_url);
     if (!renderer || renderer.lost) return;
     renderer.setViews(response.views.map((v, k) => ({ ...v, lines: lines[k] })));
@@ -436,9 +453,27 @@ async function update() {
       width: cam.width,
       height: cam.height,
       camera: cam,
+      frame_age_ms: live ? Number(age) : null,
+      live_frames: stats.live_frames + (live ? 1 : 0),
     });
-    if (done) return;
+    if (done) {
+      if (live && state.follow) follow();
+      return;
+    }
   }
+}
+
+/** Milliseconds between the answer of a live frame and the next request. */
+const FOLLOW_MS = 30;
+let followTimer = 0;
+/** Asks again soon: the live view has moved on, or will. */
+function follow() {
+  clearTimeout(followTimer);
+  followTimer = window.setTimeout(() => {
+    if (!state.follow) return;
+    wanted++;
+    pump();
+  }, FOLLOW_MS);
 }
 
 /**
@@ -796,6 +831,7 @@ function overlay() {
       <tr><td>decode</td><td>${fmt(stats.decode_ms, 2)} ms</td></tr>
       <tr><td>draw</td><td>${fmt(stats.draw_ms, 2)} ms</td></tr>
       <tr><td>frame</td><td>${fmt(stats.frame_ms, 1)} ms</td></tr>
+      ${stats.frame_age_ms !== null ? `<tr><td>live frame age</td><td>${fmt(stats.frame_age_ms, 0)} ms (${stats.live_frames} frames)</td></tr>` : ''}
       <tr><td>canvas</td><td>${stats.width} × ${stats.height} (dpr ${stats.dpr}, ${stats.accum_format})</td></tr>
       ${walkRow}
     </table>`;

@@ -16,7 +16,7 @@ import { ROOT, client, demoNovel, render, startServer, tempDir } from './harness
 
 /** @type {Awaited<ReturnType<typeof startServer>>} */
 let server;
-before(async () => { server = await startServer(['--demo']); });
+before(async () => { server = await startServer(['--demo', '--demo-live-fps', '0']); });
 after(async () => { await server.stop(); });
 
 const out = path.join(ROOT, 'clients/web/test-output');

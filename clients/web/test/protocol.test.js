@@ -13,7 +13,7 @@ import { demoNovel, render, startServer } from './harness.js';
 
 /** @type {Awaited<ReturnType<typeof startServer>>} */
 let server;
-before(async () => { server = await startServer(['--demo']); });
+before(async () => { server = await startServer(['--demo', '--demo-live-fps', '0']); });
 after(async () => { await server.stop(); });
 
 /** @param {ArrayLike<number>} a @param {ArrayLike<number>} b */

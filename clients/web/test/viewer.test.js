@@ -20,7 +20,7 @@ let server;
 /** @type {import('playwright-core').Browser} */
 let browser;
 before(async () => {
-  [server, browser] = await Promise.all([startServer(['--demo']), launch()]);
+  [server, browser] = await Promise.all([startServer(['--demo', '--demo-live-fps', '0']), launch()]);
 });
 after(async () => {
   await browser?.close();
@@ -328,6 +328,42 @@ test('a lost WebGL context comes back with the same picture', async () => {
   await page.close();
 });
 
+test('a live view is followed: its frames are drawn as they land, with their age', async () => {
+  // `serve --demo` feeds demo-live itself: the demo's objects swaying.
+  const live = await startServer(['--demo', '--demo-live-fps', '5']);
+  try {
+    const { page, errors } = await openViewer(browser, viewerUrl(live.url, { scene: 'demo-live', tau: 2, w: 160, h: 120 }));
+    await waitReady(page);
+    const first = await capture(page);
+    const firstStats = await page.evaluate(() => /** @type {any} */ (window).dmeshStats);
+    await page.waitForFunction((n) => /** @type {any} */ (window).dmeshStats.live_frames >= n + 5, firstStats.live_frames, { timeout: 90_000 });
+    await page.waitForTimeout(1000);
+    const later = await capture(page);
+    writePng(path.join(OUT, 'live-first-webgl.png'), first);
+    writePng(path.join(OUT, 'live-later-webgl.png'), later);
+    let changed = 0;
+    for (let k = 0; k < first.covered.length; k++) {
+      const d = [0, 1, 2].some((c) => Math.abs(first.rgb[3 * k + c] - later.rgb[3 * k + c]) > 16);
+      if (d) changed++;
+    }
+    const stats = await page.evaluate(() => /** @type {any} */ (window).dmeshStats);
+    console.log(`live: ${stats.live_frames} frames followed, ${changed} of ${first.covered.length} pixels changed, frame age ${stats.frame_age_ms} ms`);
+    assert.ok(changed > 0.01 * first.covered.length, `the objects moved on screen: ${changed} pixels changed`);
+    assert.ok(Number.isFinite(stats.frame_age_ms) && stats.frame_age_ms >= 0 && stats.frame_age_ms < 10_000, `frame age ${stats.frame_age_ms}`);
+    assert.match(await page.locator('#stats').innerText(), /live frame age\s+\d+ ms/);
+    assert.deepEqual(errors, []);
+    await page.close();
+    // follow=0: the page draws one answer and waits for the user.
+    const { page: still } = await openViewer(browser, viewerUrl(live.url, { scene: 'demo-live', tau: 2, w: 160, h: 120, follow: 0 }));
+    await waitReady(still);
+    await still.waitForTimeout(1500);
+    assert.equal(await still.evaluate(() => /** @type {any} */ (window).dmeshStats.live_frames), 1);
+    await still.close();
+  } finally {
+    await live.stop();
+  }
+});
+
 test('an unknown scene is named in plain words', async () => {
   const { page } = await openViewer(browser, viewerUrl(server.url, { scene: 'no-such-scene', tau: 1 }));
   await page.waitForFunction(() => /** @type {any} */ (window).dmeshStats.error, null, { timeout: 30_000 });
@@ -350,7 +386,7 @@ test('a bad address is reported, not guessed', async () => {
 });
 
 test('a 503 is retried after its Retry-After', async () => {
-  const busy = await startServer(['--demo', '--max-concurrency', '1', '--queue-wait-ms', '1']);
+  const busy = await startServer(['--demo', '--demo-live-fps', '0', '--max-concurrency', '1', '--queue-wait-ms', '1']);
   let flooding = true;
   /** Full-resolution renders back to back: the server's one read slot is nearly always taken. */
   const flood = async () => {

@@ -15,4 +15,4 @@ pub mod rig;
 pub mod spec;
 
 pub use render::{render_view, RenderedView};
-pub use spec::SceneSpec;
+pub use spec::{SceneSpec, SWAY_M, SWAY_PERIOD_S};

@@ -53,6 +53,11 @@ impl Default for Texture {
     }
 }
 
+/// How far [`SceneSpec::swayed`] slides the objects, metres.
+pub const SWAY_M: f64 = 0.3;
+/// The period of [`SceneSpec::swayed`]'s sway, seconds.
+pub const SWAY_PERIOD_S: f64 = 4.0;
+
 impl SceneSpec {
     /// Parses a scene file and checks its numbers.
     pub fn from_json(text: &str) -> crate::Result<Self> {
@@ -85,6 +90,17 @@ impl SceneSpec {
         }
         self.effects.validate()?;
         self.rig.validate()
+    }
+
+    /// The scene at time `t` seconds of a live sequence: every object but
+    /// the planes (the background) slid along x by
+    /// `SWAY_M * sin(2 pi t / SWAY_PERIOD_S)`.
+    pub fn swayed(&self, t: f64) -> Self {
+        let x = SWAY_M * (std::f64::consts::TAU * t / SWAY_PERIOD_S).sin();
+        Self {
+            objects: self.objects.iter().map(|o| o.moved([x, 0.0, 0.0])).collect(),
+            ..self.clone()
+        }
     }
 
     /// The box scene the tests and the demo use: a floor, two boxes,
