@@ -4,8 +4,13 @@
 //! replaced through `PUT` at a fixed rate while 8 clients ask `/render` of
 //! it at tau = 1, for a duration, against the server's stack in process
 //! (two worker threads and the default admission, as `dmesh serve` on this
-//! machine). Frames are PFM (what a depth camera's driver hands over
-//! without compression) with one PNG colour image, encoded before the run.
+//! machine). Each size runs twice: frames as PFM (f32, what a depth
+//! camera's driver hands over without compression) stored durably per
+//! frame, and as 16-bit PGM in millimetres (a depth camera's native
+//! format) sent as live frames (`?live=true`: visible at once, made
+//! durable within `--live-persist-secs`); one PNG colour image, all encoded
+//! before the run. A frame is visible to readers when its `PUT` is
+//! answered, so the upload times are the send-to-visible latencies.
 //!
 //! The uploader sends the next frame at its due time, or at once when the
 //! previous upload ended after it (a late frame is never skipped): the
@@ -49,8 +54,18 @@ fn percentile(v: &mut [f64], q: f64) -> f64 {
     v[((v.len() - 1) as f64 * q).round() as usize]
 }
 
+/// How frames travel.
+#[derive(Clone, Copy)]
+enum Mode {
+    /// PFM, each frame durable before it is answered.
+    Durable,
+    /// 16-bit PGM (millimetres), `?live=true`.
+    Live,
+}
+
 struct Row {
     size: (u32, u32),
+    mode: Mode,
     offered: usize,
     stored: usize,
     failed: usize,
@@ -63,16 +78,29 @@ struct Row {
     render: Report,
 }
 
-fn measure(width: u32, height: u32, seconds: f64, fps: f64, clients: usize) -> anyhow::Result<Row> {
+fn measure(width: u32, height: u32, mode: Mode, seconds: f64, fps: f64, clients: usize) -> anyhow::Result<Row> {
     let (depth, camera) = dmesh::synthetic::terrain_with_boxes(width, height);
     let frames: Vec<Vec<u8>> = (0..FRAMES)
         .map(|k| {
             // Each frame moves the surface by a little: a new image each time.
             let scale = 1.0 + 0.002 * k as f32;
             let z: Vec<f32> = depth.z.iter().map(|&z| z * scale).collect();
-            dmesh::image::encode_pfm(width, height, &z)
+            match mode {
+                Mode::Durable => dmesh::image::encode_pfm(width, height, &z),
+                Mode::Live => {
+                    let mm: Vec<u16> = z
+                        .iter()
+                        .map(|&z| (z * 1000.0).round().clamp(0.0, 65535.0) as u16)
+                        .collect();
+                    dmesh::image::pgm::encode16(width, height, &mm)
+                }
+            }
         })
         .collect();
+    let (fields, live) = match mode {
+        Mode::Durable => (Vec::new(), false),
+        Mode::Live => (vec![("scale", "0.001".to_string())], true),
+    };
     let color = png(width, height)?;
     let cam = serde_json::to_string(&dmesh_proto::Camera::from(&camera))?;
     // One hierarchy build of this size in this process, for the table.
@@ -95,7 +123,9 @@ fn measure(width: u32, height: u32, seconds: f64, fps: f64, clients: usize) -> a
         .build()?;
     let row = client_rt.block_on(async {
         let server = Server::new(&base, None);
-        server.put_view("live", "cam", &cam, &frames[0], &color).await?;
+        server
+            .put_frame("live", "cam", &cam, &frames[0], &color, &fields, live)
+            .await?;
         let novel = orbit(std::slice::from_ref(&camera), 16)?;
         let detail = Detail::default();
         // Warm up: the first renders build the hierarchy.
@@ -104,7 +134,7 @@ fn measure(width: u32, height: u32, seconds: f64, fps: f64, clients: usize) -> a
         let duration = Duration::from_secs_f64(seconds);
         let uploader = {
             let server = Server::new(&base, None);
-            let (frames, color, cam) = (frames.clone(), color.clone(), cam.clone());
+            let (frames, color, cam, fields) = (frames.clone(), color.clone(), cam.clone(), fields.clone());
             tokio::spawn(async move {
                 let interval = Duration::from_secs_f64(1.0 / fps);
                 let start = tokio::time::Instant::now();
@@ -117,7 +147,10 @@ fn measure(width: u32, height: u32, seconds: f64, fps: f64, clients: usize) -> a
                         late += 1;
                     }
                     let t = Instant::now();
-                    match server.put_view("live", "cam", &cam, &frames[k % FRAMES], &color).await {
+                    match server
+                        .put_frame("live", "cam", &cam, &frames[k % FRAMES], &color, &fields, live)
+                        .await
+                    {
                         Ok(_) => times.push(t.elapsed().as_secs_f64() * 1e3),
                         Err(_) => failed += 1,
                     }
@@ -131,6 +164,7 @@ fn measure(width: u32, height: u32, seconds: f64, fps: f64, clients: usize) -> a
         let stored = times.len();
         anyhow::Ok(Row {
             size: (width, height),
+            mode,
             offered,
             stored,
             failed,
@@ -158,8 +192,10 @@ fn main() -> anyhow::Result<()> {
     );
     let mut rows = Vec::new();
     for (w, h) in [(640, 480), (1920, 1080)] {
-        eprintln!("{w} x {h}: {fps} frames/s for {seconds} s, {clients} clients rendering");
-        rows.push(measure(w, h, seconds, fps, clients)?);
+        for mode in [Mode::Durable, Mode::Live] {
+            eprintln!("{w} x {h}: {fps} frames/s for {seconds} s, {clients} clients rendering");
+            rows.push(measure(w, h, mode, seconds, fps, clients)?);
+        }
     }
     println!(
         "\n{} cores ({}); one view replaced by PUT at {fps} frames/s for {seconds} s while {clients} clients /render it at tau = 1 px\n",
@@ -169,15 +205,19 @@ fn main() -> anyhow::Result<()> {
             .and_then(|c| c.lines().find(|l| l.starts_with("model name")).map(|l| l.split(':').nth(1).unwrap_or("").trim().to_string()))
             .unwrap_or_else(|| "unknown CPU".into())
     );
-    println!("| frame | build ms (in process) | frames offered | stored | failed | late | stored/s | upload p50 ms | upload p99 ms | upload max ms | renders/s | render p50 ms | render p99 ms | render shed (503) | keeps up |");
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("| frame | sent as | build ms (in process) | frames offered | stored | failed | late | stored/s | send to visible p50 ms | p99 ms | max ms | renders/s | render p50 ms | render p99 ms | render shed (503) | keeps up |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for r in &rows {
         let shed = r.render.errors_by_status.get(&503).copied().unwrap_or(0);
         let keeps_up = r.failed == 0 && r.upload_p99 < 1e3 / fps && r.achieved_fps >= 0.98 * fps;
         println!(
-            "| {} x {} | {:.1} | {} | {} | {} | {} | {:.1} | {:.1} | {:.1} | {:.1} | {:.0} | {:.1} | {:.1} | {} | {} |",
+            "| {} x {} | {} | {:.1} | {} | {} | {} | {} | {:.1} | {:.1} | {:.1} | {:.1} | {:.0} | {:.1} | {:.1} | {} | {} |",
             r.size.0,
             r.size.1,
+            match r.mode {
+                Mode::Durable => "PFM, durable",
+                Mode::Live => "PGM, live",
+            },
             r.build_ms,
             r.offered,
             r.stored,
