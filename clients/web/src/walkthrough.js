@@ -16,33 +16,47 @@ import { dot, forwardOf, length, quatToMat, sub } from './camera.js';
 /** @typedef {'missing' | 'stale' | 'uncovered'} Hole */
 
 /**
- * The server's selection: views within `maxAngleDeg` of the novel direction,
- * weighted angularly (1 below 45 degrees, cos(beta - 45) above) times
- * positionally (1 / (1 + d / mean d)), heaviest `maxViews`, normalised.
+ * The server's selection (engine/src/scene/selection.rs): every reference
+ * scores its angular term (1 up to a third of the angle limit, then a cosine
+ * falling to 0 at the limit: 135 degrees for DMesh, 40 for the limited set)
+ * times its positional term (1 / (1 + d / mean d over all references)); as
+ * in Unstructured Lumigraph Rendering, a view's weight is its score less
+ * the score of the first view left out (the (k + 1)-th best), normalised.
+ * So weights are continuous in the camera: a view leaves with weight 0.
  * @param {CameraJson} novel @param {CameraJson[]} refs @returns {{index: number, weight: number}[]}
  */
 export function selectViews(novel, refs, maxViews = 5, maxAngleDeg = 135) {
   const n = forwardOf(novel);
   const eye = /** @type {[number, number, number]} */ (novel.pose.translation);
-  const candidates = [];
-  for (let i = 0; i < refs.length; i++) {
-    const beta = (Math.acos(Math.max(-1, Math.min(1, dot(forwardOf(refs[i]), n)))) * 180) / Math.PI;
-    if (beta < maxAngleDeg) candidates.push({ i, beta, d: length(sub(/** @type {[number, number, number]} */ (refs[i].pose.translation), eye)) });
+  const k = Math.max(1, maxViews);
+  const d = refs.map((r) => length(sub(/** @type {[number, number, number]} */ (r.pose.translation), eye)));
+  const mean = refs.length ? d.reduce((s, x) => s + x, 0) / refs.length : 0;
+  const flat = maxAngleDeg / 3;
+  const g = refs.map((r, i) => {
+    const beta = (Math.acos(Math.max(-1, Math.min(1, dot(forwardOf(r), n)))) * 180) / Math.PI;
+    const angular = beta <= flat ? 1 : beta < maxAngleDeg ? Math.max(0, Math.cos(((beta - flat) / (maxAngleDeg - flat)) * (Math.PI / 2))) : 0;
+    const positional = mean > 0 ? 1 / (1 + d[i] / mean) : 1;
+    const score = angular * positional;
+    return Number.isFinite(score) ? score : 0;
+  });
+  const t = [...g].sort((a, b) => b - a)[k] ?? 0;
+  let weighted = g.map((s, index) => ({ index, weight: s - t })).filter((w) => g[w.index] > t);
+  if (!weighted.length) {
+    // The best views tie with the cut: share among the tied best.
+    const best = Math.max(0, ...g);
+    if (best <= 0) return [];
+    weighted = g.map((s, index) => ({ index, weight: 1, s })).filter((w) => w.s === best).slice(0, k).map(({ index, weight }) => ({ index, weight }));
   }
-  if (!candidates.length) return [];
-  const mean = candidates.reduce((s, c) => s + c.d, 0) / candidates.length;
-  const weighted = candidates
-    .map((c) => {
-      const angular = c.beta < 45 ? 1 : Math.max(0, Math.cos(((c.beta - 45) * Math.PI) / 180));
-      const positional = mean > 0 ? 1 / (1 + c.d / mean) : 1;
-      return { index: c.i, weight: angular * positional };
-    })
-    .filter((w) => w.weight > 0 && Number.isFinite(w.weight))
-    .sort((a, b) => b.weight - a.weight || a.index - b.index)
-    .slice(0, Math.max(1, maxViews));
+  weighted.sort((a, b) => b.weight - a.weight || a.index - b.index);
+  // A view with a negligible share is not worth its mesh (the engine's MIN_SHARE).
+  const all = weighted.reduce((s, w) => s + w.weight, 0);
+  weighted = weighted.filter((w) => w.weight >= MIN_SHARE * all);
   const total = weighted.reduce((s, w) => s + w.weight, 0);
   return weighted.map((w) => ({ index: w.index, weight: w.weight / total }));
 }
+
+/** The smallest share of the total weight a selected view carries (as the engine's). */
+export const MIN_SHARE = 1e-4;
 
 /** @param {CameraJson} c */
 const focal = (c) => (c.projection.perspective ? Math.max(c.projection.perspective.fx, c.projection.perspective.fy) : null);

@@ -2,6 +2,7 @@
 // cases as the Rust policy's tests, and its selection against the server's.
 import test from 'node:test';
 import assert from 'node:assert/strict';
+import fs from 'node:fs';
 import { covers, errorFactor, plan, selectViews, widened } from '../src/walkthrough.js';
 import { lookAlong } from '../src/camera.js';
 
@@ -53,4 +54,34 @@ test('selection keeps views within 135 degrees, heaviest first, weights summing 
   assert.ok(sel.every((s) => s.index !== 3));
   assert.equal(sel.length, 3);
   assert.ok(Math.abs(sel.reduce((s, w) => s + w.weight, 0) - 1) < 1e-12);
+});
+
+test('selection gives the engine\'s weights on the shared cases (selection-cases.json)', () => {
+  const { refs, cases } = JSON.parse(fs.readFileSync(new URL('./selection-cases.json', import.meta.url), 'utf8'));
+  assert.ok(cases.length >= 40);
+  for (const c of cases) {
+    const got = selectViews(c.novel, refs, c.max_views, c.max_angle_deg);
+    assert.deepEqual(got.map((w) => w.index), c.weights.map((/** @type {number[]} */ w) => w[0]), JSON.stringify(c.novel.pose));
+    got.forEach((w, k) => assert.ok(Math.abs(w.weight - c.weights[k][1]) <= 1e-12, `${w.weight} against ${c.weights[k][1]}`));
+  }
+});
+
+test('a view leaves the selection with weight 0: no step of an orbit moves more than 0.005 of the weight', () => {
+  const { refs } = JSON.parse(fs.readFileSync(new URL('./selection-cases.json', import.meta.url), 'utf8'));
+  const weights = (/** @type {any} */ novel) => {
+    const w = new Array(refs.length).fill(0);
+    for (const s of selectViews(novel, refs)) w[s.index] = s.weight;
+    return w;
+  };
+  /** @type {number[] | null} */
+  let previous = null;
+  let worst = 0;
+  for (let k = 0; k <= 3600; k++) {
+    const a = (2 * Math.PI * k) / 3600;
+    const eye = [3.3 * Math.sin(a), 1.8, 3.3 * Math.cos(a)];
+    const w = weights(cam(eye, [0 - eye[0], 0.4 - eye[1], 0 - eye[2]].map((v, _, all) => v / Math.hypot(...all))));
+    if (previous) { const p = previous; worst = Math.max(worst, 0.5 * w.reduce((s, x, i) => s + Math.abs(x - p[i]), 0)); }
+    previous = w;
+  }
+  assert.ok(worst <= 0.005, `a 0.1 degree step moves ${worst} of the weight`);
 });

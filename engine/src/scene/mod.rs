@@ -2,4 +2,4 @@
 
 pub mod selection;
 
-pub use selection::{select_views, SelectionRule, Weighted};
+pub use selection::{select_views, selection_spread, SelectionRule, Weighted, MIN_SHARE};

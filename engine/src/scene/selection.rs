@@ -1,17 +1,28 @@
 //! Which reference views serve a novel camera, and with what weights:
 //! DMesh Sec. 6.2 (views whose direction is within 135 degrees of the novel
-//! one) or Verlani et al.'s limited set (within 40 degrees).
+//! one) or Verlani et al.'s limited set (within 40 degrees), weighted as in
+//! Unstructured Lumigraph Rendering (Buehler et al., SIGGRAPH 2001, Sec. 4)
+//! so that the weights are continuous in the camera (DMesh Fig. 22: smooth
+//! rotation, no popping).
 //!
-//! The weight of view `i` is the product of
-//! - the angular weight of DMesh: 1 below 45 degrees between the view
-//!   directions, `cos(beta - 45 deg)` above (so 0 at 135 degrees);
-//! - a positional weight `1 / (1 + d_i / d_mean)`, with `d_i` the distance
-//!   between the reference and novel centres and `d_mean` their mean over the
-//!   candidates (DMesh leaves the function open; this one is scale-free and
-//!   smooth, and 1 for a reference at the novel centre);
+//! Each reference `i` gets a score `g_i`, the product of
+//! - an angular term, DMesh's ramp scaled to the rule's limit `L`: 1 up to
+//!   `L / 3` between the view directions, then `cos` falling to 0 at `L`
+//!   (for DMesh's 135 degrees: 1 below 45, `cos(beta - 45 deg)` above);
+//! - a positional term `1 / (1 + d_i / d_mean)`, with `d_i` the distance
+//!   between the reference and novel centres and `d_mean` its mean over all
+//!   references (scale-free, 1 for a reference at the novel centre).
 //!
-//! normalised to sum to 1. Views with weight 0 are dropped; at most
-//! `max_views` are kept, heaviest first.
+//! Like ULR's penalties, each score is measured against the first one left
+//! out: with `t` the `(k + 1)`-th best score (`k = max_views`; 0 when fewer
+//! views score above 0), the weight is `max(0, g_i - t)`, normalised to sum
+//! to 1. A view's weight so reaches 0 exactly as it leaves the selected
+//! set, at the angle limit or at the cut, and every term is continuous in
+//! the camera. A view whose share would be under [`MIN_SHARE`] is left out
+//! (its mesh is not worth fetching), which moves the weights by at most
+//! that much per view. (The previous rule took `d_mean` over the views inside the
+//! limit and cut at `k` views with their whole weight: steps of up to 0.175
+//! of the total weight per 0.1 degree of an orbit.)
 
 use glam::DVec3;
 
@@ -43,53 +54,108 @@ fn direction(c: &Camera) -> DVec3 {
     (c.rotation * DVec3::Z).normalize_or(DVec3::Z)
 }
 
-/// Selects among `views` for `novel`, keeping at most `max_views`.
-pub fn select_views(novel: &Camera, views: &[Camera], rule: SelectionRule, max_views: usize) -> Result<Vec<Weighted>> {
-    let limit = match rule {
-        SelectionRule::Dmesh { max_angle_deg } if (0.0..=180.0).contains(&max_angle_deg) => max_angle_deg,
-        SelectionRule::Dmesh { max_angle_deg } => {
-            return Err(Error::invalid(format!(
-                "max_angle_deg is {max_angle_deg}; it must be between 0 and 180"
-            )))
-        }
-        SelectionRule::Limited => 40.0,
-    };
-    let n = direction(novel);
-    let candidates: Vec<(usize, f64, f64)> = views
-        .iter()
-        .enumerate()
-        .filter_map(|(i, v)| {
-            let beta = direction(v).dot(n).clamp(-1.0, 1.0).acos().to_degrees();
-            (beta < limit).then(|| (i, beta, (v.translation - novel.translation).length()))
-        })
-        .collect();
-    if candidates.is_empty() {
-        return Ok(Vec::new());
+/// The angle limit of `rule`, degrees.
+fn limit_deg(rule: SelectionRule) -> Result<f64> {
+    match rule {
+        SelectionRule::Dmesh { max_angle_deg } if (0.0..=180.0).contains(&max_angle_deg) => Ok(max_angle_deg),
+        SelectionRule::Dmesh { max_angle_deg } => Err(Error::invalid(format!(
+            "max_angle_deg is {max_angle_deg}; it must be between 0 and 180"
+        ))),
+        SelectionRule::Limited => Ok(40.0),
     }
-    let mean = candidates.iter().map(|c| c.2).sum::<f64>() / candidates.len() as f64;
-    let mut weighted: Vec<Weighted> = candidates
+}
+
+/// Every view's score for `novel` (0 at or beyond the angle limit).
+fn scores(novel: &Camera, views: &[Camera], limit: f64) -> Vec<f64> {
+    let n = direction(novel);
+    let d: Vec<f64> = views
         .iter()
-        .map(|&(index, beta, d)| {
-            let angular = if beta < 45.0 {
+        .map(|v| (v.translation - novel.translation).length())
+        .collect();
+    let mean = d.iter().sum::<f64>() / views.len().max(1) as f64;
+    let flat = limit / 3.0;
+    views
+        .iter()
+        .zip(&d)
+        .map(|(v, &d)| {
+            let beta = direction(v).dot(n).clamp(-1.0, 1.0).acos().to_degrees();
+            let angular = if beta <= flat {
                 1.0
+            } else if beta < limit {
+                ((beta - flat) / (limit - flat) * std::f64::consts::FRAC_PI_2)
+                    .cos()
+                    .max(0.0)
             } else {
-                (beta - 45.0).to_radians().cos().max(0.0)
+                0.0
             };
             let positional = if mean > 0.0 { 1.0 / (1.0 + d / mean) } else { 1.0 };
-            Weighted {
-                index,
-                weight: angular * positional,
+            let g = angular * positional;
+            if g.is_finite() {
+                g
+            } else {
+                0.0
             }
         })
-        .filter(|w| w.weight > 0.0 && w.weight.is_finite())
+        .collect()
+}
+
+/// The score of the first view left out: the `(k + 1)`-th best (0 when
+/// fewer views score above 0).
+fn cut(scores: &[f64], k: usize) -> f64 {
+    let mut sorted = scores.to_vec();
+    sorted.sort_by(|a, b| b.total_cmp(a));
+    sorted.get(k).copied().unwrap_or(0.0)
+}
+
+/// Selects among `views` for `novel`, keeping at most `max_views`.
+pub fn select_views(novel: &Camera, views: &[Camera], rule: SelectionRule, max_views: usize) -> Result<Vec<Weighted>> {
+    let limit = limit_deg(rule)?;
+    let k = max_views.max(1);
+    let g = scores(novel, views, limit);
+    let t = cut(&g, k);
+    let mut weighted: Vec<Weighted> = g
+        .iter()
+        .enumerate()
+        .filter(|&(_, &g)| g > t)
+        .map(|(index, &g)| Weighted { index, weight: g - t })
         .collect();
+    if weighted.is_empty() {
+        // No score stands above the cut: the best views tie (or none scores
+        // above 0). Share the weight among the tied best, at most k.
+        let best = g.iter().copied().fold(0.0, f64::max);
+        if best <= 0.0 {
+            return Ok(Vec::new());
+        }
+        weighted = g
+            .iter()
+            .enumerate()
+            .filter(|&(_, &g)| g == best)
+            .take(k)
+            .map(|(index, _)| Weighted { index, weight: 1.0 })
+            .collect();
+    }
     weighted.sort_by(|a, b| b.weight.total_cmp(&a.weight).then(a.index.cmp(&b.index)));
-    weighted.truncate(max_views.max(1));
+    // A view whose share is negligible (one just entering or leaving) is
+    // not worth its mesh: dropping it moves at most MIN_SHARE per view.
+    let total: f64 = weighted.iter().map(|w| w.weight).sum();
+    weighted.retain(|w| w.weight >= MIN_SHARE * total);
     let total: f64 = weighted.iter().map(|w| w.weight).sum();
     for w in &mut weighted {
         w.weight /= total;
     }
     Ok(weighted)
+}
+
+/// The smallest share of the total weight a selected view carries.
+pub const MIN_SHARE: f64 = 1e-4;
+
+/// How far the selected views' scores stand above the cut, summed: the
+/// denominator of the weights. Small when the best views nearly tie with
+/// the first left out, where the weights change fastest with the camera.
+pub fn selection_spread(novel: &Camera, views: &[Camera], rule: SelectionRule, max_views: usize) -> Result<f64> {
+    let g = scores(novel, views, limit_deg(rule)?);
+    let t = cut(&g, max_views.max(1));
+    Ok(g.iter().map(|&g| (g - t).max(0.0)).sum())
 }
 
 #[cfg(test)]
