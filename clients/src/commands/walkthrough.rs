@@ -41,6 +41,11 @@ pub struct WalkthroughArgs {
     /// A held mesh is refetched once its error bound passes tau times this.
     #[arg(long, default_value_t = dmesh_client::walkthrough::policy::DEFAULT_STALE_FACTOR)]
     pub stale_factor: f64,
+    /// Balanced: a held mesh older than this many frames is refreshed
+    /// before any younger one, past the budget if need be (Qu et al.'s age
+    /// threshold); 0 for no cap.
+    #[arg(long, default_value_t = dmesh_client::walkthrough::policy::DEFAULT_MAX_AGE)]
+    pub max_age: u32,
     /// Guard band: request a frustum wider by this fraction of the image on each side.
     #[arg(long, default_value_t = 0.15)]
     pub guard: f64,
@@ -83,6 +88,7 @@ pub fn run(args: WalkthroughArgs, rt: &tokio::runtime::Runtime) -> Result<()> {
         budget_bytes,
         tau,
         stale_factor,
+        max_age,
         guard,
         bits,
         wire,
@@ -135,6 +141,7 @@ pub fn run(args: WalkthroughArgs, rt: &tokio::runtime::Runtime) -> Result<()> {
                 budget,
                 tau,
                 stale_factor,
+                max_age: (max_age > 0).then_some(max_age),
             };
             let options = walkthrough::Options {
                 guard,

@@ -19,6 +19,14 @@
 //! leaves after the holes' planned cost. The first mesh that does not fit
 //! ends the refresh, so the oldest is never passed over for a cheaper one.
 //!
+//! Nothing is held forever: as Qu et al. (Sec. 3.3) re-render any pixel
+//! older than an age threshold (10 frames), a held mesh older than
+//! [`Policy::max_age`] frames is *over age*. The refresh reaches over-age
+//! meshes first (they are the oldest), and when the budget left cannot pay
+//! for the oldest of them, that one is refreshed all the same: one over-age
+//! mesh per frame at least, so none is held longer than the cap plus the
+//! frames the over-age meshes before it take.
+//!
 //! The three strategies:
 //! - [`Strategy::Full`]: every selected view fetched every frame (what DMesh
 //!   Sec. 7.3, Table 3 measured);
@@ -130,6 +138,9 @@ pub struct Policy {
     pub tau: f64,
     /// A held mesh is a hole once its error bound exceeds `tau` times this.
     pub stale_factor: f64,
+    /// A held mesh older than this many frames is refreshed before any
+    /// younger one, over the budget if need be (`None`: no cap).
+    pub max_age: Option<u32>,
 }
 
 /// The target tolerance of a walkthrough unless told otherwise, pixels.
@@ -137,6 +148,8 @@ pub const DEFAULT_TAU: f64 = 1.0;
 
 /// A held mesh is a hole once its error bound passes `tau` times this, unless told otherwise.
 pub const DEFAULT_STALE_FACTOR: f64 = 1.5;
+/// The age cap unless told otherwise, frames: Qu et al.'s threshold.
+pub const DEFAULT_MAX_AGE: u32 = 10;
 
 impl Policy {
     /// `strategy` under `budget` at [`DEFAULT_TAU`] and [`DEFAULT_STALE_FACTOR`].
@@ -146,6 +159,7 @@ impl Policy {
             budget,
             tau: DEFAULT_TAU,
             stale_factor: DEFAULT_STALE_FACTOR,
+            max_age: Some(DEFAULT_MAX_AGE),
         }
     }
 }
@@ -163,6 +177,8 @@ pub struct Plan {
     pub planned_holes: f64,
     /// Planned cost of the refresh, in the budget's unit.
     pub planned_refresh: f64,
+    /// Whether an over-age mesh was refreshed past the budget.
+    pub over_budget: bool,
 }
 
 impl Plan {
@@ -246,8 +262,13 @@ impl Policy {
                         break;
                     };
                     let c = self.cost(&h.cost);
-                    if c > left {
+                    // The oldest over-age mesh goes whatever is left.
+                    let over_age = self.max_age.is_some_and(|m| h.age > m) && plan.refresh.is_empty();
+                    if c > left && !over_age {
                         break;
+                    }
+                    if c > left {
+                        plan.over_budget = true;
                     }
                     left -= c;
                     plan.planned_refresh += c;
@@ -301,6 +322,60 @@ mod tests {
         assert_eq!(plan.refresh, vec![1, 2]);
         assert_eq!(plan.planned_refresh, 200.0);
         assert!(plan.planned_holes + plan.planned_refresh <= plan.budget.unwrap());
+    }
+
+    #[test]
+    fn an_over_age_mesh_is_refreshed_first_even_past_the_budget() {
+        let p = Policy::new(Strategy::Balanced, Budget::Triangles(250.0));
+        let cam = camera_at(DVec3::ZERO);
+        // The oldest (11 > 10) costs more than the budget: refreshed anyway, alone.
+        let views: Vec<Option<Held>> = [(11, 300.0), (5, 100.0)]
+            .iter()
+            .map(|&(age, t)| Some(held(age, t, Some(10.0), vec![])))
+            .collect();
+        let plan = p.plan(1, &cam, &[0, 1], &views);
+        assert_eq!(plan.refresh, vec![0]);
+        assert!(plan.over_budget);
+        // Without the cap it blocks the refresh, as before.
+        let uncapped = Policy { max_age: None, ..p };
+        assert!(uncapped.plan(1, &cam, &[0, 1], &views).refresh.is_empty());
+        // Within the cap, nothing passes the budget.
+        let young: Vec<Option<Held>> = vec![Some(held(10, 300.0, Some(10.0), vec![]))];
+        assert!(p.plan(1, &cam, &[0], &young).refresh.is_empty());
+    }
+
+    /// Frames of a walkthrough where holes take the whole budget every
+    /// frame: with the cap no held mesh gets older than the cap plus the
+    /// frames the over-age meshes ahead of it take; without it they age
+    /// for ever.
+    #[test]
+    fn no_mesh_is_held_past_the_cap_plus_its_wait() {
+        let cam = camera_at(DVec3::ZERO);
+        for cap in [Some(10), None] {
+            let p = Policy {
+                max_age: cap,
+                ..Policy::new(Strategy::Balanced, Budget::Triangles(100.0))
+            };
+            // Views 0..4 held, view 4 never held (a hole costing the mean, 100: the whole budget).
+            let mut views: Vec<Option<Held>> = (0..4).map(|k| Some(held(k, 100.0, Some(10.0), vec![]))).collect();
+            views.push(None);
+            let mut oldest = 0;
+            for frame in 0..100 {
+                for h in views.iter_mut().flatten() {
+                    h.age += 1;
+                }
+                let plan = p.plan(frame, &cam, &[0, 1, 2, 3, 4], &views);
+                for &v in &plan.refresh {
+                    views[v].as_mut().unwrap().age = 0;
+                }
+                views[4] = None;
+                oldest = oldest.max(views.iter().flatten().map(|h| h.age).max().unwrap());
+            }
+            match cap {
+                Some(cap) => assert!(oldest <= cap + 4, "oldest {oldest}"),
+                None => assert!(oldest >= 100, "without a cap they age: {oldest}"),
+            }
+        }
     }
 
     #[test]

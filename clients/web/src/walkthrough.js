@@ -136,12 +136,18 @@ export function hole(held, cam, tau, staleFactor) {
   return covers(held.reach, cam) ? null : 'uncovered';
 }
 
+/** Rounds a held mesh may age before it is refreshed first (Qu et al.'s threshold). */
+export const MAX_AGE = 10;
+
 /**
  * The fetches of one frame of the balanced strategy: holes, then the oldest
  * held meshes while their triangles fit what `budget` leaves (a missing
  * view planned at the mean held cost). `budget` null: one view's worth, the
- * largest selected held mesh.
- * @param {{camera: CameraJson, selected: number[], held: (Held | null)[], tau: number, staleFactor: number, budget: number | null}} o
+ * largest selected held mesh. A held mesh older than `maxAge` rounds (Qu et
+ * al.'s age threshold; null: no cap) is over age: the oldest of them is
+ * refreshed even when it does not fit, so nothing is held forever (the CPU
+ * client's policy.rs does the same).
+ * @param {{camera: CameraJson, selected: number[], held: (Held | null)[], tau: number, staleFactor: number, budget: number | null, maxAge?: number | null}} o
  */
 export function plan(o) {
   /** @type {[number, Hole][]} */
@@ -160,9 +166,11 @@ export function plan(o) {
   let plannedRefresh = 0;
   const refresh = [];
   kept.sort((a, b) => /** @type {Held} */ (o.held[b]).age - /** @type {Held} */ (o.held[a]).age || a - b);
+  const maxAge = o.maxAge === undefined ? MAX_AGE : o.maxAge;
   for (const v of kept) {
     const h = /** @type {Held} */ (o.held[v]);
-    if (h.age <= 0 || h.triangles > left) break;
+    const overAge = maxAge !== null && h.age > maxAge && refresh.length === 0;
+    if (h.age <= 0 || (h.triangles > left && !overAge)) break;
     left -= h.triangles;
     plannedRefresh += h.triangles;
     refresh.push(v);

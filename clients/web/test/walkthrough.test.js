@@ -47,6 +47,14 @@ test('holes come first and apart; the refresh takes the oldest while they fit', 
   assert.deepEqual(q.refresh, []);
 });
 
+test('an over-age mesh is refreshed first, past the budget if need be; without the cap it waits', () => {
+  const held = (/** @type {number} */ age, /** @type {number} */ t) => ({ age, tau: 1, triangles: t, reach: { view: cam([0, 0, 0]), clearance: 10, culled: [] } });
+  const o = { camera: cam([0, 0, 0]), selected: [0, 1], held: [held(11, 300), held(5, 100)], tau: 1, staleFactor: 1.5, budget: 250 };
+  assert.deepEqual(plan(o).refresh, [0]);
+  assert.deepEqual(plan({ ...o, maxAge: null }).refresh, []);
+  assert.deepEqual(plan({ ...o, held: [held(10, 300), held(5, 100)] }).refresh, []);
+});
+
 test('selection keeps views within 135 degrees, heaviest first, weights summing to 1', () => {
   const refs = [cam([0, 0, 0]), cam([1, 0, 0], [0.5, 0, 0.866]), cam([1, 0, 0], [0.985, 0, -0.174]), cam([0, 0, 0], [0, 0, -1])];
   const sel = selectViews(cam([0.2, 0, 0], [0.174, 0, 0.985]), refs, 5);
