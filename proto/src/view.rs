@@ -26,6 +26,11 @@ pub struct ViewSummary {
     pub build_ms: f64,
     /// Where the colour image is served.
     pub color_url: String,
+    /// Depth `z` of the sample nearest the principal point, metres (`None`
+    /// where it is invalid): what stands in front of the reference, so a
+    /// viewer can start from a reference that sees the scene's centre.
+    #[serde(default)]
+    pub center_depth: Option<f64>,
 }
 
 /// `GET /v1/scenes`.
@@ -73,6 +78,7 @@ mod tests {
                 pose: Pose::default(),
             },
             grid_vertices: 9,
+            center_depth: Some(1.5),
             segmented_triangles: 0,
             valid_samples: 4,
             build_ms: 0.1,

@@ -33,7 +33,21 @@ pub(crate) fn summary(scene: &str, view: &str, l: &Loaded) -> ViewSummary {
         valid_samples: l.valid_samples,
         build_ms: stats.build_ms,
         color_url: color_url(scene, view),
+        center_depth: center_depth(l),
     }
+}
+
+/// Depth of the sample nearest the principal point, if valid.
+fn center_depth(l: &Loaded) -> Option<f64> {
+    use crate::camera::Projection;
+    let (cx, cy) = match l.camera.projection {
+        Projection::Perspective { cx, cy, .. } | Projection::Orthographic { cx, cy, .. } => (cx, cy),
+    };
+    let clamp = |v: f64, n: u32| v.round().clamp(0.0, f64::from(n - 1)) as u32;
+    let z = l
+        .hierarchy
+        .depth((clamp(cx, l.camera.width), clamp(cy, l.camera.height)));
+    (z > 0.0).then_some(f64::from(z))
 }
 
 fn number(name: &str, text: &str) -> Result<f64, AppError> {

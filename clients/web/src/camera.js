@@ -111,26 +111,47 @@ export function lookedAt(cams) {
 }
 
 /**
- * The first camera of a scene: on the load generator's orbit (at the
- * references' mean height and distance from the point they look at), on the
- * side where the references stand (towards their mean centre), facing that
- * point, with the first reference's vertical field of view.
+ * The first camera of a scene, framing the point all references look at
+ * (`lookedAt`) from a reference that sees it: the one whose depth at its
+ * principal point (`centerDepths[i]`, from the view summaries) is nearest
+ * the point's own depth along its axis, so nothing stands between it and
+ * the scene's centre (on a ring of views the first in the listing may stand
+ * behind a wall). The camera steps back from that reference by 15 % to
+ * frame the point, with the reference's vertical field of view. Without
+ * depths it stands on the references' mean side, at their mean height and
+ * distance.
  * @param {CameraJson[]} refs @param {number} width @param {number} height
- * @returns {{camera: CameraJson, target: Vec3}}
+ * @param {(number | null | undefined)[]} [centerDepths]
+ * @returns {{camera: CameraJson, target: Vec3, reference: number | null}}
  */
-export function firstCamera(refs, width, height) {
+export function firstCamera(refs, width, height, centerDepths = []) {
   const target = lookedAt(refs);
-  const radius = refs.reduce((s, c) => s + length(sub(eyeOf(c), target)), 0) / refs.length;
-  const h = refs.reduce((s, c) => s + c.pose.translation[1], 0) / refs.length;
-  const flat = Math.sqrt(Math.max(radius * radius - (h - target[1]) ** 2, radius * radius * 0.25));
-  // On the side the references are: towards their mean centre, else the first's.
-  const mean = scale(refs.reduce((s, c) => add(s, eyeOf(c)), /** @type {Vec3} */ ([0, 0, 0])), 1 / refs.length);
-  let side = sub(mean, target);
-  if (Math.hypot(side[0], side[2]) < 1e-6 * Math.max(radius, 1e-9)) side = sub(eyeOf(refs[0]), target);
-  if (Math.hypot(side[0], side[2]) < 1e-12) side = [0, 0, 1];
-  const d = Math.hypot(side[0], side[2]);
-  const eye = /** @type {Vec3} */ ([target[0] + (flat * side[0]) / d, h, target[2] + (flat * side[2]) / d]);
-  const ref = refs[0];
+  /** @type {number | null} */
+  let reference = null;
+  let best = Infinity;
+  refs.forEach((c, i) => {
+    const z = centerDepths[i];
+    const along = dot(sub(target, eyeOf(c)), forwardOf(c));
+    if (typeof z !== 'number' || !(z > 0) || !(along > 0)) return;
+    const miss = Math.abs(z - along) / along;
+    if (miss < best) { best = miss; reference = i; }
+  });
+  let eye;
+  if (reference !== null) {
+    eye = add(target, scale(sub(eyeOf(refs[reference]), target), 1.15));
+  } else {
+    const radius = refs.reduce((s, c) => s + length(sub(eyeOf(c), target)), 0) / refs.length;
+    const h = refs.reduce((s, c) => s + c.pose.translation[1], 0) / refs.length;
+    const flat = Math.sqrt(Math.max(radius * radius - (h - target[1]) ** 2, radius * radius * 0.25));
+    // On the side the references are: towards their mean centre, else the first's.
+    const mean = scale(refs.reduce((s, c) => add(s, eyeOf(c)), /** @type {Vec3} */ ([0, 0, 0])), 1 / refs.length);
+    let side = sub(mean, target);
+    if (Math.hypot(side[0], side[2]) < 1e-6 * Math.max(radius, 1e-9)) side = sub(eyeOf(refs[0]), target);
+    if (Math.hypot(side[0], side[2]) < 1e-12) side = [0, 0, 1];
+    const d = Math.hypot(side[0], side[2]);
+    eye = /** @type {Vec3} */ ([target[0] + (flat * side[0]) / d, h, target[2] + (flat * side[2]) / d]);
+  }
+  const ref = refs[reference ?? 0];
   const p = ref.projection.perspective;
   const fy = p ? p.fy * (height / ref.height) : height;
   const fx = p ? p.fx * (height / ref.height) : height;
@@ -140,7 +161,7 @@ export function firstCamera(refs, width, height) {
     projection: { perspective: { fx, fy, cx: (width - 1) / 2, cy: (height - 1) / 2 } },
     pose: { rotation: lookAlong(sub(target, eye)), translation: eye },
   };
-  return { camera, target };
+  return { camera, target, reference };
 }
 
 /**

@@ -3,7 +3,10 @@
 // blends them on the GPU (renderer.js). The page state lives in the URL:
 //   ?scene=ID&camera=<camera JSON>&tau=1 (or epsilon, max_triangles, budget_ms)
 //   &bits=B&cos_k=K&relight=1|x,y,z&mode=blend|coverage|wireframe&fill=0..2&w=W&h=H
-//   &policy=render|balanced&wire=compact|bincode&follow=0|1
+//   &policy=render|balanced&wire=compact|bincode&follow=0|1&ui=0
+// The panel collapses to a button (and the key h), starts collapsed in a
+// narrow window, and sits beside the canvas when the window has room for
+// both; `ui=0` hides it, for screenshots and embedding.
 // At most one round of requests is in flight: while it runs, camera moves
 // only mark the state stale, and the latest camera goes out when it returns.
 // Between answers every frame redraws the held meshes from the current
@@ -110,7 +113,10 @@ function readUrl() {
   const followText = q.get('follow') ?? '1';
   if (!['0', '1'].includes(followText)) problems.push(`follow=${followText}: use 1 (follow live views, the default) or 0`);
   const follow = followText !== '0';
-  return { scene: q.get('scene'), camera, lodKind, lodValue, bits, cosK, light, mode, w, h, fill: fill ?? 2, policy, wire, follow, problems };
+  const uiText = q.get('ui') ?? '1';
+  if (!['0', '1'].includes(uiText)) problems.push(`ui=${uiText}: use 0 (no panel) or 1`);
+  const ui = uiText !== '0';
+  return { scene: q.get('scene'), camera, lodKind, lodValue, bits, cosK, light, mode, w, h, fill: fill ?? 2, policy, wire, follow, ui, problems };
 }
 
 const url = readUrl();
@@ -157,6 +163,8 @@ const stats = {
   /** @type {{view: string, age: number}[]} ages of the held meshes drawn */
   ages: [],
   context_restores: 0,
+  /** The reference the first camera was placed from (null: none saw the centre) and the point it frames. */
+  start: /** @type {{reference: string | null, target: number[]} | null} */ (null),
   /** The youngest live frame drawn: its age when the answer left the server, ms (null: no live frame). */
   frame_age_ms: /** @type {number | null} */ (null),
   /** Answers drawn from live frames. */
@@ -234,6 +242,7 @@ function writeUrl() {
     if (state.policy !== 'render') q.set('policy', state.policy);
     if (state.wire !== 'compact') q.set('wire', state.wire);
     if (!state.follow) q.set('follow', '0');
+    if (!url.ui) q.set('ui', '0');
     history.replaceState(null, '', `${location.pathname}?${q}`);
   }, 150);
 }
@@ -697,6 +706,40 @@ new ResizeObserver(() => {
   changed();
 }).observe(stage);
 
+// ---- the panel's place -------------------------------------------------
+
+const panel = $('panel');
+const panelToggle = /** @type {HTMLButtonElement} */ ($('panel-toggle'));
+/** Room the open panel takes on the left, CSS pixels (its width and margins; style.css). */
+const PANEL_SPACE = 306;
+/** The smallest canvas the panel makes room for beside it. */
+const MIN_CANVAS = 320;
+/** Below this window width the panel starts collapsed. */
+const NARROW = 900;
+
+/** Puts the canvas beside the open panel when the window has room for both. */
+function layout() {
+  const open = !panel.hidden && !panel.classList.contains('collapsed');
+  const room = window.innerWidth - PANEL_SPACE >= (state.w ?? MIN_CANVAS);
+  document.body.classList.toggle('beside', open && room);
+}
+/** @param {boolean} open */
+function setPanel(open) {
+  panel.classList.toggle('collapsed', !open);
+  panelToggle.setAttribute('aria-expanded', String(open));
+  panelToggle.textContent = open ? 'hide' : 'panel';
+  layout();
+}
+panel.hidden = !url.ui;
+setPanel(url.ui && window.innerWidth >= NARROW);
+panelToggle.addEventListener('click', () => setPanel(panel.classList.contains('collapsed')));
+window.addEventListener('keydown', (e) => {
+  const t = /** @type {HTMLElement} */ (e.target);
+  if (e.key !== 'h' || e.ctrlKey || e.metaKey || e.altKey || ['INPUT', 'SELECT', 'TEXTAREA'].includes(t.tagName)) return;
+  if (!panel.hidden) setPanel(panel.classList.contains('collapsed'));
+});
+window.addEventListener('resize', layout);
+
 // ---- the panel ---------------------------------------------------------
 
 const sceneSelect = /** @type {HTMLSelectElement} */ ($('scene'));
@@ -869,6 +912,7 @@ async function loadScene() {
     summaries.push(await getJson(`/v1/scenes/${encodeURIComponent(scene)}/views/${encodeURIComponent(v)}`));
   }
   refs = summaries.map((s) => ({ view: s.view, camera: /** @type {CameraJson} */ (s.camera), color_url: s.color_url }));
+  const centerDepths = summaries.map((s) => s.center_depth);
   held.clear();
   renderer?.setViews([]);
   const cams = refs.map((r) => r.camera);
@@ -876,7 +920,8 @@ async function loadScene() {
   fresh.clear();
   if (!state.intrinsics) {
     const { w, h } = size();
-    const first = firstCamera(cams, w, h);
+    const first = firstCamera(cams, w, h, centerDepths);
+    stats.start = { reference: first.reference === null ? null : refs[first.reference].view, target: first.target };
     state.intrinsics = first.camera;
     nav.set(first.camera, distanceTo(first.camera, first.target));
   } else {

@@ -364,6 +364,71 @@ test('a live view is followed: its frames are drawn as they land, with their age
   }
 });
 
+test('every scene opens on a view of it: the first picture is well covered, from a reference that sees the centre', async () => {
+  const scenes = (await (await fetch(`${server.url}/v1/scenes`)).json()).scenes;
+  assert.ok(scenes.includes('demo'));
+  for (const scene of scenes) {
+    for (const [width, height] of [[1280, 800], [720, 540]]) {
+      const { page, errors } = await openViewer(browser, viewerUrl(server.url, { scene, tau: 2 }), { width, height });
+      await waitReady(page);
+      const pic = await capture(page);
+      const covered = count(pic.covered) / (pic.width * pic.height);
+      const stats = await page.evaluate(() => /** @type {any} */ (window).dmeshStats);
+      console.log(`${scene} at ${width} x ${height}: from ${stats.start?.reference}, ${(100 * covered).toFixed(1)} % covered`);
+      // The demo has no sky: above its wall and floor nothing is there to cover.
+      assert.ok(covered > 0.4, `${scene} at ${width} x ${height}: ${(100 * covered).toFixed(1)} % of the first picture covered`);
+      if (scene === 'demo') {
+        // The reference chosen sees the point all look at: its centre depth is that point's.
+        assert.ok(stats.start?.reference, 'a reference saw the centre');
+        const s = await (await fetch(`${server.url}/v1/scenes/demo/views/${stats.start.reference}`)).json();
+        const t = stats.start.target;
+        const eye = s.camera.pose.translation;
+        const dist = Math.hypot(t[0] - eye[0], t[1] - eye[1], t[2] - eye[2]);
+        assert.ok(Math.abs(s.center_depth - dist) / dist < 0.2, `centre depth ${s.center_depth} against ${dist}`);
+        if (width === 1280) writePng(path.join(OUT, 'demo-first-webgl.png'), pic);
+      }
+      assert.deepEqual(errors, []);
+      await page.close();
+    }
+  }
+});
+
+test('the panel never hides the picture when there is room, collapses to a button, and ui=0 hides it', async () => {
+  /** @param {{x: number, y: number, width: number, height: number} | null} a @param {{x: number, y: number, width: number, height: number} | null} b */
+  const overlap = (a, b) => (a && b ? Math.max(0, Math.min(a.x + a.width, b.x + b.width) - Math.max(a.x, b.x)) * Math.max(0, Math.min(a.y + a.height, b.y + b.height) - Math.max(a.y, b.y)) : 0);
+  for (const [width, height] of [[1280, 800], [1100, 600], [720, 540], [390, 700]]) {
+    const { page, errors } = await openViewer(browser, viewerUrl(server.url, { scene: 'demo', tau: 2 }), { width, height });
+    await waitReady(page);
+    const rects = async () => ({ panel: await page.locator('#panel').boundingBox(), canvas: await page.locator('#view').boundingBox() });
+    let { panel, canvas } = await rects();
+    const open = await page.evaluate(() => !document.getElementById('panel')?.classList.contains('collapsed'));
+    assert.ok(canvas && canvas.width * canvas.height > 0.3 * width * height, `${width} x ${height}: the canvas fills the stage`);
+    if (width >= 900) {
+      assert.ok(open, `${width} x ${height}: the panel starts open`);
+      assert.equal(overlap(panel, canvas), 0, `${width} x ${height}: the open panel covers none of the canvas`);
+    } else {
+      assert.ok(!open, `${width} x ${height}: the panel starts collapsed`);
+      assert.ok(overlap(panel, canvas) <= 0.02 * width * height, `${width} x ${height}: the collapsed panel covers at most 2 % of the canvas`);
+    }
+    if (width === 1280) await page.screenshot({ path: path.join(OUT, 'panel-1280x800.png') });
+    // h toggles it; opened with room beside, the canvas moves over.
+    await page.focus('#view');
+    await page.keyboard.press('h');
+    await page.waitForTimeout(200);
+    ({ panel, canvas } = await rects());
+    const toggled = await page.evaluate(() => !document.getElementById('panel')?.classList.contains('collapsed'));
+    assert.equal(toggled, !open, `${width} x ${height}: h toggles the panel`);
+    if (toggled && width - 306 >= 320) assert.equal(overlap(panel, canvas), 0, `${width} x ${height}: opened, it sits beside the canvas`);
+    if (width === 720) await page.screenshot({ path: path.join(OUT, 'panel-720x540.png') });
+    assert.deepEqual(errors, []);
+    await page.close();
+  }
+  const { page } = await openViewer(browser, viewerUrl(server.url, { scene: 'demo', tau: 2, ui: 0 }), { width: 720, height: 540 });
+  await waitReady(page);
+  assert.equal(await page.locator('#panel').boundingBox(), null, 'ui=0: no panel');
+  await page.close();
+});
+
 test('an unknown scene is named in plain words', async () => {
   const { page } = await openViewer(browser, viewerUrl(server.url, { scene: 'no-such-scene', tau: 1 }));
   await page.waitForFunction(() => /** @type {any} */ (window).dmeshStats.error, null, { timeout: 30_000 });
