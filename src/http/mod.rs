@@ -83,7 +83,7 @@ async fn timed_out(error: BoxError) -> AppError {
 }
 
 /// The admission limits: one for reads, one for uploads.
-struct Slots {
+pub struct Slots {
     reads: tokio::sync::Semaphore,
     uploads: tokio::sync::Semaphore,
     wait: Duration,
@@ -94,12 +94,13 @@ struct Slots {
 /// `queue_wait` (a short queue absorbs bursts without letting latency
 /// grow), then is answered 503. Health and metrics are never shed. (A tower
 /// layer on the router would be instantiated per route.)
-async fn shed(State(slots): State<Arc<Slots>>, request: Request, next: Next) -> Response {
+async fn shed(State(slots): State<Arc<Slots>>, mut request: Request, next: Next) -> Response {
     let path = request.uri().path();
     if !path.starts_with("/v1/") {
         return next.run(request).await;
     }
     let class = if request.method() == axum::http::Method::PUT {
+        request.extensions_mut().insert(BuildSlot(slots.clone()));
         &slots.uploads
     } else {
         &slots.reads
@@ -110,6 +111,21 @@ async fn shed(State(slots): State<Arc<Slots>>, request: Request, next: Next) -> 
     match tokio::time::timeout(slots.wait, class.acquire()).await {
         Ok(Ok(_permit)) => next.run(request).await,
         _ => AppError::Overloaded(1).into_response(),
+    }
+}
+
+/// Handed to an upload: its build takes one of the read slots too, once
+/// the body is in, so that while a frame builds the renders hold at most
+/// the other cores and the build has one of its own (a live view keeps its
+/// frame rate while clients render it). It waits its turn behind the reads
+/// already queued, and is never shed: the upload was admitted.
+#[derive(Clone)]
+pub struct BuildSlot(Arc<Slots>);
+
+impl BuildSlot {
+    /// A read slot, held while the permit lives.
+    pub async fn acquire(&self) -> Option<tokio::sync::SemaphorePermit<'_>> {
+        self.0.reads.acquire().await.ok()
     }
 }
 

@@ -131,6 +131,7 @@ pub async fn put_view(
     Path((scene, view)): Path<(String, String)>,
     query: Result<axum::extract::Query<PutQuery>, axum::extract::rejection::QueryRejection>,
     headers: HeaderMap,
+    slot: Option<axum::Extension<super::BuildSlot>>,
     multipart: Result<Multipart, axum::extract::multipart::MultipartRejection>,
 ) -> Result<Response, AppError> {
     let axum::extract::Query(query) = query.map_err(|e| AppError::BadRequest(format!("query: {}", e.body_text())))?;
@@ -158,6 +159,10 @@ pub async fn put_view(
     let st = state.clone();
     let (sc, vw) = (scene.clone(), view.clone());
     let live = query.live;
+    let _core = match &slot {
+        Some(axum::Extension(slot)) => slot.acquire().await,
+        None => None,
+    };
     let loaded = tokio::task::spawn_blocking(move || ingest(&st, &sc, &vw, upload, live)).await??;
     let mut response = encode(&headers, &summary(&scene, &view, &loaded))?;
     *response.status_mut() = StatusCode::CREATED;
