@@ -172,6 +172,27 @@ async fn render_loads_only_the_selected_views_and_sees_store_changes() {
         .await
         .2;
     assert_eq!(loaded(&metrics), 1, "only the selected view is built");
+    // Verlani's limited set keeps only the view within 40 degrees (v0, at
+    // 6; v1 is at 63, v2 at 132), however many are allowed; DMesh's rule
+    // takes the views within 135.
+    let select = |selection: &str| {
+        let body = format!(
+            r#"{{"camera": {}, "lod": {{"tau": 4}}, "max_views": 5, "selection": "{selection}"}}"#,
+            camera_json(0.1, 0.0)
+        );
+        Request::post("/v1/scenes/s/render")
+            .header(header::CONTENT_TYPE, "application/json")
+            .body(Body::from(body))
+            .unwrap()
+    };
+    for (selection, views) in [("limited", 1), ("dmesh", 3)] {
+        let (status, _, body) = send(&router, select(selection)).await;
+        assert_eq!(status, StatusCode::OK, "{}", String::from_utf8_lossy(&body));
+        let r: dmesh_proto::RenderResponse = serde_json::from_slice(&body).unwrap();
+        assert_eq!(r.views.len(), views, "{selection}");
+        assert!(r.views[0].color_url.contains("/v0/"));
+        assert!((r.views.iter().map(|v| v.weight).sum::<f64>() - 1.0).abs() < 1e-9);
+    }
     // Deleting the selected view changes the next selection at once.
     let (status, _, _) = send(
         &router,

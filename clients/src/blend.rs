@@ -320,7 +320,12 @@ pub fn blend_surfaces(novel: &Camera, surfaces: &[Surface<'_>], options: &BlendO
                     let to_novel = (eye - world).normalize_or_zero();
                     let diffuse = nrm.dot(light).max(0.0);
                     let r = 2.0 * nrm.dot(light) * nrm - light;
-                    let specular = r.dot(to_novel).max(0.0).powf(shininess);
+                    // No highlight from a light behind the surface.
+                    let specular = if nrm.dot(light) > 0.0 {
+                        r.dot(to_novel).max(0.0).powf(shininess)
+                    } else {
+                        0.0
+                    };
                     c3 = c3 * (0.3 + 0.7 * diffuse) + DVec3::splat(255.0 * 0.3 * specular);
                 }
                 color[i] += c3 * wgt;
@@ -421,6 +426,108 @@ mod tests {
             },
         ];
         assert_eq!(blend(&novel, &scaled, &BlendOptions::default()).unwrap().rgb, b.rgb);
+    }
+
+    /// The centre pixel's value of a blend of two views of the square at
+    /// depth 2 whose strips are `a` and `b`, textures 40 and 200, equal
+    /// weights.
+    fn centre_of(a: &StripResponse, b: &StripResponse, options: &BlendOptions) -> f64 {
+        let novel = Camera::perspective(16, 16, 16.0, 16.0, 7.5, 7.5).unwrap();
+        let (dark, light) = (flat(40), flat(200));
+        let views = [
+            ViewInput {
+                weight: 0.5,
+                strips: a,
+                texture: &dark,
+            },
+            ViewInput {
+                weight: 0.5,
+                strips: b,
+                texture: &light,
+            },
+        ];
+        f64::from(blend(&novel, &views, options).unwrap().rgb[3 * (8 * 16 + 8)])
+    }
+
+    /// DMesh Sec. 4.2: a sample's quality rho scales its view's weight, so a
+    /// view that sees the surface edge-on counts less.
+    #[test]
+    fn quality_rho_scales_each_views_weight() {
+        let mut oblique = square(2.0);
+        for v in &mut oblique.vertices {
+            v.rho = 64;
+        }
+        let got = centre_of(&square(2.0), &oblique, &BlendOptions::default());
+        let rho = (1.0, 64.0 / 255.0);
+        let want = (rho.0 * 40.0 + rho.1 * 200.0) / (rho.0 + rho.1);
+        assert!((got - want).abs() <= 0.5, "{got} against {want}");
+    }
+
+    /// Verlani's per-pixel weight: a reference whose ray to the surface
+    /// point makes the angle theta with the novel ray weighs cos^k(theta).
+    #[test]
+    fn cos_k_weighs_a_reference_by_its_angle_to_the_novel_ray() {
+        // The plane z = 2 seen by a reference half a metre to the side: its
+        // square still covers the novel view's centre.
+        let side = Camera::new(
+            16,
+            16,
+            dmesh_engine::camera::Projection::Perspective {
+                fx: 16.0,
+                fy: 16.0,
+                cx: 7.5,
+                cy: 7.5,
+            },
+            glam::DQuat::IDENTITY,
+            DVec3::new(0.5, 0.0, 0.0),
+        )
+        .unwrap();
+        let mut shifted = square(2.0);
+        shifted.camera = (&side).into();
+        for (k, cos_k) in [(0.0, None), (4.0, Some(4.0)), (16.0, Some(16.0))] {
+            let got = centre_of(
+                &square(2.0),
+                &shifted,
+                &BlendOptions {
+                    cos_k,
+                    ..Default::default()
+                },
+            );
+            // The centre pixel sees about (0.0625, 0.0625, 2): from the side
+            // reference the ray turns by about atan(1 / 4).
+            let p = DVec3::new(0.5 / 16.0 * 2.0, 0.5 / 16.0 * 2.0, 2.0);
+            let cos = (side.translation - p).normalize().dot((DVec3::ZERO - p).normalize());
+            let w = cos.powf(k);
+            let want = (40.0 + w * 200.0) / (1.0 + w);
+            assert!((got - want).abs() <= 1.0, "k {k}: {got} against {want}");
+        }
+    }
+
+    /// Relighting with the vertex normals: lit head-on a surface keeps its
+    /// texture, lit from behind it keeps the ambient 30 %.
+    #[test]
+    fn relighting_follows_the_normal_and_the_light() {
+        let s = square(2.0);
+        let lit = |light: DVec3| {
+            let novel = Camera::perspective(16, 16, 16.0, 16.0, 7.5, 7.5).unwrap();
+            let t = flat(200);
+            let views = [ViewInput {
+                weight: 1.0,
+                strips: &s,
+                texture: &t,
+            }];
+            let options = BlendOptions {
+                relight: Some((light, 16.0)),
+                ..Default::default()
+            };
+            f64::from(blend(&novel, &views, &options).unwrap().rgb[3 * (8 * 16 + 8)])
+        };
+        // A light along the square's normal lights it fully, one from the
+        // opposite side not at all.
+        let n = oct_decode([128, 128]);
+        let (front, back) = (lit(n), lit(-n));
+        assert!((back - 0.3 * 200.0).abs() <= 1.0, "from behind: {back}");
+        assert!(front >= 200.0 - 1.0, "head-on: {front}");
     }
 
     #[test]

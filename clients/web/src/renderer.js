@@ -124,7 +124,8 @@ void main() {
     vec3 n = normalize(v_normal);
     float nl = dot(n, u_light);
     vec3 r = 2.0 * nl * n - u_light;
-    float spec = pow(max(dot(r, toNovel), 0.0), u_shininess);
+    // No highlight from a light behind the surface.
+    float spec = nl > 0.0 ? pow(max(dot(r, toNovel), 0.0), u_shininess) : 0.0;
     c = c * (0.3 + 0.7 * max(nl, 0.0)) + vec3(0.3 * spec);
   }
   o_accum = vec4(c * w, w);

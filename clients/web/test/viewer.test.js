@@ -120,6 +120,23 @@ test('the demo novel view at tau = 1 matches dmesh-client render', async () => {
   await page.close();
 });
 
+test('relighting in the browser is the CPU client\'s: same light, same picture, unlike the unlit one', async () => {
+  const camera = demoNovel();
+  const { page, errors } = await openViewer(browser, viewerUrl(server.url, { scene: 'demo', camera, tau: 1, w: 256, h: 192, relight: 1 }));
+  await waitReady(page);
+  const gpu = await capture(page);
+  const cpu = await cpuRender(server.url, 'demo', camera, ['--tau', '1', '--relight']);
+  const plain = await cpuRender(server.url, 'demo', camera, ['--tau', '1']);
+  writePng(path.join(OUT, 'demo-relit-webgl.png'), gpu);
+  const same = psnr(gpu, cpu).psnr;
+  const unlit = psnr(gpu, plain).psnr;
+  console.log(`relit: PSNR ${same.toFixed(2)} dB against the CPU's relit picture, ${unlit.toFixed(2)} dB against the unlit one`);
+  assert.ok(same >= 30, `relit PSNR ${same} dB < 30`);
+  assert.ok(unlit < same - 5, `relighting changed the picture: ${unlit} dB against the unlit one`);
+  assert.deepEqual(errors, []);
+  await page.close();
+});
+
 test('the balanced policy draws held meshes with their ages, refreshes within its budget, and matches render per move', async () => {
   const camera = demoNovel();
   const { page, errors } = await openViewer(browser, viewerUrl(server.url, { scene: 'demo', camera, tau: 1, w: 256, h: 192, policy: 'balanced' }));

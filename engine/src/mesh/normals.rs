@@ -257,6 +257,37 @@ mod tests {
         }
     }
 
+    /// DMesh Sec. 4.2: rho is the cosine of the angle between the surface
+    /// normal and the viewing ray. An orthographic camera sees a plane
+    /// tilted by theta along parallel rays, so every interior sample's rho
+    /// is cos(theta), within the byte's rounding.
+    #[test]
+    fn rho_on_a_slanted_plane_is_the_cosine_of_its_tilt() {
+        for deg in [0.0f64, 30.0, 45.0, 60.0, 80.0] {
+            let cam = Camera::orthographic(9, 9, 0.01, 0.01, 4.0, 4.0).unwrap();
+            let grid = Grid::for_image(9, 9);
+            let bp = BackProject::new(&cam, grid.gw(), grid.gh());
+            let mut z = vec![0f32; grid.len()];
+            for y in 0..9u32 {
+                for x in 0..9u32 {
+                    // Tilted about the x axis: depth grows with y.
+                    z[grid.index((x, y))] = (2.0 + f64::from(y) * 0.01 * deg.to_radians().tan()) as f32;
+                }
+            }
+            let (_, rho) = normals_and_quality(&grid, &cam, &bp, &z);
+            let want = f64::from(rho_to_byte(deg.to_radians().cos()));
+            for y in 1..8 {
+                for x in 1..8 {
+                    let got = f64::from(rho[grid.index((x, y))]);
+                    assert!(
+                        (got - want).abs() <= 1.0,
+                        "{deg} degrees at ({x}, {y}): rho {got}, want {want}"
+                    );
+                }
+            }
+        }
+    }
+
     #[test]
     fn a_fronto_parallel_plane_has_full_quality_at_the_centre() {
         let cam = Camera::perspective(5, 5, 100.0, 100.0, 2.0, 2.0).unwrap();

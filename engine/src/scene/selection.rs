@@ -211,6 +211,39 @@ mod tests {
         assert_eq!(one[0].weight, 1.0);
     }
 
+    /// The weights' values, not only their order: scores from the angular
+    /// ramp and the positional term, less the first left out's, normalised.
+    #[test]
+    fn weights_are_the_scores_above_the_cut_normalised() {
+        // Three views at the novel centre (positional term 1) turned 0, 60
+        // and 90 degrees; the limit is 135, the ramp flat to 45.
+        let views = [cam(0.0, 0.0), cam(60.0, 0.0), cam(90.0, 0.0)];
+        let sel = select_views(&cam(0.0, 0.0), &views, SelectionRule::Dmesh { max_angle_deg: 135.0 }, 2).unwrap();
+        let g = |beta: f64| ((beta - 45.0) / 90.0 * std::f64::consts::FRAC_PI_2).cos();
+        let (a, b) = (1.0 - g(90.0), g(60.0) - g(90.0));
+        assert_eq!(sel.len(), 2);
+        assert!((sel[0].weight - a / (a + b)).abs() < 1e-12, "{sel:?}");
+        assert!((sel[1].weight - b / (a + b)).abs() < 1e-12, "{sel:?}");
+        // The positional term: two aligned views, one at the novel centre and
+        // one 2 m away, a third turned 90 degrees at the centre. Mean
+        // distance 2/3: scores 1, 1 / (1 + 3) and cos(45 deg).
+        let views = [cam(0.0, 0.0), cam(0.0, 2.0), cam(90.0, 0.0)];
+        let sel = select_views(&cam(0.0, 0.0), &views, SelectionRule::Dmesh { max_angle_deg: 135.0 }, 1).unwrap();
+        assert_eq!(sel.len(), 1);
+        assert_eq!((sel[0].index, sel[0].weight), (0, 1.0));
+        let all = select_views(&cam(0.0, 0.0), &views, SelectionRule::Dmesh { max_angle_deg: 135.0 }, 5).unwrap();
+        let scores = [1.0, 0.25, g(90.0)];
+        let total: f64 = scores.iter().sum();
+        for w in &all {
+            assert!((w.weight - scores[w.index] / total).abs() < 1e-12, "{all:?}");
+        }
+        // The limited set's ramp: flat to 40 / 3 degrees, 0 at 40.
+        let views = [cam(0.0, 0.0), cam(30.0, 0.0)];
+        let sel = select_views(&cam(0.0, 0.0), &views, SelectionRule::Limited, 5).unwrap();
+        let g30 = ((30.0 - 40.0 / 3.0) / (40.0 - 40.0 / 3.0) * std::f64::consts::FRAC_PI_2).cos();
+        assert!((sel[1].weight - g30 / (1.0 + g30)).abs() < 1e-12, "{sel:?}");
+    }
+
     #[test]
     fn nothing_in_range_selects_nothing_and_bad_angles_are_refused() {
         assert!(
