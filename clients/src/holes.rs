@@ -6,9 +6,16 @@
 //!
 //! An uncovered pixel is filled when, along a row, a column or a diagonal,
 //! covered pixels lie on both sides with at most `max_gap` uncovered pixels
-//! between them (itself included), and their depths differ by at most
-//! `depth_tolerance` (relative) per pixel between them, as on a surface seen
-//! obliquely: the hole is a seam on one surface, not a depth discontinuity. Its colour and depth interpolate those two pixels
+//! between them (itself included), and the hole is a seam on one surface,
+//! not a depth discontinuity: either their depths differ by at most
+//! `depth_tolerance` (relative) per pixel between them, or the surface's
+//! own depth gradient explains the difference. The gradient is read on
+//! each side from the next pixel out; the two sides must agree with each
+//! other, and the step across the gap must match their mean, each within
+//! the same tolerance. So a floor seen at a grazing angle, whose depth
+//! changes faster than the tolerance per pixel, has its seams filled, while
+//! a disocclusion (two surfaces whose gradients do not lead from one to the
+//! other) stays open. Its colour and depth interpolate those two pixels
 //! linearly; of the directions that qualify, the narrowest gap wins (rows
 //! first, then columns, then diagonals). A disocclusion wider than
 //! `max_gap` in every direction, or one beside a depth jump, is left as it
@@ -62,7 +69,19 @@ pub fn fill_small_holes(
                     continue;
                 }
                 let (za, zb) = (f64::from(source_depth[a]), f64::from(source_depth[b]));
-                if (za - zb).abs() > depth_tolerance * (ta + tb) as f64 * za.min(zb) {
+                let tol = depth_tolerance * za.min(zb);
+                let steps = (ta + tb) as f64;
+                // Along +d: b2, b, the gap, a, a2.
+                let beyond = |t: i64| at(x + t * dx, y + t * dy).filter(|&j| covered(j));
+                let follows_gradient = match (beyond(ta + 1), beyond(-tb - 1)) {
+                    (Some(a2), Some(b2)) => {
+                        let sa = f64::from(source_depth[a2]) - za;
+                        let sb = zb - f64::from(source_depth[b2]);
+                        (sa - sb).abs() <= tol && ((za - zb) - 0.5 * (sa + sb) * steps).abs() <= tol * steps
+                    }
+                    _ => false,
+                };
+                if (za - zb).abs() > tol * steps && !follows_gradient {
                     continue;
                 }
                 if best.is_none_or(|(_, _, _, _, g)| width_here < g) {
@@ -128,6 +147,36 @@ mod tests {
         // Nothing to fill with a gap of 0.
         let (mut rgb, mut depth) = image(12, 4, |x, _| (x != 5).then_some((50, 2.0)));
         assert_eq!(fill_small_holes(12, 4, &mut rgb, &mut depth, 0, 0.05), 0);
+    }
+
+    /// A floor at a grazing angle: depth grows 12 % per pixel, more than the
+    /// 5 % the plain rule allows across a seam; its own gradient explains
+    /// the step, so the seam is filled. A disocclusion between two such
+    /// ramps at different depths, or a ramp beside a flat wall, stays open.
+    #[test]
+    fn seams_on_grazing_surfaces_follow_the_gradient_and_disocclusions_stay_open() {
+        let ramp = |x: u32| 2.0 * 1.12f32.powi(x as i32);
+        let (mut rgb, mut depth) = image(12, 1, |x, _| (x != 5).then_some((50, ramp(x))));
+        // The step from x = 4 to x = 6 (0.80 m) is over the plain limit of
+        // 5 % per pixel of the nearer depth (0.31 m).
+        assert!(ramp(6) - ramp(4) > 0.05 * 2.0 * ramp(4));
+        assert_eq!(fill_small_holes(12, 1, &mut rgb, &mut depth, 2, 0.05), 1);
+        assert!(
+            (depth[5] - ramp(5)).abs() < 0.02 * ramp(5),
+            "{} against {}",
+            depth[5],
+            ramp(5)
+        );
+        // The same ramp, but the right side a metre further back.
+        let (mut rgb, mut depth) = image(12, 1, |x, _| {
+            (x != 5).then_some((50, ramp(x) + if x > 5 { 1.0 } else { 0.0 }))
+        });
+        assert_eq!(fill_small_holes(12, 1, &mut rgb, &mut depth, 2, 0.05), 0);
+        // A ramp ending at a flat wall.
+        let (mut rgb, mut depth) = image(12, 1, |x, _| {
+            (x != 5).then_some((50, if x < 5 { ramp(x) } else { 5.0 }))
+        });
+        assert_eq!(fill_small_holes(12, 1, &mut rgb, &mut depth, 2, 0.05), 0);
     }
 
     #[test]

@@ -141,7 +141,8 @@ void main() {
 // Pass 3, with the seam fill of `clients/src/holes.rs`: an uncovered pixel
 // between covered pixels of one surface, at most u_fill pixels of gap along
 // a row, a column or a diagonal (depths within u_fillTol per pixel between
-// them), takes their colour interpolated; the narrowest gap wins, in the
+// them, or the step explained by the surface's own gradient on both sides),
+// takes their colour interpolated; the narrowest gap wins, in the
 // CPU client's order (GL rows run bottom up, so its diagonals swap).
 const NORMALISE = `#version 300 es
 precision highp float;
@@ -182,7 +183,16 @@ void main() {
     }
     if (ta == 0 || tb == 0) continue;
     int gap = ta + tb - 1;
-    if (gap > u_fill || abs(za - zb) > u_fillTol * float(ta + tb) * min(za, zb)) continue;
+    if (gap > u_fill) continue;
+    float tol = u_fillTol * min(za, zb);
+    float steps = float(ta + tb);
+    if (abs(za - zb) > tol * steps) {
+      // Or the surface's own gradient, read one pixel out on each side, explains the step.
+      vec3 c2; float za2, zb2;
+      if (!covered(p + (ta + 1) * d, size, c2, za2) || !covered(p - (tb + 1) * d, size, c2, zb2)) continue;
+      float sa = za2 - za, sb = zb - zb2;
+      if (abs(sa - sb) > tol || abs((za - zb) - 0.5 * (sa + sb) * steps) > tol * steps) continue;
+    }
     if (gap < best) {
       best = gap;
       fill = (ca * float(tb) + cb * float(ta)) / float(ta + tb);
