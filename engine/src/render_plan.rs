@@ -132,6 +132,35 @@ pub fn select(
     select_views(novel, cameras, rule, max_views.map_or(MAX_VIEWS, |m| m as usize))
 }
 
+/// The views of a selection a triangle budget can pay for. Each view gets
+/// `budget * weight` triangles, weights renormalised over the views kept
+/// ([`Ask::share`]); a view whose share is below `coarsest[i]`, the fewest
+/// triangles it can be meshed with, is left out, the lightest first, and
+/// the rest share again. (Weights that fall to 0 continuously as a view
+/// leaves the selection would otherwise give a leaving view a share no mesh
+/// fits.) The heaviest view is always kept: if the budget cannot pay even
+/// for it, its extraction says so. Returns the new weights, 0 for the views
+/// left out, summing to 1 over the rest.
+pub fn afford(weights: &[f64], coarsest: &[u64], budget: f64) -> Vec<f64> {
+    let mut kept: Vec<bool> = weights.iter().map(|&w| w > 0.0).collect();
+    loop {
+        let total: f64 = weights.iter().zip(&kept).filter(|(_, &k)| k).map(|(w, _)| w).sum();
+        let short = (0..weights.len())
+            .filter(|&i| kept[i] && (budget * weights[i] / total).floor() < coarsest[i] as f64)
+            .min_by(|&a, &b| weights[a].total_cmp(&weights[b]));
+        match short {
+            Some(i) if kept.iter().filter(|&&k| k).count() > 1 => kept[i] = false,
+            _ => {
+                return weights
+                    .iter()
+                    .zip(&kept)
+                    .map(|(&w, &k)| if k { w / total } else { 0.0 })
+                    .collect()
+            }
+        }
+    }
+}
+
 /// One view's answer: the encoded response, and what a time budget allowed.
 #[derive(Clone, Debug)]
 pub struct Extracted {
@@ -175,6 +204,19 @@ pub fn extract_mesh(
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn a_budget_leaves_out_the_views_whose_share_no_mesh_fits() {
+        // 1000 triangles over weights 0.6, 0.3995, 0.0005: the last gets
+        // half a triangle, below its coarsest 8; the rest share again.
+        let w = super::afford(&[0.6, 0.3995, 0.0005], &[8, 8, 8], 1000.0);
+        assert_eq!(w[2], 0.0);
+        assert!((w[0] - 0.6 / 0.9995).abs() < 1e-12 && (w.iter().sum::<f64>() - 1.0).abs() < 1e-12);
+        // Everything affordable: unchanged.
+        assert_eq!(super::afford(&[0.5, 0.5], &[8, 8], 1000.0), vec![0.5, 0.5]);
+        // Not even the heaviest: it stays, alone, for its extraction to refuse.
+        assert_eq!(super::afford(&[0.7, 0.3], &[800, 800], 1000.0), vec![1.0, 0.0]);
+    }
+
     use super::*;
 
     fn cam() -> Camera {

@@ -26,25 +26,29 @@ const CAMERA: usize = 4;
 /// a few milliseconds of one core.
 const SIZE: (u32, u32) = (320, 240);
 
-/// Stores the live scene's frames at `fps` until the process ends (run it
-/// on a thread of its own). A frame that cannot be stored is reported and
-/// the feed goes on with the next.
-pub fn feed(state: Arc<AppState>, fps: f64) {
-    match Frames::new(fps) {
-        Ok(mut frames) => {
-            tracing::info!("demo scene: {SCENE} moves at {fps} frames per second (view {VIEW}, live)");
+/// Stores the live scene's first frame, so the scene exists once the
+/// server listens, then a thread that stores the next at `fps` until the
+/// process ends. A frame that cannot be stored is reported and the feed
+/// goes on with the next.
+pub fn start(state: Arc<AppState>, fps: f64) -> Result<()> {
+    let mut frames = Frames::new(fps)?;
+    frames.store(&state, 0)?;
+    tracing::info!("demo scene: {SCENE} moves at {fps} frames per second (view {VIEW}, live)");
+    std::thread::Builder::new()
+        .name("demo-live".into())
+        .spawn(move || {
             let period = Duration::from_secs_f64(1.0 / fps);
             let start = Instant::now();
-            for k in 0u64.. {
+            for k in 1u64.. {
                 let due = start + period.mul_f64(k as f64);
                 std::thread::sleep(due.saturating_duration_since(Instant::now()));
                 if let Err(e) = frames.store(&state, k) {
                     tracing::warn!("{SCENE}: frame {k} not stored: {e:#}");
                 }
             }
-        }
-        Err(e) => tracing::warn!("{SCENE}: not fed: {e:#}"),
-    }
+        })
+        .context("starting the demo-live feed")?;
+    Ok(())
 }
 
 /// One period of frames, rendered as they are first needed.

@@ -124,11 +124,7 @@ pub fn run(a: &ServeArgs) -> Result<()> {
         if !(a.demo_live_fps.is_finite() && (0.1..=60.0).contains(&a.demo_live_fps)) {
             anyhow::bail!("--demo-live-fps must be 0 (off) or 0.1 to 60");
         }
-        let (state, fps) = (state.clone(), a.demo_live_fps);
-        std::thread::Builder::new()
-            .name("demo-live".into())
-            .spawn(move || super::demo_live::feed(state, fps))
-            .context("starting the demo-live feed")?;
+        super::demo_live::start(state.clone(), a.demo_live_fps).context("the demo-live scene")?;
     }
     let defaults = Pipeline::default();
     let pipeline = Pipeline {

@@ -324,6 +324,25 @@ pub async fn render(
                 Ok((w.weight, &listed.name, st.load_listed(&scene, listed)?))
             })
             .collect::<Result<Vec<_>, AppError>>()?;
+        // A budget leaves out the views whose share no mesh of theirs fits.
+        let budget = match req.lod {
+            WireLod::MaxTriangles(m) => Some(f64::from(m)),
+            WireLod::BudgetMs(ms) => Some(ms / st.metrics.ms_per_triangle() / st.metrics.budget_fill()),
+            _ => None,
+        };
+        let loaded = match budget {
+            Some(budget) => {
+                let weights: Vec<f64> = loaded.iter().map(|l| l.0).collect();
+                let coarsest: Vec<u64> = loaded.iter().map(|l| l.2.hierarchy.coarsest_triangles()).collect();
+                render_plan::afford(&weights, &coarsest, budget)
+                    .into_iter()
+                    .zip(loaded)
+                    .filter(|(w, _)| *w > 0.0)
+                    .map(|(w, (_, name, l))| (w, name, l))
+                    .collect()
+            }
+            None => loaded,
+        };
         // The youngest live frame among them, read before extracting.
         let live_age = loaded
             .iter()

@@ -466,23 +466,29 @@ async function update() {
       live_frames: stats.live_frames + (live ? 1 : 0),
     });
     if (done) {
-      if (live && state.follow) follow();
+      if (live && state.follow) follow(performance.now() - Number(age));
       return;
     }
   }
 }
 
-/** Milliseconds between the answer of a live frame and the next request. */
+/** Milliseconds between the answer of a new live frame and the next request. */
 const FOLLOW_MS = 30;
+/** The same, when the answer showed the frame already drawn: the view has not moved on. */
+const FOLLOW_IDLE_MS = 200;
 let followTimer = 0;
-/** Asks again soon: the live view has moved on, or will. */
-function follow() {
+/** When the last live frame drawn became visible, on the page's clock. */
+let lastFrameAt = -Infinity;
+/** Asks again soon: the live view has moved on, or will. @param {number} frameAt when the frame drawn became visible */
+function follow(frameAt) {
+  const same = Math.abs(frameAt - lastFrameAt) < 5;
+  lastFrameAt = frameAt;
   clearTimeout(followTimer);
   followTimer = window.setTimeout(() => {
     if (!state.follow) return;
     wanted++;
     pump();
-  }, FOLLOW_MS);
+  }, same ? FOLLOW_IDLE_MS : FOLLOW_MS);
 }
 
 /**
