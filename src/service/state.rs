@@ -277,10 +277,13 @@ impl AppState {
             .store
             .listing(scene)?
             .ok_or_else(|| AppError::NotFound(format!("no scene {scene:?}")))?;
-        let known = |name: &str, version: &str| {
-            held.as_ref()
-                .and_then(|(h, _)| h.iter().find(|l| l.name == name && l.version == version).cloned())
-        };
+        // What was listed before, by name and version: one pass, not one
+        // search per view.
+        let before_list: HashMap<(&str, &str), &Listed> = held
+            .as_ref()
+            .map(|(h, _)| h.iter().map(|l| ((l.name.as_str(), l.version.as_str()), l)).collect())
+            .unwrap_or_default();
+        let known = |name: &str, version: &str| before_list.get(&(name, version)).map(|l| (*l).clone());
         let mut list = Vec::with_capacity(listing.len());
         for (name, version) in listing {
             if let Some(same) = known(&name, &version) {

@@ -22,9 +22,11 @@
 //! one LIST (a scene; on a server whose listings carry no ETags, s3s-fs
 //! among them, one HEAD per view as well).
 //!
-//! The replaced data object is deleted after the commit, and so is any
-//! other data object of the view older than [`GRACE`] (left by an upload
-//! that failed or lost a race). A reader that read the old manifest just
+//! The replaced data object is deleted after the commit, without a LIST:
+//! the old manifest named it. A view's first upload, and every
+//! [`SWEEP_EVERY`]-th upload of a process, also lists the view's data
+//! objects and deletes those older than [`GRACE`] (left by an upload that
+//! failed or lost a race). A reader that read the old manifest just
 //! before the delete re-reads the manifest. Errors other than "not found"
 //! are [`StoreError::Unavailable`]: requests are retried briefly
 //! ([`RETRIES`], [`RETRY_TIMEOUT`]), then the server answers 503.
@@ -44,6 +46,9 @@ use super::{dmv, validate_id, StoreError, StoredView, Version, ViewStore};
 /// Data objects of a view other than the current one are deleted once this
 /// much older than the newest (an upload in flight is far younger).
 pub const GRACE: Duration = Duration::from_secs(300);
+/// One upload in this many (and a view's first) lists its view's data
+/// objects to delete what failed uploads left; the others LIST nothing.
+pub const SWEEP_EVERY: u64 = 32;
 /// Retries of a failed request before the store is reported unavailable.
 pub const RETRIES: usize = 2;
 /// Longest time spent retrying one request.
@@ -72,6 +77,8 @@ pub struct ObjectViewStore {
     /// (the server's blocking pool, the command line) are not async.
     runtime: Option<tokio::runtime::Runtime>,
     counter: AtomicU64,
+    /// Uploads made, for [`SWEEP_EVERY`].
+    puts: AtomicU64,
     name: String,
 }
 
@@ -191,6 +198,7 @@ impl ObjectViewStore {
             },
             runtime: Some(runtime),
             counter: AtomicU64::new(0),
+            puts: AtomicU64::new(0),
             name: name.to_string(),
         })
     }
@@ -337,7 +345,15 @@ impl ViewStore for ObjectViewStore {
                 None => version_of(&self.store.head(&manifest_path).await.map_err(unavailable)?),
             };
             let replaced = previous.map(|(m, _)| m.data);
-            self.sweep(scene, view, &id, replaced.as_deref()).await;
+            let sweep =
+                replaced.is_none() || self.puts.fetch_add(1, Ordering::Relaxed) % SWEEP_EVERY == SWEEP_EVERY - 1;
+            match replaced {
+                Some(old) if !sweep => {
+                    // Best effort: what fails stays as garbage for a sweep.
+                    let _ = self.remove(&self.data_path(scene, view, &old)).await;
+                }
+                _ => self.sweep(scene, view, &id, replaced.as_deref()).await,
+            }
             Ok(version)
         })
     }
