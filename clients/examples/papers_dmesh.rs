@@ -1,0 +1,140 @@
+//! DMesh's own experiments on its own terms (issue 29, part 2): Table 4
+//! (triangles of static against view-dependent meshes for far, medium and
+//! near cameras) and the strip lengths Sec. 7.2-7.3 report (20-40
+//! triangles per strip static, 15-30 view-dependent). Prints Markdown for
+//! `docs/papers.md`.
+//!
+//! Usage: `cargo run --release -p dmesh-client --example papers_dmesh [-- DATA_DIR]`
+//! (default `../shared/data`; Art is left out when it is missing).
+//!
+//! Everything runs in process on the engine: the demo scene's 16
+//! references, the five the DMesh rule selects for a camera looking at the
+//! scene's centre from 0.5, 1 and 3 times the rig's distance; static meshes
+//! at DMesh's tolerance (epsilon = 1/1000 of the bounding box diagonal,
+//! Table 2), view-dependent ones at tau = 1 px. Times are extraction only,
+//! median of 5, one thread; the paper's rendering times need a GPU, which
+//! this machine does not have.
+
+use std::time::Instant;
+
+use dmesh_engine::camera::Camera;
+use dmesh_engine::image::DepthImage;
+use dmesh_engine::mesh::{DepthMesh, Lod, Mesh};
+use dmesh_engine::scene::{select_views, SelectionRule};
+use dmesh_engine::sim::rig::Rig;
+use dmesh_engine::sim::{render_view, SceneSpec};
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// The mesh of `h` at `lod` and its median extraction time over 5 runs.
+fn timed(h: &DepthMesh, lod: Lod<'_>) -> anyhow::Result<(Mesh, f64)> {
+    let mut times = Vec::new();
+    let mut last = None;
+    for _ in 0..5 {
+        let t = Instant::now();
+        let m = h.extract(lod)?;
+        times.push(t.elapsed().as_secs_f64() * 1e3);
+        last = Some(m);
+    }
+    Ok((last.expect("five runs"), median(times)))
+}
+
+fn per_strip(m: &Mesh) -> f64 {
+    m.triangles.len() as f64 / m.strip_count().max(1) as f64
+}
+
+fn main() -> anyhow::Result<()> {
+    let data = std::path::PathBuf::from(std::env::args().nth(1).unwrap_or_else(|| "../shared/data".into()));
+    let spec = SceneSpec::demo();
+    let views = spec.rig.cameras(spec.width, spec.height, spec.fov_deg)?;
+    let mut meshes = Vec::new();
+    let (mut lo, mut hi) = (glam::DVec3::splat(f64::INFINITY), glam::DVec3::splat(f64::NEG_INFINITY));
+    for (k, cam) in views.iter().enumerate() {
+        let v = render_view(&spec, cam, true, k as u64)?;
+        let depth = DepthImage::from_z(cam.width, cam.height, v.depth.z)?;
+        let h = DepthMesh::build(&depth, cam, &Default::default())?;
+        for y in (0..cam.height).step_by(4) {
+            for x in (0..cam.width).step_by(4) {
+                if h.depth((x, y)) > 0.0 {
+                    let p = cam.to_world(h.position((x, y)));
+                    (lo, hi) = (lo.min(p), hi.max(p));
+                }
+            }
+        }
+        meshes.push(h);
+    }
+    let epsilon = (hi - lo).length() / 1000.0;
+    println!("### Table 4: static against view-dependent meshes\n");
+    println!(
+        "The demo scene's 16 references (256 x 192); the five the DMesh rule selects; static at epsilon = {:.1} mm (1/1000 of the bounding box diagonal, as in Table 2), view-dependent at tau = 1 px. Extraction only, one thread, median of 5.\n",
+        epsilon * 1e3
+    );
+    println!("| range | distance | triangles static | triangles view-dependent | extraction ms static | extraction ms view-dependent | triangles per strip static | view-dependent |");
+    println!("|---|---|---|---|---|---|---|---|");
+    let (radius, height, target) = (3.3, 1.8, [0.0, 0.4, 0.0]);
+    for (name, scale) in [("far", 3.0), ("medium", 1.0), ("near", 0.5)] {
+        let cam: Camera = Rig::Ring {
+            count: 8,
+            radius: radius * scale,
+            heights: vec![target[1] + (height - target[1]) * scale],
+            target,
+        }
+        .cameras(256, 192, spec.fov_deg)?[3];
+        let selected = select_views(&cam, &views, SelectionRule::Dmesh { max_angle_deg: 135.0 }, 5)?;
+        let (mut ts, mut td, mut ms, mut md, mut ss, mut sd) = (0, 0, 0.0, 0.0, 0usize, 0usize);
+        for w in &selected {
+            let h = &meshes[w.index];
+            let (s, t_s) = timed(h, Lod::Epsilon(epsilon))?;
+            let (d, t_d) = timed(h, Lod::Tau { tau: 1.0, view: &cam })?;
+            (ts, td, ms, md) = (ts + s.triangles.len(), td + d.triangles.len(), ms + t_s, md + t_d);
+            (ss, sd) = (ss + s.strip_count(), sd + d.strip_count());
+        }
+        println!(
+            "| {name} | {:.1} m | {ts} | {td} | {ms:.2} | {md:.2} | {:.1} | {:.1} |",
+            radius * scale,
+            ts as f64 / ss.max(1) as f64,
+            td as f64 / sd.max(1) as f64
+        );
+    }
+    println!("\n### Strip lengths by tolerance\n");
+    println!("Triangles per strip of one reference's mesh, static (epsilon as a fraction of a typical depth: 4 m for the demo, the report's depth scale for Art) and view-dependent (tau, the reference's own camera).\n");
+    println!("| scene | tolerance | triangles | strips | triangles per strip |");
+    println!("|---|---|---|---|---|");
+    let mut scenes: Vec<(String, DepthMesh, f64)> = Vec::new();
+    let demo_view = &meshes[4];
+    scenes.push(("demo v04".into(), demo_view.clone(), 4.0));
+    match dmesh_client::report::cases::middlebury(&data, "art") {
+        Ok(case) => {
+            let r = &case.references[0];
+            let h = DepthMesh::build(&r.depth, &r.camera, &Default::default())?;
+            scenes.push(("art (left view)".into(), h, case.depth_scale));
+        }
+        Err(e) => println!("<!-- art left out: {e} -->"),
+    }
+    for (name, h, scale) in &scenes {
+        for rel in [0.001, 0.005, 0.02] {
+            let m = h.extract(Lod::Epsilon(rel * scale))?;
+            println!(
+                "| {name} | epsilon {:.1} % of {scale:.1} m | {} | {} | {:.1} |",
+                rel * 100.0,
+                m.triangles.len(),
+                m.strip_count(),
+                per_strip(&m)
+            );
+        }
+        let cam = *h.camera();
+        for tau in [0.5, 1.0, 4.0] {
+            let m = h.extract(Lod::Tau { tau, view: &cam })?;
+            println!(
+                "| {name} | tau {tau} px | {} | {} | {:.1} |",
+                m.triangles.len(),
+                m.strip_count(),
+                per_strip(&m)
+            );
+        }
+    }
+    Ok(())
+}
