@@ -1,6 +1,7 @@
 //! DMesh's own experiments on its own terms (issue 29, part 2): Table 4
 //! (triangles of static against view-dependent meshes for far, medium and
-//! near cameras) and the strip lengths Sec. 7.2-7.3 report (20-40
+//! near cameras), Table 1's stages (build time per stage) and the strip
+//! lengths Sec. 7.2-7.3 report (20-40
 //! triangles per strip static, 15-30 view-dependent). Prints Markdown for
 //! `docs/papers.md`.
 //!
@@ -97,6 +98,42 @@ fn main() -> anyhow::Result<()> {
             radius * scale,
             ts as f64 / ss.max(1) as f64,
             td as f64 / sd.max(1) as f64
+        );
+    }
+    println!("\n### Table 1's stages: build time per stage\n");
+    println!("One thread, median of 5 builds per scene; strips: a static extraction at 0.5 % of a typical depth, with its strips. DMesh's Table 1 splits its initialisation the same way (back-projection, error metric, normals and rho, segmentation flags, strips).\n");
+    println!("| scene | size | depths onto the grid | normals and rho | segmentation | finest level | coarse levels (exact deviations) | statistics | whole build | strips (extraction) |");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
+    let mut cases: Vec<(String, DepthImage, Camera, f64)> = Vec::new();
+    let (d, c) = dmesh_engine::synthetic::terrain_with_boxes(513, 513);
+    cases.push(("synthetic".into(), d, c, 10.0));
+    for name in ["cones", "art", "reindeer"] {
+        if let Ok(case) = dmesh_client::report::cases::middlebury(&data, name) {
+            let r = &case.references[0];
+            cases.push((name.into(), r.depth.clone(), r.camera, case.depth_scale));
+        }
+    }
+    for (name, depth, cam, scale) in &cases {
+        let mut runs: Vec<(f64, dmesh_engine::mesh::Stages, f64)> = (0..5)
+            .map(|_| {
+                let h = DepthMesh::build_with(depth, cam, &Default::default(), dmesh_engine::mesh::Threads::Single)?;
+                let s = h.stats();
+                let m = h.extract(Lod::Epsilon(0.005 * scale))?;
+                anyhow::Ok((s.build_ms, s.stages, m.extract_ms))
+            })
+            .collect::<anyhow::Result<_>>()?;
+        runs.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let (ms, st, ex) = runs[2];
+        println!(
+            "| {name} | {} x {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {ms:.2} | {ex:.2} |",
+            depth.width,
+            depth.height,
+            st.depths_ms,
+            st.normals_ms,
+            st.flags_ms,
+            st.finest_ms,
+            st.coarse_ms,
+            st.stats_ms
         );
     }
     println!("\n### Strip lengths by tolerance\n");

@@ -78,6 +78,26 @@ pub struct DepthMesh {
     segmented: usize,
     build_peak_bytes: usize,
     build_ms: f64,
+    stages: Stages,
+}
+
+/// Wall-clock milliseconds of a build's stages (DMesh Table 1's split).
+/// With [`Threads::Parallel`] the normals run beside the levels, so the
+/// stages overlap and do not sum to the build.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Stages {
+    /// Depths onto the padded grid (back-projection is per row and column).
+    pub depths_ms: f64,
+    /// Normals and the sampling quality rho.
+    pub normals_ms: f64,
+    /// Segmentation of the full-resolution triangles.
+    pub flags_ms: f64,
+    /// The finest level: flags, errors, radii.
+    pub finest_ms: f64,
+    /// The levels above it, with the exact deviations.
+    pub coarse_ms: f64,
+    /// The border and the error statistics of budgets.
+    pub stats_ms: f64,
 }
 
 /// Threads a build uses. The result does not depend on it.
@@ -134,6 +154,8 @@ struct Passes {
     segmented: usize,
     /// Bytes held only while the passes ran (the helper's deviations).
     scratch_bytes: usize,
+    /// Stage times.
+    stages: Stages,
 }
 
 impl Passes {
@@ -158,10 +180,21 @@ impl Passes {
                 scope.spawn(move || {
                     // The receiver outlives this thread: sending cannot fail.
                     let _ = send.send(coarse_deviations(grid, z));
-                    (!normals_first).then(|| normals_and_quality(&grid, camera, bp, z))
+                    (!normals_first).then(|| {
+                        let t = Instant::now();
+                        let done = normals_and_quality(&grid, camera, bp, z);
+                        (done, t.elapsed().as_secs_f64() * 1e3)
+                    })
                 })
             });
+            let ms = |t: Instant| t.elapsed().as_secs_f64() * 1e3;
+            let mut stages = Stages::default();
+            let t = Instant::now();
             let early = normals_first.then(|| normals_and_quality(&grid, camera, bp, z));
+            if early.is_some() {
+                stages.normals_ms = ms(t);
+            }
+            let t = Instant::now();
             let cells = leaf_flags(
                 &Samples {
                     grid: &grid,
@@ -183,6 +216,7 @@ impl Passes {
                 })
                 .sum();
             let mut flags: Vec<Flags> = cells.into_iter().map(Flags::of_cell).collect();
+            stages.flags_ms = ms(t);
             let mut levels = Levels {
                 grid,
                 camera,
@@ -191,7 +225,10 @@ impl Passes {
                 err2: &mut err2,
                 radius: &mut radius,
             };
+            let t = Instant::now();
             levels.run_finest(&mut flags, zmax);
+            stages.finest_ms = ms(t);
+            let t = Instant::now();
             let join = |job: std::thread::ScopedJoinHandle<'_, _>| {
                 job.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic))
             };
@@ -207,7 +244,11 @@ impl Passes {
                 None => (None, None),
             };
             levels.run_coarse(&mut flags, zmax, deviations.as_deref());
-            let late = job.and_then(join);
+            stages.coarse_ms = ms(t);
+            let late = job.and_then(join).map(|(done, ms)| {
+                stages.normals_ms = ms;
+                done
+            });
             let (normal, rho) = match (early, late) {
                 (Some(done), _) | (None, Some(done)) => done,
                 // Not reached: exactly one of the two computed them.
@@ -221,6 +262,7 @@ impl Passes {
                 radius,
                 segmented,
                 scratch_bytes: deviations.map_or(0, |d| d.capacity() * 8),
+                stages,
             }
         })
     }
@@ -239,6 +281,8 @@ pub struct BuildStats {
     pub build_peak_bytes: usize,
     /// Wall-clock build time.
     pub build_ms: f64,
+    /// Its stages.
+    pub stages: Stages,
 }
 
 impl DepthMesh {
@@ -270,7 +314,9 @@ impl DepthMesh {
         let (gw, gh) = (grid.gw(), grid.gh());
         let bp = BackProject::new(camera, gw, gh);
 
+        let t = Instant::now();
         let z = grid_depths(depth, &grid);
+        let depths_ms = t.elapsed().as_secs_f64() * 1e3;
         let p = Passes::run(&grid, camera, &bp, &z, seg, threads);
         let mut mesh = Self {
             grid,
@@ -286,14 +332,17 @@ impl DepthMesh {
             segmented: p.segmented,
             build_peak_bytes: 0,
             build_ms: 0.0,
+            stages: Stages { depths_ms, ..p.stages },
         };
         // Everything kept was allocated before the levels ran, and the leaf
         // flags became the node flags in place: the peak is what is kept
         // plus the deviations of the coarse levels (the statistics come
         // after).
         mesh.build_peak_bytes = mesh.heap_bytes() + p.scratch_bytes;
+        let t = Instant::now();
         super::border::force_border(&mesh.grid, &mut mesh.err2);
         mesh.stats = ErrorStats::gather(mesh.grid, &mesh.err2);
+        mesh.stages.stats_ms = t.elapsed().as_secs_f64() * 1e3;
         mesh.build_ms = start.elapsed().as_secs_f64() * 1e3;
         tracing::debug!(ms = mesh.build_ms, segmented = mesh.segmented, "built");
         Ok(mesh)
@@ -383,6 +432,7 @@ impl DepthMesh {
             heap_bytes: self.heap_bytes(),
             build_peak_bytes: self.build_peak_bytes,
             build_ms: self.build_ms,
+            stages: self.stages,
         }
     }
 }

@@ -40,7 +40,7 @@ pub mod strips;
 
 pub use extract::{Mesh, MeshVertex};
 pub use grid::Grid;
-pub use hierarchy::{BuildStats, DepthMesh, Threads};
+pub use hierarchy::{BuildStats, DepthMesh, Stages, Threads};
 pub use lod::Lod;
 pub use reach::{Reach, MAX_CULLED};
 pub use segmentation::{Method, Segmentation};
