@@ -169,6 +169,8 @@ const stats = {
   frame_age_ms: /** @type {number | null} */ (null),
   /** Answers drawn from live frames. */
   live_frames: 0,
+  /** Of those, the answers that brought a frame not drawn before. */
+  live_new_frames: 0,
   accum_format: '',
   width: 0,
   height: 0,
@@ -483,6 +485,7 @@ let lastFrameAt = -Infinity;
 function follow(frameAt) {
   const same = Math.abs(frameAt - lastFrameAt) < 5;
   lastFrameAt = frameAt;
+  if (!same) stats.live_new_frames++;
   clearTimeout(followTimer);
   followTimer = window.setTimeout(() => {
     if (!state.follow) return;
