@@ -385,6 +385,17 @@ mod tests {
         }
     }
 
+    /// The tests' 16 x 16 camera (f = 16 px) at a pose.
+    fn camera(rotation: glam::DQuat, eye: DVec3) -> Camera {
+        let p = dmesh_engine::camera::Projection::Perspective {
+            fx: 16.0,
+            fy: 16.0,
+            cx: 7.5,
+            cy: 7.5,
+        };
+        Camera::new(16, 16, p, rotation, eye).unwrap()
+    }
+
     fn flat(value: u8) -> Texture {
         Texture {
             width: 16,
@@ -469,19 +480,7 @@ mod tests {
     fn cos_k_weighs_a_reference_by_its_angle_to_the_novel_ray() {
         // The plane z = 2 seen by a reference half a metre to the side: its
         // square still covers the novel view's centre.
-        let side = Camera::new(
-            16,
-            16,
-            dmesh_engine::camera::Projection::Perspective {
-                fx: 16.0,
-                fy: 16.0,
-                cx: 7.5,
-                cy: 7.5,
-            },
-            glam::DQuat::IDENTITY,
-            DVec3::new(0.5, 0.0, 0.0),
-        )
-        .unwrap();
+        let side = camera(glam::DQuat::IDENTITY, DVec3::new(0.5, 0.0, 0.0));
         let mut shifted = square(2.0);
         shifted.camera = (&side).into();
         for (k, cos_k) in [(0.0, None), (4.0, Some(4.0)), (16.0, Some(16.0))] {
@@ -566,19 +565,7 @@ mod tests {
 
     #[test]
     fn a_view_behind_the_camera_draws_nothing() {
-        let novel = Camera::new(
-            16,
-            16,
-            dmesh_engine::camera::Projection::Perspective {
-                fx: 16.0,
-                fy: 16.0,
-                cx: 7.5,
-                cy: 7.5,
-            },
-            glam::DQuat::from_rotation_y(std::f64::consts::PI),
-            DVec3::ZERO,
-        )
-        .unwrap();
+        let novel = camera(glam::DQuat::from_rotation_y(std::f64::consts::PI), DVec3::ZERO);
         let (s, t) = (square(2.0), flat(99));
         let b = blend(
             &novel,

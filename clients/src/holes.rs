@@ -73,7 +73,7 @@ pub fn fill_small_holes(
                 let steps = (ta + tb) as f64;
                 // Along +d: b2, b, the gap, a, a2.
                 let beyond = |t: i64| at(x + t * dx, y + t * dy).filter(|&j| covered(j));
-                let follows_gradient = match (beyond(ta + 1), beyond(-tb - 1)) {
+                let follows_gradient = || match (beyond(ta + 1), beyond(-tb - 1)) {
                     (Some(a2), Some(b2)) => {
                         let sa = f64::from(source_depth[a2]) - za;
                         let sb = zb - f64::from(source_depth[b2]);
@@ -81,7 +81,8 @@ pub fn fill_small_holes(
                     }
                     _ => false,
                 };
-                if (za - zb).abs() > tol * steps && !follows_gradient {
+                // The gradient is read only where the plain rule refuses.
+                if (za - zb).abs() > tol * steps && !follows_gradient() {
                     continue;
                 }
                 if best.is_none_or(|(_, _, _, _, g)| width_here < g) {

@@ -60,13 +60,19 @@ impl StripQuery {
     }
 }
 
+/// The triangles a time budget of `ms` allows: the server's measured
+/// extraction rate, and as many more as meshes have recently fallen short
+/// of their allowance.
+fn triangles_for_ms(state: &AppState, ms: f64) -> f64 {
+    ms / state.metrics.ms_per_triangle() / state.metrics.budget_fill()
+}
+
 /// One view's mesh for `ask`, with the server's measured extraction rate
 /// turning a time budget into triangles (blocking).
 fn extract_mesh(state: &AppState, loaded: &Loaded, ask: &Ask) -> Result<Mesh, AppError> {
     // A time budget allows as many more triangles as meshes have recently
     // fallen short of their allowance.
-    let (rate, fill) = (state.metrics.ms_per_triangle(), state.metrics.budget_fill());
-    let (mesh, allowed) = render_plan::extract_mesh(&loaded.hierarchy, ask, |ms| ms / rate / fill)?;
+    let (mesh, allowed) = render_plan::extract_mesh(&loaded.hierarchy, ask, |ms| triangles_for_ms(state, ms))?;
     let triangles = mesh.triangles.len();
     state.metrics.extraction(mesh.extract_ms, triangles);
     if let Some(allowed) = allowed {
@@ -327,7 +333,7 @@ pub async fn render(
         // A budget leaves out the views whose share no mesh of theirs fits.
         let budget = match req.lod {
             WireLod::MaxTriangles(m) => Some(f64::from(m)),
-            WireLod::BudgetMs(ms) => Some(ms / st.metrics.ms_per_triangle() / st.metrics.budget_fill()),
+            WireLod::BudgetMs(ms) => Some(triangles_for_ms(&st, ms)),
             _ => None,
         };
         let loaded = match budget {
