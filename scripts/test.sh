@@ -4,7 +4,7 @@
 # check (tsc --checkJs) and its tests in Debian's Chromium against a real
 # `dmesh serve`, the API contract (schemathesis over proto/openapi.yaml
 # against the real server) and the fuzz targets for a few seconds each.
-# Installs Chromium and nginx (apt), the npm packages (package-lock), schemathesis
+# Installs Chromium and haproxy (apt), the npm packages (package-lock), schemathesis
 # and moto_server (pip), s3s-fs and cargo-fuzz (cargo) when they are missing. Ends with one line:
 # `tests: N passed, M failed`.
 set -uo pipefail
@@ -27,10 +27,10 @@ if [ ! -x "$CHROMIUM" ]; then
   [ -x "$CHROMIUM" ] || die "$CHROMIUM is still missing after apt-get install chromium"
 fi
 export CHROMIUM
-if ! command -v nginx >/dev/null 2>&1; then
-  echo "installing nginx (apt)"
-  as_root apt-get update -qq && as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq nginx >/dev/null \
-    || die "could not install nginx: the cluster test needs it"
+if ! command -v haproxy >/dev/null 2>&1; then
+  echo "installing haproxy (apt)"
+  as_root apt-get update -qq && as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq haproxy >/dev/null \
+    || die "could not install haproxy: the cluster test needs it"
 fi
 # Real S3 API servers for the object-store tests: moto (in memory) and
 # s3s-fs (file-backed, for restarts).

@@ -34,18 +34,32 @@ fn dockerfile_matches_the_server_defaults() {
         "HEALTHCHECK must probe /healthz"
     );
     assert!(d.contains("USER dmesh"), "the runtime must not run as root");
-    // Compose: replicas on the default port over the object store, nginx
-    // publishing that port and balancing over every replica.
+    // Compose: replicas on the default port over the object store, each
+    // with its own host name (its replica id), HAProxy publishing that port
+    // and balancing over every replica with health checks.
     let compose = read("docker/compose.yaml");
     assert!(
         compose.contains(&format!("\"0.0.0.0:{port}\", \"--store\"")) && compose.contains(&format!(":{port}:{port}\"")),
         "{compose}"
     );
-    let nginx = read("docker/nginx.conf");
-    assert!(nginx.contains(&format!("listen {port};")) && nginx.contains("hash $scene consistent;"));
+    let haproxy = read("docker/haproxy.cfg");
+    assert!(
+        haproxy.contains(&format!("bind :{port}\n"))
+            && haproxy.contains("hash-type consistent")
+            && haproxy.contains("option httpchk GET /healthz"),
+        "{haproxy}"
+    );
+    assert!(compose.contains("./haproxy.cfg:/usr/local/etc/haproxy/haproxy.cfg"));
     for r in ["dmesh-1", "dmesh-2", "dmesh-3"] {
         assert!(compose.contains(&format!("{r}:")), "compose lacks {r}");
-        assert!(nginx.contains(&format!("server {r}:{port} ")), "nginx.conf lacks {r}");
+        assert!(
+            compose.contains(&format!("hostname: {r}")),
+            "compose gives {r} no host name"
+        );
+        assert!(
+            haproxy.contains(&format!("server {r} {r}:{port} check")),
+            "haproxy.cfg lacks {r}"
+        );
     }
 }
 

@@ -53,11 +53,25 @@ fn seed_of(v: &StoredView) -> u32 {
 fn contract(store: &dyn ViewStore) {
     assert!(store.scenes().unwrap().is_empty());
     assert!(store.listing("s").unwrap().is_none());
+    assert_eq!(store.scene_version("s").unwrap(), None);
+    // Every put and delete changes the scene's version by the time it returns.
+    let mut scene_versions = Vec::new();
+    let mut scene_changed = |store: &dyn ViewStore| {
+        let v = store.scene_version("s").unwrap().expect("the scene exists");
+        assert!(!scene_versions.contains(&v), "the scene's version {v} came back");
+        scene_versions.push(v);
+    };
     let a1 = store.put("s", "a", &view(1)).unwrap();
+    scene_changed(store);
     let b = store.put("s", "b", &view(2)).unwrap();
+    scene_changed(store);
     assert_eq!(store.version("s", "a").unwrap().as_ref(), Some(&a1));
     let a2 = store.put("s", "a", &view(3)).unwrap();
     assert_ne!(a1, a2, "a replace changes the version");
+    scene_changed(store);
+    // Reads change nothing.
+    let now = store.scene_version("s").unwrap();
+    assert_eq!(now, store.scene_version("s").unwrap());
     assert_eq!(store.get("s", "a").unwrap().unwrap(), (view(3), a2.clone()));
     assert_eq!(store.camera("s", "a").unwrap(), Some((view(3).camera, a2.clone())));
     assert_eq!(store.camera("s", "nope").unwrap(), None);
@@ -72,6 +86,7 @@ fn contract(store: &dyn ViewStore) {
     assert!(matches!(store.put("..", "a", &view(1)), Err(StoreError::BadId(_))));
     assert!(matches!(store.get("s", "a/b"), Err(StoreError::BadId(_))));
     assert!(store.delete_view("s", "a").unwrap());
+    scene_changed(store);
     assert!(!store.delete_view("s", "a").unwrap());
     assert!(store.get("s", "a").unwrap().is_none());
     // A scene with no views left still exists, as a directory does.
@@ -80,6 +95,7 @@ fn contract(store: &dyn ViewStore) {
     store.put("t", "x", &view(4)).unwrap();
     assert!(store.delete_scene("s").unwrap());
     assert!(!store.delete_scene("s").unwrap());
+    assert_eq!(store.scene_version("s").unwrap(), None);
     assert_eq!(store.scenes().unwrap(), vec!["t"]);
 }
 
@@ -96,6 +112,14 @@ fn the_object_store_keeps_the_contract_on_moto_and_s3s_fs() {
         contract(&server.store("p"));
         // A store under another prefix of the same bucket sees none of it.
         assert!(server.store("other").scenes().unwrap().is_empty(), "{kind:?}");
+        // A replica's note: kept, replaced, and never taken for a scene.
+        let store = server.store("p");
+        assert_eq!(store.get_note("r1").unwrap(), None);
+        store.put_note("r1", b"[1]").unwrap();
+        store.put_note("r1", b"[2]").unwrap();
+        assert_eq!(store.get_note("r1").unwrap().as_deref(), Some(&b"[2]"[..]), "{kind:?}");
+        assert!(matches!(store.put_note("../x", b""), Err(StoreError::BadId(_))));
+        assert_eq!(store.scenes().unwrap(), vec!["t"], "{kind:?}");
     }
 }
 

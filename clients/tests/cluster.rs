@@ -1,8 +1,8 @@
-//! Replicas over one object store behind nginx, failing the way a deployment
-//! fails: a replica SIGKILLed under load and restarted, a view replaced
-//! through one replica and read through the others. Real components
-//! throughout: `moto_server`, `dmesh serve --store` processes and nginx with
-//! `docker/nginx.conf` (see `cluster_support`).
+//! Replicas over one object store behind HAProxy, failing the way a
+//! deployment fails: a replica SIGKILLed under load and restarted, a view
+//! replaced through one replica and read through the balancer or the
+//! others. Real components throughout: `moto_server`, `dmesh serve --store`
+//! processes and HAProxy with `docker/haproxy.cfg` (see `cluster_support`).
 
 mod cluster_support;
 mod common;
@@ -75,7 +75,7 @@ fn color_of(addr: std::net::SocketAddr, scene: &str, v: &str) -> Vec<u8> {
 #[test]
 fn a_replica_killed_under_load_loses_no_acknowledged_upload_and_p99_recovers() {
     let _one = serial();
-    let mut cluster = Cluster::start(3, 0, true);
+    let mut cluster = Cluster::start(3, None, true);
     let front = cluster.front();
     let base = format!("http://{front}");
     let rt = tokio::runtime::Builder::new_multi_thread()
@@ -160,6 +160,8 @@ fn a_replica_killed_under_load_loses_no_acknowledged_upload_and_p99_recovers() {
     std::thread::sleep(Duration::from_secs_f64(restart_at - kill_at));
     cluster.replicas[owner].restart();
     let restarted = started.elapsed().as_secs_f64();
+    // Healthy only once warm: it built the views it held before the kill.
+    let warm = cluster.replicas[owner].gauge("dmesh_views_loaded");
     let report = rt.block_on(load).unwrap().unwrap();
     stop.store(true, Ordering::Relaxed);
     rt.block_on(uploader).unwrap();
@@ -217,19 +219,37 @@ fn a_replica_killed_under_load_loses_no_acknowledged_upload_and_p99_recovers() {
         v[v.len() / 2]
     };
     let before = median(window(1.0, killed));
-    let level = (3.0 * before).max(before + 150.0);
+    let level = 3.0 * before;
     // Whole seconds of the 14 s run: one with nothing served, or over the
     // level, is not recovered.
     let recovered = (report.seconds.iter())
         .filter(|s| s.at < 14 && (s.requests == s.errors || s.p99_ms > level))
         .map(|s| s.at as f64 + 1.0)
         .fold(restarted, f64::max);
-    println!("p99 before the kill {before:.1} ms; back under {level:.1} ms from {recovered:.0} s");
+    // The failover seconds themselves: the kill (the next replica on the
+    // ring takes the scene over and builds its views, once each) and the
+    // restart (the balancer takes the replica back only once it is warm).
+    let worst = (report.seconds.iter())
+        .filter(|s| (s.at as f64) >= killed.floor() && (s.at as f64) <= restarted + 2.0 && s.requests > 0)
+        .map(|s| s.p99_ms)
+        .fold(0.0, f64::max);
+    println!(
+        "p99 before the kill {before:.1} ms, worst in the failover seconds {worst:.1} ms; back under {level:.1} ms from {recovered:.0} s"
+    );
+    assert!(
+        worst <= level,
+        "p99 reached {worst:.1} ms in the failover seconds, over 3x the steady {before:.1} ms"
+    );
     assert!(
         recovered <= restarted + 5.0,
         "p99 still above {level:.1} ms at {recovered} s (restart at {restarted:.1} s)"
     );
     assert!(report.seconds.len() >= 13 && report.requests > 100, "{report:?}");
+    let views = small_scene().reference_views().unwrap().len() as f64;
+    assert!(
+        warm >= views,
+        "the restarted replica held {warm} views when it said it was healthy, not the scene's {views}"
+    );
 
     // 0 acknowledged uploads lost: each view reads as its last acknowledged
     // upload, or as one attempted after it whose answer was lost.
@@ -255,7 +275,7 @@ fn a_replica_killed_under_load_loses_no_acknowledged_upload_and_p99_recovers() {
 #[test]
 fn a_view_replaced_through_one_replica_is_never_served_old_by_another() {
     let _one = serial();
-    let cluster = Cluster::start(3, 0, false);
+    let cluster = Cluster::start(3, Some(0), false);
     let rt = tokio::runtime::Runtime::new().unwrap();
     let replicas: Vec<_> = cluster.replicas.iter().map(|r| r.addr).collect();
     for round in 0..9u32 {
@@ -280,10 +300,29 @@ fn a_view_replaced_through_one_replica_is_never_served_old_by_another() {
 }
 
 #[test]
-fn with_revalidate_ms_a_replica_serves_a_replaced_view_for_at_most_that_long() {
+fn through_the_balancer_a_read_after_an_acknowledged_write_sees_it() {
     let _one = serial();
-    let staleness = Duration::from_millis(1500);
-    let cluster = Cluster::start(2, staleness.as_millis() as u64, false);
+    let cluster = Cluster::start(3, None, true);
+    let front = cluster.front();
+    let rt = tokio::runtime::Runtime::new().unwrap();
+    let server = Server::new(&format!("http://{front}"), None);
+    for round in 0..12u32 {
+        let scene = format!("ryw{}", round % 4);
+        let (camera, depth, color) = view(round * 104_729);
+        rt.block_on(server.put_view(&scene, "v", &camera, &depth, &color))
+            .unwrap();
+        assert!(
+            color_of(front, &scene, "v") == color,
+            "round {round}: the balancer served an old version of {scene}"
+        );
+    }
+}
+
+#[test]
+fn at_the_defaults_a_replica_serves_a_replaced_view_for_at_most_a_second() {
+    let _one = serial();
+    let staleness = dmesh::http::DEFAULT_REVALIDATE;
+    let cluster = Cluster::start(2, None, false);
     let rt = tokio::runtime::Runtime::new().unwrap();
     let (a, b) = (cluster.replicas[0].addr, cluster.replicas[1].addr);
     let server = Server::new(&format!("http://{a}"), None);
@@ -295,25 +334,31 @@ fn with_revalidate_ms_a_replica_serves_a_replaced_view_for_at_most_that_long() {
     };
     let old = put(1);
     assert!(color_of(b, "stale", "v") == old);
-    let new = put(2);
-    let acked = Instant::now();
-    // B checked its copy moments ago, so it serves it without asking the
-    // store: the cost the setting saves, and the staleness it allows.
-    assert!(color_of(b, "stale", "v") == old, "B revalidated within --revalidate-ms");
-    loop {
-        let read = color_of(b, "stale", "v");
-        if read == new {
-            break;
+    // Rounds: B serves the old view for at most the bound after each
+    // replace is acknowledged (a read counts from when it was sent).
+    let mut seen = Vec::new();
+    let mut new = old;
+    for round in 0..4u32 {
+        let old = color_of(b, "stale", "v");
+        new = put(2 + round);
+        let acked = Instant::now();
+        loop {
+            let sent = Instant::now();
+            let read = color_of(b, "stale", "v");
+            if read == new {
+                break;
+            }
+            assert!(read == old, "B served neither version");
+            assert!(
+                sent.duration_since(acked) <= staleness,
+                "B still served the old view {:?} after the replace",
+                sent.duration_since(acked)
+            );
+            std::thread::sleep(Duration::from_millis(10));
         }
-        assert!(read == old, "B served neither version");
-        assert!(
-            acked.elapsed() <= staleness + Duration::from_millis(500),
-            "B still served the old view {:?} after the replace",
-            acked.elapsed()
-        );
-        std::thread::sleep(Duration::from_millis(20));
+        seen.push(acked.elapsed());
     }
-    println!("B saw the replace after {:?}", acked.elapsed());
+    println!("B saw each replace after {seen:?}");
     // A, which wrote it, never serves the old one.
     assert!(color_of(a, "stale", "v") == new);
 }

@@ -20,10 +20,16 @@ pub struct ServeArgs {
     #[arg(long, value_name = "URL")]
     store: Option<String>,
     /// With --store: the longest a cached view or scene listing is served
-    /// without checking its version in the store (how long another
-    /// replica's replace may go unseen).
-    #[arg(long, default_value_t = 0)]
+    /// without checking its scene's version in the store, which happens in
+    /// the background for scenes in use: how long another replica's replace
+    /// may go unseen. 0 checks on every request.
+    #[arg(long, default_value_t = dmesh::http::DEFAULT_REVALIDATE.as_millis() as u64)]
     revalidate_ms: u64,
+    /// With --store: this replica's id, under which it notes the views it
+    /// holds; restarted with the same id, it builds them before /healthz
+    /// answers 200 [default: HOSTNAME-PORT]. `none`: no note.
+    #[arg(long, value_name = "ID")]
+    replica_id: Option<String>,
     /// The longest a live view's latest frame (`PUT ...?live=true`) waits
     /// before it is made durable; a live frame is visible at once, and a
     /// crash of the machine (not of the process) may lose this much.
@@ -93,6 +99,39 @@ fn ingest_demo(store: &dyn dmesh::store::ViewStore) -> Result<()> {
     Ok(())
 }
 
+/// The replica id: `--replica-id`, or this host's name and the port.
+fn replica_id(a: &ServeArgs) -> Option<Result<String>> {
+    let id = match a.replica_id.as_deref() {
+        Some("none") => return None,
+        Some(id) => id.to_string(),
+        None => {
+            let host = std::env::var("HOSTNAME")
+                .ok()
+                .or_else(|| std::fs::read_to_string("/etc/hostname").ok())
+                .map(|h| h.trim().to_string())
+                .filter(|h| !h.is_empty())
+                .unwrap_or_else(|| "replica".into());
+            let host: String = host
+                .chars()
+                .map(|c| {
+                    if c.is_ascii_alphanumeric() || c == '.' || c == '-' {
+                        c
+                    } else {
+                        '_'
+                    }
+                })
+                .take(56)
+                .collect();
+            format!("{host}-{}", a.listen.port())
+        }
+    };
+    Some(
+        dmesh::store::validate_id("replica", &id)
+            .map(|()| id)
+            .context("--replica-id"),
+    )
+}
+
 pub fn run(a: &ServeArgs) -> Result<()> {
     use dmesh::http::{serve, AppState, Pipeline, Settings};
     use dmesh::store::{FileStore, ObjectViewStore, ViewStore};
@@ -115,6 +154,7 @@ pub fn run(a: &ServeArgs) -> Result<()> {
             .ok()
             .filter(|d| d.as_secs() <= 3600)
             .context("--live-persist-secs must be 0 to 3600 seconds")?,
+        replica: a.store.as_ref().and_then(|_| replica_id(a)).transpose()?,
     };
     if a.demo {
         ingest_demo(store.as_ref())?;

@@ -30,7 +30,7 @@ use axum::{BoxError, Router};
 use tower::ServiceBuilder;
 use tower_http::compression::CompressionLayer;
 
-pub use crate::service::{AppState, Settings};
+pub use crate::service::{AppState, Settings, DEFAULT_REVALIDATE};
 pub use error::AppError;
 
 /// The port `dmesh serve` listens on by default (on 127.0.0.1).
@@ -149,8 +149,14 @@ async fn record(State(state): State<Arc<AppState>>, request: Request, next: Next
     response
 }
 
-async fn healthz() -> &'static str {
-    "ok\n"
+/// 200 `ok`; 503 `warming` while a restarted replica builds the views it
+/// held, so a balancer's health check holds traffic back until then.
+async fn healthz(State(state): State<Arc<AppState>>) -> (axum::http::StatusCode, &'static str) {
+    if state.ready() {
+        (axum::http::StatusCode::OK, "ok\n")
+    } else {
+        (axum::http::StatusCode::SERVICE_UNAVAILABLE, "warming\n")
+    }
 }
 
 async fn metrics_text(State(state): State<Arc<AppState>>) -> Result<Response, AppError> {
@@ -212,6 +218,46 @@ pub async fn serve(addr: SocketAddr, state: Arc<AppState>, pipeline: Pipeline) -
     serve_on(listener, state, pipeline).await
 }
 
+/// Over a shared store: the check of the scenes in use every third of
+/// `revalidate` ([`AppState::revalidate_used`]); with a replica id, the
+/// warm-up from its note and the note kept every [`NOTE_EVERY`].
+fn background_replica_tasks(state: &Arc<AppState>) -> Vec<tokio::task::JoinHandle<()>> {
+    let mut tasks = Vec::new();
+    if !state.store.shared() {
+        return tasks;
+    }
+    let revalidate = state.settings.revalidate;
+    if !revalidate.is_zero() {
+        let state = state.clone();
+        tasks.push(tokio::spawn(async move {
+            let tick = (revalidate / 3).max(Duration::from_millis(20));
+            loop {
+                tokio::time::sleep(tick).await;
+                let st = state.clone();
+                let _ = tokio::task::spawn_blocking(move || st.revalidate_used()).await;
+            }
+        }));
+    }
+    if state.settings.replica.is_some() {
+        let state = state.clone();
+        tasks.push(tokio::spawn(async move {
+            let st = state.clone();
+            let _ = tokio::task::spawn_blocking(move || st.warm()).await;
+            loop {
+                tokio::time::sleep(NOTE_EVERY).await;
+                let st = state.clone();
+                if let Ok(Err(e)) = tokio::task::spawn_blocking(move || st.keep_note()).await {
+                    tracing::warn!(error = ?e, "keeping this replica's note");
+                }
+            }
+        }));
+    }
+    tasks
+}
+
+/// How often a replica notes the views it holds, for its restart.
+pub const NOTE_EVERY: Duration = Duration::from_secs(2);
+
 /// Serves on a bound listener until Ctrl-C (tests bind 127.0.0.1:0).
 pub async fn serve_on(
     listener: tokio::net::TcpListener,
@@ -233,12 +279,16 @@ pub async fn serve_on(
             }
         })
     };
+    let replica = background_replica_tasks(&state);
     let served = axum::serve(listener, app(state.clone(), pipeline))
         .with_graceful_shutdown(async {
             let _ = tokio::signal::ctrl_c().await;
         })
         .await;
     persister.abort();
+    for task in replica {
+        task.abort();
+    }
     // What is still waiting reaches the disk before the server exits.
     let st = state.clone();
     if let Ok(Err(e)) = tokio::task::spawn_blocking(move || st.persist_live(Duration::ZERO)).await {

@@ -18,4 +18,4 @@ pub mod state;
 pub mod stream_tag;
 
 pub use error::AppError;
-pub use state::{AppState, Loaded, Settings};
+pub use state::{AppState, Loaded, Settings, DEFAULT_REVALIDATE};

@@ -1,12 +1,29 @@
 //! Shared state: the store, a memory-bounded cache of built hierarchies, limits.
 //!
 //! Over a store only this process writes (the file store) the cache is
-//! exact: every change goes through [`AppState`], which updates it. Over a
-//! shared store (replicas on one object store) a cached view or scene
-//! listing older than [`Settings::revalidate`] is checked against the
-//! store's version before it is served (one HEAD for a view, one LIST for a
-//! scene), so a replica serves another's replaced view for at most that
-//! long after the replace was acknowledged (0, the default: never).
+//! exact: every change goes through [`AppState`], which updates it.
+//!
+//! Over a shared store (replicas on one object store) the cache is checked
+//! per scene: one HEAD of the scene's version ([`ViewStore::scene_version`]),
+//! and only when that changed one LIST, which drops the views that changed.
+//! Nothing is served from a scene not checked within
+//! [`Settings::revalidate`] (default 1 s): [`AppState::revalidate_used`],
+//! which the server runs in the background, keeps the scenes in use
+//! checked, so requests do not wait for the store; a scene idle for
+//! [`IDLE`] (one a replica gains when ownership moves) is checked before
+//! its first answer. So:
+//!
+//! - a replica's own writes update its cache at once: behind a balancer
+//!   that sends each scene to one replica, a read after an acknowledged
+//!   write sees it;
+//! - another replica serves a replaced view for at most
+//!   [`Settings::revalidate`] after the replace was acknowledged (0: never,
+//!   at the cost of a HEAD per request);
+//! - a view is one version throughout: a response is built from one
+//!   [`Loaded`], which is never changed in place.
+//!
+//! Lock order, where two are held: `commit`, then `cache`; a view's build
+//! gate, then `cache`; the other locks are held alone.
 
 use std::collections::HashMap;
 use std::hash::{Hash, Hasher};
@@ -117,11 +134,16 @@ pub struct Settings {
     /// Bytes of hierarchies kept in memory.
     pub cache_bytes: usize,
     /// Over a shared store, the longest a cached view or scene listing is
-    /// served without checking its version.
+    /// served without checking its scene's version: how long another
+    /// replica's replace may go unseen.
     pub revalidate: Duration,
     /// The longest a live view's latest frame waits before it is made
     /// durable ([`AppState::persist_live`]).
     pub live_persist: Duration,
+    /// Over a shared store, this replica's id: it keeps a note of the
+    /// views it holds under it, and after a restart builds them before
+    /// `/healthz` says it is ready ([`AppState::warm`]). `None`: no notes.
+    pub replica: Option<String>,
 }
 
 impl Default for Settings {
@@ -130,10 +152,26 @@ impl Default for Settings {
             max_upload_bytes: 256 << 20,
             limits: Limits::default(),
             cache_bytes: 1 << 30,
-            revalidate: Duration::ZERO,
+            revalidate: DEFAULT_REVALIDATE,
             live_persist: Duration::from_secs(2),
+            replica: None,
         }
     }
+}
+
+/// The default of [`Settings::revalidate`].
+pub const DEFAULT_REVALIDATE: Duration = Duration::from_secs(1);
+
+/// A scene not used for this long is no longer checked in the background
+/// ([`AppState::revalidate_used`]); its next request checks it first.
+pub const IDLE: Duration = Duration::from_secs(10);
+
+/// What this process last learnt of a scene's version (shared stores).
+struct SceneCheck {
+    /// The scene's version when last checked.
+    version: Option<Version>,
+    /// When the last request used the scene.
+    used: Instant,
 }
 
 /// A cached view: the view, its last use (LRU clock), its last check.
@@ -171,7 +209,32 @@ pub struct AppState {
     /// Live views whose latest frame is not durable yet, with when their
     /// oldest such frame was stored.
     unpersisted: Mutex<HashMap<(String, String), Instant>>,
+    /// Per scene in use, its version when last checked (shared stores).
+    checks: Mutex<HashMap<String, SceneCheck>>,
+    /// False while a restarted replica builds the views it held.
+    ready: std::sync::atomic::AtomicBool,
+    /// The note last kept ([`Self::keep_note`]), to skip rewriting it.
+    note: Mutex<Vec<u8>>,
+    /// Per view being built from the store, the gate its other requests
+    /// wait at ([`Self::fetch`]).
+    building: Mutex<HashMap<ViewKey, Gate>>,
 }
+
+/// A view: its scene and its id.
+type ViewKey = (String, String);
+
+/// What requests for a view being built wait at.
+type Gate = Arc<Mutex<()>>;
+
+/// A replica's note: the views it held.
+#[derive(serde::Serialize, serde::Deserialize)]
+struct Note {
+    views: Vec<(String, String)>,
+}
+
+/// The longest a restarted replica spends building the views of its note
+/// before it reports ready anyway.
+pub const WARM_LIMIT: Duration = Duration::from_secs(60);
 
 /// Change counters, so that what was read from the store before a change
 /// is not cached after it. Counted per scene and per view, in 64 buckets
@@ -243,6 +306,8 @@ pub type SceneCameras = Arc<Vec<Listed>>;
 impl AppState {
     /// State over `store`.
     pub fn new(store: Arc<dyn ViewStore>, settings: Settings) -> Self {
+        // A replica with a note is not ready until [`Self::warm`] ran.
+        let ready = !(store.shared() && settings.replica.is_some());
         Self {
             store,
             settings,
@@ -252,7 +317,83 @@ impl AppState {
             changes: Changes::default(),
             commit: Mutex::new(()),
             unpersisted: Mutex::new(HashMap::new()),
+            checks: Mutex::new(HashMap::new()),
+            ready: std::sync::atomic::AtomicBool::new(ready),
+            note: Mutex::new(Vec::new()),
+            building: Mutex::new(HashMap::new()),
         }
+    }
+
+    /// False while a restarted replica builds the views it held.
+    pub fn ready(&self) -> bool {
+        self.ready.load(std::sync::atomic::Ordering::SeqCst)
+    }
+
+    /// Builds the views this replica's note names (blocking), until the cache would overflow or [`WARM_LIMIT`] passes,
+    /// reporting not ready meanwhile; returns how many were built. A view
+    /// gone from the store is skipped; a store that fails ends the warm-up.
+    pub fn warm(&self) -> usize {
+        let built = self.warm_from_note();
+        self.ready.store(true, std::sync::atomic::Ordering::SeqCst);
+        built
+    }
+
+    fn warm_from_note(&self) -> usize {
+        let Some(id) = self.settings.replica.as_ref().filter(|_| self.store.shared()) else {
+            return 0;
+        };
+        let note = match self.store.get_note(id) {
+            Ok(Some(bytes)) => serde_json::from_slice::<Note>(&bytes).ok(),
+            Ok(None) => None,
+            Err(e) => {
+                tracing::warn!(error = %e, "reading this replica's note");
+                None
+            }
+        };
+        let Some(note) = note else {
+            return 0;
+        };
+        let started = Instant::now();
+        let mut built = 0;
+        for (scene, view) in &note.views {
+            if started.elapsed() > WARM_LIMIT || self.cache().bytes >= self.settings.cache_bytes {
+                break;
+            }
+            match self.load(scene, view) {
+                Ok(_) => built += 1,
+                Err(AppError::NotFound(_) | AppError::BadRequest(_)) => {}
+                Err(e) => {
+                    tracing::warn!(error = %e, "warming up");
+                    break;
+                }
+            }
+        }
+        tracing::info!(
+            views = built,
+            ms = started.elapsed().as_millis() as u64,
+            "warm: built the views this replica held"
+        );
+        built
+    }
+
+    /// Keeps a note of the views this replica holds when the set changed (blocking; the server calls it every few
+    /// seconds). True when it was written.
+    pub fn keep_note(&self) -> Result<bool, AppError> {
+        let Some(id) = &self.settings.replica else {
+            return Ok(false);
+        };
+        // Sorted: the note changes when the set held does, not with every
+        // request's order.
+        let mut views: Vec<(String, String)> = self.cache().entries.keys().cloned().collect();
+        views.sort();
+        let bytes = serde_json::to_vec(&Note { views }).map_err(|e| AppError::Internal(e.to_string()))?;
+        let mut last = self.note.lock().unwrap_or_else(|p| p.into_inner());
+        if *last == bytes {
+            return Ok(false);
+        }
+        self.store.put_note(id, &bytes)?;
+        *last = bytes;
+        Ok(true)
     }
 
     /// True when a cached entry checked at `checked` must be checked again.
@@ -264,15 +405,32 @@ impl AppState {
     /// workers). Cached until the scene changes; over a shared store,
     /// revalidated by one listing, and only changed cameras are read again.
     pub fn scene_cameras(&self, scene: &str) -> Result<SceneCameras, AppError> {
+        self.used(scene);
         let lock = || self.cameras.lock().unwrap_or_else(|p| p.into_inner());
         let held = lock().get(scene).cloned();
         if let Some((hit, checked)) = &held {
             if !self.stale(*checked) {
                 return Ok(hit.clone());
             }
+            // One HEAD of the scene's version, which re-lists only when the
+            // scene changed.
+            self.check_scene(scene)?;
+            if let Some((hit, checked)) = lock().get(scene) {
+                if !self.stale(*checked) {
+                    return Ok(hit.clone());
+                }
+            }
         }
+        self.relist(scene, Instant::now()).map(|(list, _)| list)
+    }
+
+    /// Lists `scene` afresh (reading only the cameras that changed) and
+    /// caches the listing as checked at `at` (when the check began), unless
+    /// the scene changed here meanwhile. Also returns every view's version.
+    fn relist(&self, scene: &str, at: Instant) -> Result<(SceneCameras, HashMap<String, Version>), AppError> {
+        let lock = || self.cameras.lock().unwrap_or_else(|p| p.into_inner());
+        let held = lock().get(scene).cloned();
         let before = self.changes.scene(scene);
-        let now = Instant::now();
         let listing = self
             .store
             .listing(scene)?
@@ -284,6 +442,7 @@ impl AppState {
             .map(|(h, _)| h.iter().map(|l| ((l.name.as_str(), l.version.as_str()), l)).collect())
             .unwrap_or_default();
         let known = |name: &str, version: &str| before_list.get(&(name, version)).map(|l| (*l).clone());
+        let listing_versions = listing.clone();
         let mut list = Vec::with_capacity(listing.len());
         for (name, version) in listing {
             if let Some(same) = known(&name, &version) {
@@ -297,12 +456,120 @@ impl AppState {
                 });
             }
         }
+        let versions = listing_versions.into_iter().collect();
         let list = Arc::new(list);
         let mut map = lock();
         if self.changes.scene(scene) == before {
-            map.insert(scene.to_string(), (list.clone(), now));
+            map.insert(scene.to_string(), (list.clone(), at));
         }
-        Ok(list)
+        Ok((list, versions))
+    }
+
+    /// Notes that a request uses `scene` (shared stores: the background
+    /// check keeps it fresh while it is in use).
+    fn used(&self, scene: &str) {
+        if !self.store.shared() {
+            return;
+        }
+        let mut checks = self.checks();
+        match checks.get_mut(scene) {
+            Some(c) => c.used = Instant::now(),
+            None => {
+                checks.insert(
+                    scene.to_string(),
+                    SceneCheck {
+                        version: None,
+                        used: Instant::now(),
+                    },
+                );
+            }
+        }
+    }
+
+    fn checks(&self) -> std::sync::MutexGuard<'_, HashMap<String, SceneCheck>> {
+        self.checks.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// Checks everything cached of `scene` against the store (blocking):
+    /// one HEAD of the scene's version; when it changed (or was not known),
+    /// one LIST, which drops the cached views whose version changed. What
+    /// is left counts as checked when the HEAD was sent.
+    pub fn check_scene(&self, scene: &str) -> Result<(), AppError> {
+        let at = Instant::now();
+        let Some(version) = self.store.scene_version(scene)? else {
+            // The scene is gone.
+            self.forget(scene, None);
+            self.checks().remove(scene);
+            return Ok(());
+        };
+        let known = self.checks().get(scene).and_then(|c| c.version.clone());
+        if known.as_ref() != Some(&version) {
+            let (_, versions) = match self.relist(scene, at) {
+                Ok(listed) => listed,
+                Err(AppError::NotFound(_)) => {
+                    self.forget(scene, None);
+                    self.checks().remove(scene);
+                    return Ok(());
+                }
+                Err(e) => return Err(e),
+            };
+            let changed: Vec<String> = {
+                let c = self.cache();
+                (c.entries.iter())
+                    .filter(|((s, v), e)| s == scene && versions.get(v) != Some(&e.loaded.version))
+                    .map(|((_, v), _)| v.clone())
+                    .collect()
+            };
+            for view in changed {
+                self.drop_view(scene, &view);
+            }
+        }
+        {
+            let mut c = self.cache();
+            for ((s, _), e) in c.entries.iter_mut() {
+                if s == scene && e.checked < at {
+                    e.checked = at;
+                }
+            }
+        }
+        if let Some((_, checked)) = self.cameras.lock().unwrap_or_else(|p| p.into_inner()).get_mut(scene) {
+            if *checked < at {
+                *checked = at;
+            }
+        }
+        let mut checks = self.checks();
+        let entry = checks.entry(scene.to_string()).or_insert_with(|| SceneCheck {
+            version: None,
+            used: at,
+        });
+        entry.version = Some(version);
+        Ok(())
+    }
+
+    /// Checks every scene a request used within [`IDLE`] whose cache would
+    /// turn stale before the next round (blocking; the server calls it
+    /// every third of [`Settings::revalidate`]). Returns the scenes checked;
+    /// a check that fails leaves its scene to be checked by its next request.
+    pub fn revalidate_used(&self) -> usize {
+        if !self.store.shared() {
+            return 0;
+        }
+        let scenes: Vec<String> = {
+            let mut checks = self.checks();
+            checks.retain(|_, c| c.used.elapsed() < IDLE * 6);
+            (checks.iter())
+                .filter(|(_, c)| c.used.elapsed() < IDLE)
+                .map(|(s, _)| s.clone())
+                .collect()
+        };
+        let mut done = 0;
+        for scene in scenes {
+            match self.check_scene(&scene) {
+                Ok(()) => done += 1,
+                Err(e) => tracing::warn!(scene, error = %e, "background check failed"),
+            }
+        }
+        done
     }
 
     /// Forgets what is cached about `scene`'s list of views (after a put or
@@ -422,6 +689,17 @@ impl AppState {
         Ok(existed)
     }
 
+    /// Drops one view from the cache, so that what was read of it before
+    /// is not cached after (it changed in the store).
+    fn drop_view(&self, scene: &str, view: &str) {
+        let mut c = self.cache();
+        self.changes.bump(scene, Some(view));
+        if let Some(gone) = c.entries.remove(&(scene.to_string(), view.to_string())) {
+            c.bytes -= gone.loaded.bytes();
+        }
+        self.metrics.set_views_loaded(c.entries.len());
+    }
+
     /// Drops a view (or, with `view` `None`, every view of the scene) from the cache.
     pub fn forget(&self, scene: &str, view: Option<&str>) {
         self.scene_changed(scene, view);
@@ -450,37 +728,21 @@ impl AppState {
         Some((e.loaded.clone(), self.stale(e.checked)))
     }
 
-    /// Marks a cached view as checked now, if it is still `version`.
-    fn checked(&self, scene: &str, view: &str, version: &str) {
-        let mut c = self.cache();
-        if let Some(e) = c.entries.get_mut(&(scene.to_string(), view.to_string())) {
-            if e.loaded.version == version {
-                e.checked = Instant::now();
-            }
-        }
-    }
-
     /// The loaded view, from the cache or rebuilt from the store (blocking:
     /// call off the async workers). Over a shared store a cached view not
     /// checked within [`Settings::revalidate`] is checked first.
     pub fn load(&self, scene: &str, view: &str) -> Result<Arc<Loaded>, AppError> {
+        self.used(scene);
         if let Some((hit, stale)) = self.cached(scene, view) {
             if !stale {
                 return Ok(hit);
             }
-            match self.store.version(scene, view)? {
-                Some(v) if v == hit.version => {
-                    self.checked(scene, view, &v);
-                    return Ok(hit);
-                }
-                Some(_) => {}
-                None => {
-                    self.forget(scene, Some(view));
-                    return Err(AppError::NotFound(format!("scene {scene:?} has no view {view:?}")));
-                }
+            self.check_scene(scene)?;
+            if let Some((hit, false)) = self.cached(scene, view) {
+                return Ok(hit);
             }
         }
-        self.fetch(scene, view)
+        self.fetch(scene, view, None)
     }
 
     /// The loaded view at `version` (just listed by [`Self::scene_cameras`]),
@@ -489,16 +751,44 @@ impl AppState {
     pub fn load_listed(&self, scene: &str, listed: &Listed) -> Result<Arc<Loaded>, AppError> {
         if let Some((hit, _)) = self.cached(scene, &listed.name) {
             if !self.store.shared() || hit.version == listed.version {
-                self.checked(scene, &listed.name, &listed.version);
                 return Ok(hit);
             }
         }
-        self.fetch(scene, &listed.name)
+        self.fetch(scene, &listed.name, Some(&listed.version))
     }
 
-    /// Reads and builds a view from the store, and caches it.
-    fn fetch(&self, scene: &str, view: &str) -> Result<Arc<Loaded>, AppError> {
+    /// Reads and builds a view from the store, and caches it. One build
+    /// per view at a time: requests that arrive meanwhile wait for it and
+    /// take what it cached (a replica that takes over a busy scene builds
+    /// each view once, not once per client), unless they `want` another
+    /// version.
+    fn fetch(&self, scene: &str, view: &str, want: Option<&Version>) -> Result<Arc<Loaded>, AppError> {
+        let key = (scene.to_string(), view.to_string());
+        let gate = self.building().entry(key.clone()).or_default().clone();
+        let fetched = {
+            let _one = gate.lock().unwrap_or_else(|p| p.into_inner());
+            match self.cached(scene, view) {
+                Some((hit, false)) if want.is_none_or(|v| *v == hit.version) => Ok(hit),
+                _ => self.fetch_now(scene, view),
+            }
+        };
+        let mut building = self.building();
+        if building
+            .get(&key)
+            .is_some_and(|g| Arc::ptr_eq(g, &gate) && Arc::strong_count(g) == 2)
+        {
+            building.remove(&key);
+        }
+        fetched
+    }
+
+    fn building(&self) -> std::sync::MutexGuard<'_, HashMap<ViewKey, Gate>> {
+        self.building.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    fn fetch_now(&self, scene: &str, view: &str) -> Result<Arc<Loaded>, AppError> {
         let before = self.changes.view(scene, view);
+        let read_at = Instant::now();
         let (stored, version) = self
             .store
             .get(scene, view)?
@@ -509,6 +799,10 @@ impl AppState {
         let mut c = self.cache();
         if self.changes.view(scene, view) == before {
             self.insert(&mut c, scene, view, loaded.clone());
+            // Current when the read began, not when the build ended.
+            if let Some(e) = c.entries.get_mut(&(scene.to_string(), view.to_string())) {
+                e.checked = read_at;
+            }
         }
         Ok(loaded)
     }

@@ -166,6 +166,19 @@ pub trait ViewStore: Send + Sync {
     /// A view's current version, `None` when absent: the cheap check a
     /// cache makes before serving what it holds.
     fn version(&self, scene: &str, view: &str) -> Result<Option<Version>, StoreError>;
+    /// A scene's version: an opaque token that changes whenever one of
+    /// its views is put or deleted, and has changed by the time that put or
+    /// delete returns; `None` when the scene does not exist. The check a
+    /// replica makes to know that nothing it holds of the scene is stale.
+    /// By default derived from [`ViewStore::listing`].
+    fn scene_version(&self, scene: &str) -> Result<Option<Version>, StoreError> {
+        use std::hash::{Hash, Hasher};
+        Ok(self.listing(scene)?.map(|listing| {
+            let mut h = std::collections::hash_map::DefaultHasher::new();
+            listing.hash(&mut h);
+            format!("{:016x}", h.finish())
+        }))
+    }
     /// Scene ids, sorted.
     fn scenes(&self) -> Result<Vec<String>, StoreError>;
     /// View ids of a scene with their versions, sorted by id; `None` when
@@ -181,6 +194,16 @@ pub trait ViewStore: Send + Sync {
     fn delete_scene(&self, scene: &str) -> Result<bool, StoreError>;
     /// Bytes held.
     fn bytes_stored(&self) -> Result<u64, StoreError>;
+    /// Keeps a small note under `name` (an id), replacing the last: what a
+    /// replica leaves for itself when it restarts (the views it held, to
+    /// build before it takes traffic). By default notes are not kept.
+    fn put_note(&self, _name: &str, _bytes: &[u8]) -> Result<(), StoreError> {
+        Ok(())
+    }
+    /// The note last kept under `name`, `None` when there is none.
+    fn get_note(&self, _name: &str) -> Result<Option<Vec<u8>>, StoreError> {
+        Ok(None)
+    }
     /// True when other processes may change the store (replicas sharing an
     /// object store): a cache must then revalidate what it holds against
     /// [`ViewStore::version`] before serving it.

@@ -3,13 +3,18 @@
 //!
 //! Layout under the prefix:
 //!
-//! - `scenes/{scene}`: an empty marker, so a scene exists with no views
-//!   (as a directory does in the file store);
+//! - `scenes/{scene}`: the scene's marker, so a scene exists with no views
+//!   (as a directory does in the file store). Every put and delete of one
+//!   of its views rewrites it, with new content, after its own commit: its
+//!   ETag is the scene's version, which a replica checks with one HEAD to
+//!   know that nothing it holds of the scene is stale;
 //! - `data/{scene}/{view}/{id}.dmv`: one version of a view in the
 //!   [`dmv`](super::dmv) encoding, written once under a fresh id and never
 //!   changed;
 //! - `manifests/{scene}/{view}`: a few hundred bytes of JSON naming the
-//!   current data object and holding the camera, written last.
+//!   current data object and holding the camera, written last;
+//! - `replicas/{id}`: a replica's note for its restart, the views it held
+//!   ([`ViewStore::put_note`]).
 //!
 //! A `put` writes the data object, then the manifest; the manifest's PUT is
 //! the commit. S3 replaces a whole object atomically and reads after a write
@@ -18,9 +23,10 @@
 //! immutable data: never one version's depth with another's colour. A
 //! failed data PUT leaves the old manifest; nothing relies on conditional
 //! (`If-None-Match`) PUTs, which some servers ignore. The version of a view
-//! is its manifest's ETag, so a cache revalidates with one HEAD (a view) or
-//! one LIST (a scene; on a server whose listings carry no ETags, s3s-fs
-//! among them, one HEAD per view as well).
+//! is its manifest's ETag; the version of a scene its marker's. A cache
+//! revalidates everything it holds of a scene with one HEAD of the marker,
+//! and only when that changed with one LIST (on a server whose listings
+//! carry no ETags, s3s-fs among them, one HEAD per view as well).
 //!
 //! The replaced data object is deleted after the commit, without a LIST:
 //! the old manifest named it. A view's first upload, and every
@@ -284,6 +290,13 @@ impl ObjectViewStore {
         Ok(out)
     }
 
+    /// Rewrites a scene's marker with `change` (unique to this change), so
+    /// its version changes.
+    async fn touch(&self, marker: &Path, change: &str) -> Result<(), StoreError> {
+        let body = PutPayload::from(change.as_bytes().to_vec());
+        self.store.put(marker, body).await.map(drop).map_err(unavailable)
+    }
+
     /// Deletes `path`; "not found" is success.
     async fn remove(&self, path: &Path) -> Result<(), StoreError> {
         found(self.store.delete(path).await).map(drop)
@@ -315,11 +328,6 @@ impl ViewStore for ObjectViewStore {
         let bytes = dmv::encode(v)?;
         self.block_on(async {
             let previous = self.read_manifest(&manifest_path).await.ok().flatten();
-            // A replace finds the scene's marker in place; a first upload
-            // makes sure of it.
-            if previous.is_none() && found(self.store.head(&marker).await)?.is_none() {
-                self.store.put(&marker, PutPayload::new()).await.map_err(unavailable)?;
-            }
             let id = self.fresh_id();
             let data = self.data_path(scene, view, &id);
             let manifest = Manifest {
@@ -344,6 +352,9 @@ impl ViewStore for ObjectViewStore {
                 Some(t) => t,
                 None => version_of(&self.store.head(&manifest_path).await.map_err(unavailable)?),
             };
+            // After the commit, before the answer: once the put is
+            // acknowledged, the scene's version has changed.
+            self.touch(&marker, &id).await?;
             let replaced = previous.map(|(m, _)| m.data);
             let sweep =
                 replaced.is_none() || self.puts.fetch_add(1, Ordering::Relaxed) % SWEEP_EVERY == SWEEP_EVERY - 1;
@@ -395,6 +406,11 @@ impl ViewStore for ObjectViewStore {
         Ok(found(self.block_on(self.store.head(&path)))?.map(|m| version_of(&m)))
     }
 
+    fn scene_version(&self, scene: &str) -> Result<Option<Version>, StoreError> {
+        let marker = self.marker(scene)?;
+        Ok(found(self.block_on(self.store.head(&marker)))?.map(|m| version_of(&m)))
+    }
+
     fn scenes(&self) -> Result<Vec<String>, StoreError> {
         let dir = self.path("scenes");
         let listed = self
@@ -442,8 +458,10 @@ impl ViewStore for ObjectViewStore {
             if found(self.store.head(&path).await)?.is_none() {
                 return Ok(false);
             }
-            // The manifest first: the view is gone at once; then its data.
+            // The manifest first: the view is gone at once; then the scene's
+            // version changes; then the view's data goes.
             self.remove(&path).await?;
+            self.touch(&self.marker(scene)?, &self.fresh_id()).await?;
             for m in self.list_all(Some(&self.data_dir(scene, Some(view)))).await? {
                 self.remove(&m.location).await?;
             }
@@ -465,6 +483,26 @@ impl ViewStore for ObjectViewStore {
                 self.remove(&m.location).await?;
             }
             Ok(existed)
+        })
+    }
+
+    fn put_note(&self, name: &str, bytes: &[u8]) -> Result<(), StoreError> {
+        validate_id("note", name)?;
+        let path = self.path(&format!("replicas/{name}"));
+        let body = PutPayload::from(bytes.to_vec());
+        self.block_on(self.store.put(&path, body))
+            .map(drop)
+            .map_err(unavailable)
+    }
+
+    fn get_note(&self, name: &str) -> Result<Option<Vec<u8>>, StoreError> {
+        validate_id("note", name)?;
+        let path = self.path(&format!("replicas/{name}"));
+        self.block_on(async {
+            let Some(got) = found(self.store.get(&path).await)? else {
+                return Ok(None);
+            };
+            Ok(found(got.bytes().await)?.map(|b| b.to_vec()))
         })
     }
 

@@ -1,7 +1,7 @@
 //! A cluster on loopback, as `docker/compose.yaml` runs it: a real S3 API
 //! server (`moto_server`), `dmesh serve --store` replicas as processes, and
-//! nginx with `docker/nginx.conf` in front, the upstream addresses and the
-//! listening port replaced. A missing program is a failure that names what
+//! HAProxy with `docker/haproxy.cfg` in front, the replicas' addresses and
+//! the listening port replaced. A missing program is a failure that names what
 //! installs it, never a skip.
 #![allow(dead_code)]
 
@@ -136,6 +136,15 @@ impl Replica {
         r
     }
 
+    /// The number a `/metrics` gauge shows.
+    pub fn gauge(&self, name: &str) -> f64 {
+        let a = get(self.addr, "/metrics").unwrap();
+        let text = String::from_utf8_lossy(&a.body).into_owned();
+        (text.lines())
+            .find_map(|l| l.strip_prefix(name)?.strip_prefix(' ')?.trim().parse().ok())
+            .unwrap_or_else(|| panic!("/metrics has no {name}"))
+    }
+
     /// SIGKILL: no shutdown, requests in flight are cut.
     pub fn kill(&mut self) {
         s3::kill(&mut self.child);
@@ -169,81 +178,70 @@ impl Drop for Replica {
     }
 }
 
-/// nginx with the repository's config.
-pub struct Nginx {
+/// HAProxy with the repository's config.
+pub struct Balancer {
     pub addr: SocketAddr,
     child: Child,
 }
 
-impl Nginx {
-    /// nginx in front of `upstreams` (in place of `dmesh-1:8080`, ...).
+impl Balancer {
+    /// HAProxy in front of `upstreams` (in place of `dmesh-1:8080`, ...),
+    /// waiting until it reaches the first (its health checks mark every
+    /// replica up after two passes).
     pub fn start(dir: &Path, upstreams: &[SocketAddr]) -> Self {
-        let template = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../docker/nginx.conf")).unwrap();
+        let template = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../docker/haproxy.cfg")).unwrap();
         let addr = SocketAddr::from(([127, 0, 0, 1], free_port()));
-        let mut conf = template.replace("listen 8080;", &format!("listen {addr};"));
+        assert!(template.contains("bind :8080\n"), "docker/haproxy.cfg binds no :8080");
+        let mut conf = template.replace("bind :8080\n", &format!("bind {addr}\n"));
         for (k, u) in upstreams.iter().enumerate() {
             let name = format!("dmesh-{}:8080", k + 1);
-            assert!(conf.contains(&name), "docker/nginx.conf names no {name}");
+            assert!(conf.contains(&name), "docker/haproxy.cfg names no {name}");
             conf = conf.replace(&name, &u.to_string());
         }
-        // Keep every file nginx writes inside `dir`, which its workers (another
-        // user when nginx runs as root) must reach to buffer large uploads.
-        use std::os::unix::fs::PermissionsExt;
-        std::fs::set_permissions(dir, std::fs::Permissions::from_mode(0o755)).unwrap();
-        let d = dir.display();
-        conf = conf.replacen(
-            "http {",
-            &format!(
-                "http {{\n    access_log off;\n    client_body_temp_path {d}/body;\n    proxy_temp_path {d}/proxy;\n    \
-                 fastcgi_temp_path {d}/fastcgi;\n    uwsgi_temp_path {d}/uwsgi;\n    scgi_temp_path {d}/scgi;"
-            ),
-            1,
-        );
-        let path = dir.join("nginx.conf");
+        let path = dir.join("haproxy.cfg");
         std::fs::write(&path, conf).unwrap();
-        let globals = format!("daemon off; pid {d}/nginx.pid; error_log {d}/nginx-error.log;");
-        let mut child = Command::new("nginx")
-            .arg("-p")
-            .arg(dir)
-            .arg("-c")
+        let mut child = Command::new("haproxy")
+            .arg("-db")
+            .arg("-f")
             .arg(&path)
-            .args(["-g", &globals])
             .stdout(Stdio::null())
             .stderr(Stdio::inherit())
             .spawn()
-            .unwrap_or_else(|e| panic!("cannot start nginx ({e}); install it: apt-get install -y nginx"));
-        wait_healthy(addr, &mut child, "nginx");
+            .unwrap_or_else(|e| panic!("cannot start haproxy ({e}); install it: apt-get install -y haproxy"));
+        wait_healthy(addr, &mut child, "haproxy");
+        // Every replica up in the balancer's eyes (two checks, 250 ms apart).
+        std::thread::sleep(Duration::from_millis(700));
         Self { addr, child }
     }
 }
 
-impl Drop for Nginx {
+impl Drop for Balancer {
     fn drop(&mut self) {
         let _ = self.child.kill();
         let _ = self.child.wait();
     }
 }
 
-/// moto, `n` replicas over one prefix of its bucket, and (optionally) nginx.
+/// moto, `n` replicas over one prefix of its bucket, and (optionally) the
+/// balancer.
 pub struct Cluster {
     pub replicas: Vec<Replica>,
-    pub nginx: Option<Nginx>,
+    pub balancer: Option<Balancer>,
     pub s3: s3::S3Server,
     pub dir: tempfile::TempDir,
 }
 
 impl Cluster {
-    pub fn start(n: usize, revalidate_ms: u64, balancer: bool) -> Self {
+    /// `revalidate_ms`: `None` for the default.
+    pub fn start(n: usize, revalidate_ms: Option<u64>, balancer: bool) -> Self {
         let s3 = s3::S3Server::start(s3::Kind::Moto);
         let dir = tempfile::tempdir().unwrap();
         let replicas: Vec<Replica> = (0..n)
             .map(|k| {
                 let addr = SocketAddr::from(([127, 0, 0, 1], free_port()));
-                let args = vec![
+                let mut args = vec![
                     "--store".to_string(),
                     s3.url("cluster"),
-                    "--revalidate-ms".to_string(),
-                    revalidate_ms.to_string(),
                     // Slots for every client of these tests: a failure here
                     // is one the kill caused, not load shedding.
                     "--max-concurrency".to_string(),
@@ -251,13 +249,17 @@ impl Cluster {
                     "--queue-wait-ms".to_string(),
                     "2000".to_string(),
                 ];
+                if let Some(ms) = revalidate_ms {
+                    args.extend(["--revalidate-ms".to_string(), ms.to_string()]);
+                }
                 Replica::start(addr, args, s3.vars(), dir.path().join(format!("replica-{}.log", k + 1)))
             })
             .collect();
-        let nginx = balancer.then(|| Nginx::start(dir.path(), &replicas.iter().map(|r| r.addr).collect::<Vec<_>>()));
+        let balancer =
+            balancer.then(|| Balancer::start(dir.path(), &replicas.iter().map(|r| r.addr).collect::<Vec<_>>()));
         Self {
             replicas,
-            nginx,
+            balancer,
             s3,
             dir,
         }
@@ -265,13 +267,16 @@ impl Cluster {
 
     /// The balancer's address.
     pub fn front(&self) -> SocketAddr {
-        self.nginx.as_ref().expect("a cluster with nginx").addr
+        self.balancer.as_ref().expect("a cluster with a balancer").addr
     }
 
-    /// The replica nginx sends `scene` to (its `X-Upstream`).
+    /// The replica the balancer sends `scene` to (its `X-Upstream`).
     pub fn owner(&self, scene: &str) -> usize {
         let a = get(self.front(), &format!("/v1/scenes/{scene}/views")).unwrap();
-        let upstream = a.header("x-upstream").expect("nginx sets X-Upstream").to_string();
+        let upstream = a
+            .header("x-upstream")
+            .expect("the balancer sets X-Upstream")
+            .to_string();
         (self.replicas.iter())
             .position(|r| r.addr.to_string() == upstream)
             .unwrap_or_else(|| panic!("X-Upstream {upstream} is no replica"))
