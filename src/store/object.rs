@@ -30,9 +30,10 @@
 //!
 //! The replaced data object is deleted after the commit, without a LIST:
 //! the old manifest named it. A view's first upload, and every
-//! [`SWEEP_EVERY`]-th upload of a process, also lists the view's data
-//! objects and deletes those older than [`GRACE`] (left by an upload that
-//! failed or lost a race). A reader that read the old manifest just
+//! [`SWEEP_EVERY`]-th upload of a process, also has the view's data
+//! objects listed in the background, and those older than [`GRACE`] (left
+//! by an upload that failed or lost a race) deleted: no upload waits for a
+//! LIST. A reader that read the old manifest just
 //! before the delete re-reads the manifest. Errors other than "not found"
 //! are [`StoreError::Unavailable`]: requests are retried briefly
 //! ([`RETRIES`], [`RETRY_TIMEOUT`]), then the server answers 503.
@@ -303,21 +304,32 @@ impl ObjectViewStore {
     }
 
     /// Deletes the data objects of a view other than `keep` that are older
-    /// than [`GRACE`] or are `replaced`. Best effort: what fails stays as
-    /// garbage for the next put.
-    async fn sweep(&self, scene: &str, view: &str, keep: &str, replaced: Option<&str>) {
-        let Ok(objects) = self.list_all(Some(&self.data_dir(scene, Some(view)))).await else {
+    /// than [`GRACE`] or are `replaced`, in the background: the upload that
+    /// asks does not wait for its LIST. Best effort: what fails stays as
+    /// garbage for the next sweep.
+    fn sweep(&self, scene: &str, view: &str, keep: &str, replaced: Option<&str>) {
+        let Some(rt) = &self.runtime else {
             return;
         };
-        let keep_path = self.data_path(scene, view, keep);
-        let newest = objects.iter().map(|m| m.last_modified).max();
+        let store = self.store.clone();
+        let dir = self.data_dir(scene, Some(view));
+        let keep = self.data_path(scene, view, keep);
         let replaced = replaced.map(|r| self.data_path(scene, view, r));
-        for m in &objects {
-            let old = newest.is_some_and(|n| (n - m.last_modified).num_seconds() > GRACE.as_secs() as i64);
-            if m.location != keep_path && (old || replaced.as_ref() == Some(&m.location)) {
-                let _ = self.remove(&m.location).await;
+        rt.spawn(async move {
+            let mut stream = store.list(Some(&dir));
+            let mut objects = Vec::new();
+            while let Some(m) = stream.next().await {
+                let Ok(m) = m else { return };
+                objects.push(m);
             }
-        }
+            let newest = objects.iter().map(|m| m.last_modified).max();
+            for m in &objects {
+                let old = newest.is_some_and(|n| (n - m.last_modified).num_seconds() > GRACE.as_secs() as i64);
+                if m.location != keep && (old || replaced.as_ref() == Some(&m.location)) {
+                    let _ = store.delete(&m.location).await;
+                }
+            }
+        });
     }
 }
 
@@ -363,7 +375,7 @@ impl ViewStore for ObjectViewStore {
                     // Best effort: what fails stays as garbage for a sweep.
                     let _ = self.remove(&self.data_path(scene, view, &old)).await;
                 }
-                _ => self.sweep(scene, view, &id, replaced.as_deref()).await,
+                _ => self.sweep(scene, view, &id, replaced.as_deref()),
             }
             Ok(version)
         })
