@@ -1,22 +1,55 @@
 //! Builds the synthetic scene repeatedly and prints the minimum and median
-//! time, for profiling. Usage: `profile_build [SIZE] [ITERATIONS] [THREADS]`
-//! (threads 1 or 2, default as `DepthMesh::build`).
+//! time and the median of each stage, for profiling. Usage:
+//! `profile_build [SIZE | WxH] [ITERATIONS] [THREADS] [portable]` (threads
+//! 1 or 2, default as `DepthMesh::build`; `portable`: without the AVX2 code
+//! even where the CPU has it, to measure what it brings).
 fn main() {
     let mut args = std::env::args().skip(1);
-    let size: u32 = args.next().and_then(|s| s.parse().ok()).unwrap_or(513);
+    let size = args.next().unwrap_or_else(|| "513".into());
+    let (w, h): (u32, u32) = match size.split_once('x') {
+        Some((w, h)) => (w.parse().unwrap_or(513), h.parse().unwrap_or(513)),
+        None => {
+            let s = size.parse().unwrap_or(513);
+            (s, s)
+        }
+    };
     let iterations: usize = args.next().and_then(|s| s.parse().ok()).unwrap_or(20);
     let threads = match args.next().as_deref() {
         Some("1") => dmesh::mesh::Threads::Single,
         Some("2") => dmesh::mesh::Threads::Parallel,
         _ => dmesh::mesh::Threads::available(),
     };
-    let (d, c) = dmesh::synthetic::terrain_with_boxes(size, size);
+    let portable = args.next().as_deref() == Some("portable");
+    dmesh_engine::simd::force_portable(portable);
+    let (d, c) = dmesh::synthetic::terrain_with_boxes(w, h);
     let mut times = Vec::new();
+    let mut stages = Vec::new();
     for _ in 0..iterations.max(1) {
         let t = std::time::Instant::now();
-        std::hint::black_box(dmesh::mesh::DepthMesh::build_with(&d, &c, &Default::default(), threads).unwrap());
+        let mesh =
+            std::hint::black_box(dmesh::mesh::DepthMesh::build_with(&d, &c, &Default::default(), threads).unwrap());
         times.push(t.elapsed());
+        stages.push(mesh.stats().stages);
     }
     times.sort();
-    println!("min {:?} median {:?}", times[0], times[times.len() / 2]);
+    println!(
+        "{w}x{h} {threads:?} avx2={}: min {:?} median {:?}",
+        dmesh_engine::simd::avx2_in_use(),
+        times[0],
+        times[times.len() / 2]
+    );
+    let median = |f: fn(&dmesh::mesh::Stages) -> f64| {
+        let mut v: Vec<f64> = stages.iter().map(f).collect();
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    println!(
+        "stage medians ms: depths {:.2} normals {:.2} flags {:.2} finest {:.2} coarse {:.2} stats {:.2}",
+        median(|s| s.depths_ms),
+        median(|s| s.normals_ms),
+        median(|s| s.flags_ms),
+        median(|s| s.finest_ms),
+        median(|s| s.coarse_ms),
+        median(|s| s.stats_ms),
+    );
 }

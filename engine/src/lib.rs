@@ -12,6 +12,7 @@
 //!   (select, share, resolve, extract, encode), for the server and the report;
 //! - [`scene`]: reference-view selection and weights for a novel camera;
 //! - [`sim`]: the scene simulator with ground truth;
+//! - [`simd`]: run-time dispatch of the build's hot loops to AVX2;
 //! - [`synthetic`]: built-in synthetic depth maps;
 //! - [`wire`]: extracted meshes as `dmesh-proto` strip responses;
 //! - [`wire_compact`]: extracted meshes as protocol 6, the compact stream, and back.
@@ -35,6 +36,8 @@ pub mod ply;
 pub mod render_plan;
 pub mod scene;
 pub mod sim;
+#[allow(unsafe_code)]
+pub mod simd;
 pub mod synthetic;
 pub mod wire;
 pub mod wire_compact;

@@ -45,7 +45,7 @@ use super::backproject::BackProject;
 use super::budget::ErrorStats;
 use super::flags::Flags;
 use super::grid::{Grid, Pt};
-use super::levels::{coarse_deviations, Levels};
+use super::levels::{coarse_deviations, run_coarse, run_finest, Levels};
 use super::lod::Lod;
 use super::normals::normals_and_quality;
 use super::segmentation::{leaf_flags, Method, Samples, Segmentation};
@@ -226,7 +226,7 @@ impl Passes {
                 radius: &mut radius,
             };
             let t = Instant::now();
-            levels.run_finest(&mut flags, zmax);
+            run_finest(&mut levels, &mut flags, zmax);
             stages.finest_ms = ms(t);
             let t = Instant::now();
             let join = |job: std::thread::ScopedJoinHandle<'_, _>| {
@@ -243,7 +243,7 @@ impl Passes {
                 }
                 None => (None, None),
             };
-            levels.run_coarse(&mut flags, zmax, deviations.as_deref());
+            run_coarse(&mut levels, &mut flags, zmax, deviations.as_deref());
             stages.coarse_ms = ms(t);
             let late = job.and_then(join).map(|(done, ms)| {
                 stages.normals_ms = ms;

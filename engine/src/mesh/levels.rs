@@ -183,13 +183,19 @@ fn for_each_split(grid: Grid, levels: std::ops::Range<u32>, mut f: impl FnMut(Sp
     }
 }
 
-/// The exact depth deviation of each half of every split vertex above
-/// level 0, squared and rounded up (0 where a half does not exist), in the
-/// order [`Levels::run_coarse`] takes them. It reads only the depths, so it
-/// can run on another thread while the finest level is built. Halves that
-/// turn out segmented get a value too, which the pass ignores (it is finite:
-/// invalid samples are 0).
-pub(crate) fn coarse_deviations(grid: Grid, z: &[f32]) -> Vec<[f32; 2]> {
+crate::simd::dispatch! {
+    /// The exact depth deviation of each half of every split vertex above
+    /// level 0, squared and rounded up (0 where a half does not exist), in
+    /// the order [`Levels::run_coarse`] takes them. It reads only the
+    /// depths, so it can run on another thread while the finest level is
+    /// built. Halves that turn out segmented get a value too, which the
+    /// pass ignores (it is finite: invalid samples are 0). With AVX2 where
+    /// the CPU has it.
+    pub(crate) fn coarse_deviations(grid: Grid, z: &[f32]) -> Vec<[f32; 2]> = coarse_deviations_body;
+}
+
+#[inline(always)]
+fn coarse_deviations_body(grid: Grid, z: &[f32]) -> Vec<[f32; 2]> {
     let mut count = 0;
     for_each_coarse(grid, |_| count += 1);
     let gw = grid.gw() as usize;
@@ -251,21 +257,37 @@ fn small_half(gw: usize, s: Split, apex: Pt) -> SmallHalf {
     }
 }
 
-impl Levels<'_> {
-    /// The finest level (three quarters of all vertices), in dedicated passes.
-    #[inline(never)]
-    pub(crate) fn run_finest(&mut self, flags: &mut [Flags], zmax: f32) {
-        self.finest_edges::<true>(flags, zmax);
-        self.finest_edges::<false>(flags, zmax);
-        self.finest_centres(flags, zmax);
-    }
+crate::simd::dispatch! {
+    /// The finest level (three quarters of all vertices), in dedicated
+    /// passes (with AVX2 where the CPU has it: [`crate::simd`]).
+    pub(crate) fn run_finest(levels: &mut Levels<'_>, flags: &mut [Flags], zmax: f32) -> () = run_finest_body;
+}
 
+#[inline(always)]
+fn run_finest_body(levels: &mut Levels<'_>, flags: &mut [Flags], zmax: f32) {
+    levels.finest_edges::<true>(flags, zmax);
+    levels.finest_edges::<false>(flags, zmax);
+    levels.finest_centres(flags, zmax);
+}
+
+crate::simd::dispatch! {
+    /// The levels above the finest: [`Levels::run_coarse`] (with AVX2 where
+    /// the CPU has it).
+    pub(crate) fn run_coarse(levels: &mut Levels<'_>, flags: &mut [Flags], zmax: f32, deviations: Option<&[[f32; 2]]>) -> () = run_coarse_body;
+}
+
+#[inline(always)]
+fn run_coarse_body(levels: &mut Levels<'_>, flags: &mut [Flags], zmax: f32, deviations: Option<&[[f32; 2]]>) {
+    levels.run_coarse(flags, zmax, deviations);
+}
+
+impl Levels<'_> {
     /// The levels above the finest, given their [`coarse_deviations`] or
     /// (`None`) computing each unsegmented half's as it comes: per level the
     /// edge midpoints along rows, along columns, then the centres, each in
     /// a straight loop over rows ([`Self::coarse_row`]), in the order of
     /// [`for_each_coarse`].
-    #[inline(never)]
+    #[inline(always)]
     pub(crate) fn run_coarse(&mut self, flags: &mut [Flags], zmax: f32, deviations: Option<&[[f32; 2]]>) {
         let mut next = deviations.map(|d| d.iter());
         let gh = self.grid.gh();
@@ -410,7 +432,7 @@ impl Levels<'_> {
     /// apexes (never smaller; a test checks). `ROW`: edges
     /// along rows, else along columns (a constant, so each direction
     /// compiles to its own straight loop).
-    #[inline(never)]
+    #[inline(always)]
     fn finest_edges<const ROW: bool>(&mut self, flags: &mut [Flags], zmax: f32) {
         let (gw, gh) = (self.grid.gw() as usize, self.grid.gh() as usize);
         let row = ROW;
@@ -489,7 +511,7 @@ impl Levels<'_> {
     /// errors whenever the half is unflagged, so only `v`'s own detail is
     /// added. The results of [`Self::split_vertex`] in a tight loop, except
     /// that partly segmented halves share the deeper apex's footprint.
-    #[inline(never)]
+    #[inline(always)]
     fn finest_centres(&mut self, flags: &mut [Flags], zmax: f32) {
         let (gw, gh) = (self.grid.gw() as usize, self.grid.gh() as usize);
         let (bp, camera, z) = (self.bp, self.camera, self.z);
@@ -578,7 +600,7 @@ impl Levels<'_> {
     /// Computes flags, own and saturated error and radius of the split vertex
     /// `s`, given its halves' squared deviations (`None`: scanned here).
     /// Children are finer and already done. This is the general kernel:
-    /// [`Self::run_finest`]'s loops give the same results for level 0 (a
+    /// [`run_finest`]'s loops give the same results for level 0 (a
     /// test checks), where a half's children are full-resolution triangles.
     #[cfg(test)]
     fn split_vertex(&mut self, flags: &mut [Flags], zmax: f32, s: Split, dev2: Option<[f32; 2]>) {
@@ -696,11 +718,11 @@ mod tests {
     fn coarse_three_ways(n: u32, z: &[f32], cells: &[u8]) -> [State; 3] {
         let fx = Fixture::new(n, z);
         let (grid, zmax) = (fx.grid, fx.zmax);
-        let finest = fx.run(&fx.start(cells), &|l, flags| l.run_finest(flags, zmax));
+        let finest = fx.run(&fx.start(cells), &|l, flags| run_finest(l, flags, zmax));
         let deviations = coarse_deviations(grid, z);
         [
-            fx.run(&finest, &|l, flags| l.run_coarse(flags, zmax, None)),
-            fx.run(&finest, &|l, flags| l.run_coarse(flags, zmax, Some(&deviations))),
+            fx.run(&finest, &|l, flags| run_coarse(l, flags, zmax, None)),
+            fx.run(&finest, &|l, flags| run_coarse(l, flags, zmax, Some(&deviations))),
             fx.run(&finest, &|l, flags| {
                 for_each_coarse(grid, |s| l.split_vertex(flags, zmax, s, None))
             }),

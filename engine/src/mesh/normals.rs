@@ -151,7 +151,7 @@ impl Stencil<'_> {
 /// `1..w - 1` of an interior row, as if all its neighbours were valid, in a
 /// loop without branches (so it vectorises); `fast[x]` says where that
 /// holds: the five samples are valid and the result is [`encode`]'s.
-#[inline(never)]
+#[inline(always)]
 fn interior_row(s: &Stencil<'_>, ortho: bool, nrow: &mut [[u8; 2]], rrow: &mut [u8], fast: &mut [bool]) {
     let w = s.zrow.len();
     for x in 1..w - 1 {
@@ -162,9 +162,14 @@ fn interior_row(s: &Stencil<'_>, ortho: bool, nrow: &mut [[u8; 2]], rrow: &mut [
     }
 }
 
-/// Computes the encoded normal and quality byte of every grid vertex.
-#[inline(never)]
-pub fn normals_and_quality(grid: &Grid, camera: &Camera, bp: &BackProject, z: &[f32]) -> (Vec<[u8; 2]>, Vec<u8>) {
+crate::simd::dispatch! {
+    /// Computes the encoded normal and quality byte of every grid vertex
+    /// (with AVX2 where the CPU has it: [`crate::simd`]).
+    pub fn normals_and_quality(grid: &Grid, camera: &Camera, bp: &BackProject, z: &[f32]) -> (Vec<[u8; 2]>, Vec<u8>) = normals_and_quality_body;
+}
+
+#[inline(always)]
+fn normals_and_quality_body(grid: &Grid, camera: &Camera, bp: &BackProject, z: &[f32]) -> (Vec<[u8; 2]>, Vec<u8>) {
     let gw = grid.gw() as usize;
     let (w, h) = (grid.width as usize, grid.height as usize);
     let facing = OCT_FACING;

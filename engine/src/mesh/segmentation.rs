@@ -113,10 +113,14 @@ pub(crate) struct Samples<'a> {
     pub normals: &'a [[u8; 2]],
 }
 
-/// Flags the two finest triangles of every unit cell: bit `h` of the returned
-/// byte per cell (indexed like its min corner) is half `h`.
-#[inline(never)]
-pub(crate) fn leaf_flags(s: &Samples<'_>, seg: &Segmentation) -> Vec<u8> {
+crate::simd::dispatch! {
+    /// Flags the two finest triangles of every unit cell: bit `h` of the
+    /// returned byte per cell (indexed like its min corner) is half `h`.
+    pub(crate) fn leaf_flags(s: &Samples<'_>, seg: &Segmentation) -> Vec<u8> = leaf_flags_body;
+}
+
+#[inline(always)]
+fn leaf_flags_body(s: &Samples<'_>, seg: &Segmentation) -> Vec<u8> {
     let grid = s.grid;
     let (gw, gh) = (grid.gw(), grid.gh());
     let disparity_marks = match seg.method {

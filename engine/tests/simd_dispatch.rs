@@ -1,0 +1,98 @@
+//! The build's AVX2 code (`dmesh_engine::simd`) and its portable fallback
+//! give the same bytes: every vertex's error, radius and flags, and the
+//! meshes extracted from them with their normals and rho, on scenes with
+//! boxes, holes and noise, every segmentation method, perspective and
+//! orthographic cameras, one thread and two.
+
+use dmesh_engine::camera::Camera;
+use dmesh_engine::image::DepthImage;
+use dmesh_engine::mesh::{DepthMesh, Lod, Method, Segmentation, Threads};
+
+/// Everything a build produces that users rely on, as bits.
+fn fingerprint(depth: &DepthImage, camera: &Camera, seg: &Segmentation, threads: Threads) -> Vec<u64> {
+    let m = DepthMesh::build_with(depth, camera, seg, threads).unwrap();
+    let g = *m.grid();
+    let mut out = Vec::new();
+    for y in 0..g.gh() {
+        for x in 0..g.gw() {
+            out.push(u64::from(m.error((x, y)).to_bits()));
+            out.push(u64::from(m.radius((x, y)).to_bits()));
+            out.push(u64::from(m.cell_segmented((x, y), 0)) | u64::from(m.cell_segmented((x, y), 1)) << 1);
+        }
+    }
+    for eps in [0.0, 0.002, 0.02] {
+        let mesh = m.extract(Lod::Epsilon(eps)).unwrap();
+        out.extend(mesh.triangles.iter().flatten().map(|&i| u64::from(i)));
+        out.extend(mesh.strips.iter().map(|&i| u64::from(i)));
+        for v in &mesh.vertices {
+            out.push(u64::from(v.i) | u64::from(v.j) << 16 | u64::from(v.depth.to_bits()) << 32);
+            out.push(u64::from(v.normal[0]) | u64::from(v.normal[1]) << 8 | u64::from(v.rho) << 16);
+        }
+    }
+    out
+}
+
+/// The synthetic terrain with boxes, with holes and a little noise.
+fn scenes() -> Vec<(String, DepthImage, Camera)> {
+    let mut out = Vec::new();
+    for (w, h) in [(129, 97), (64, 64), (33, 47)] {
+        let (d, c) = dmesh_engine::synthetic::terrain_with_boxes(w, h);
+        out.push((format!("{w}x{h}"), d.clone(), c));
+        let mut z = d.z.clone();
+        let mut state = 0x9e37_79b9_7f4a_7c15u64 ^ u64::from(w);
+        for (k, s) in z.iter_mut().enumerate() {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            let r = (state >> 40) as f32 / (1u64 << 24) as f32;
+            if k % 97 == 5 || r < 0.01 {
+                *s = 0.0;
+            } else {
+                *s *= 1.0 + 0.002 * (r - 0.5);
+            }
+        }
+        let holes = DepthImage::from_z(w, h, z).unwrap();
+        out.push((format!("{w}x{h} with holes and noise"), holes, c));
+    }
+    let (d, _) = dmesh_engine::synthetic::terrain_with_boxes(48, 40);
+    let ortho = Camera::orthographic(48, 40, 0.01, 0.01, 23.5, 19.5).unwrap();
+    out.push(("48x40 orthographic".into(), d, ortho));
+    out
+}
+
+#[test]
+fn avx2_and_portable_builds_give_the_same_bytes() {
+    #[cfg(target_arch = "x86_64")]
+    assert!(
+        dmesh_engine::simd::avx2_in_use(),
+        "this CPU has no AVX2: the comparison would be of the portable code with itself"
+    );
+    let methods = [
+        Method::Orthogonality { omega_deg: 5.0 },
+        Method::Disparity { sigma: 0.5 },
+        Method::Connectedness { kappa: 0.5 },
+        Method::None,
+    ];
+    let mut compared = 0;
+    for (name, depth, camera) in scenes() {
+        for method in methods {
+            let seg = Segmentation {
+                method,
+                ..Default::default()
+            };
+            for threads in [Threads::Single, Threads::Parallel] {
+                dmesh_engine::simd::force_portable(true);
+                assert!(!dmesh_engine::simd::avx2_in_use());
+                let portable = fingerprint(&depth, &camera, &seg, threads);
+                dmesh_engine::simd::force_portable(false);
+                let fast = fingerprint(&depth, &camera, &seg, threads);
+                assert!(
+                    portable == fast,
+                    "{name}, {method:?}, {threads:?}: AVX2 and portable differ"
+                );
+                compared += 1;
+            }
+        }
+    }
+    assert_eq!(compared, 7 * 4 * 2);
+}
