@@ -1,9 +1,9 @@
 //! DMesh's own experiments on its own terms (issue 29, part 2): Table 4
 //! (triangles of static against view-dependent meshes for far, medium and
-//! near cameras), Table 1's stages (build time per stage) and the strip
-//! lengths Sec. 7.2-7.3 report (20-40
-//! triangles per strip static, 15-30 view-dependent). Prints Markdown for
-//! `docs/papers.md`.
+//! near cameras), Table 1's stages (build time per stage), the strip
+//! lengths Sec. 7.2-7.3 report (20-40 triangles per strip static, 15-30
+//! view-dependent) and Sec. 7.1's comparison of the segmentation methods
+//! (Fig. 18: cost and quality). Prints Markdown for `docs/papers.md`.
 //!
 //! Usage: `cargo run --release -p dmesh-client --example papers_dmesh [-- DATA_DIR]`
 //! (default `../shared/data`; Art is left out when it is missing).
@@ -20,7 +20,7 @@ use std::time::Instant;
 
 use dmesh_engine::camera::Camera;
 use dmesh_engine::image::DepthImage;
-use dmesh_engine::mesh::{DepthMesh, Lod, Mesh};
+use dmesh_engine::mesh::{DepthMesh, Lod, Mesh, Method, Segmentation, Threads};
 use dmesh_engine::scene::{select_views, SelectionRule};
 use dmesh_engine::sim::rig::Rig;
 use dmesh_engine::sim::{render_view, SceneSpec};
@@ -113,6 +113,7 @@ fn main() -> anyhow::Result<()> {
             cases.push((name.into(), r.depth.clone(), r.camera, case.depth_scale));
         }
     }
+    let mut shares: Vec<(String, f64, [f64; 3])> = Vec::new();
     for (name, depth, cam, scale) in &cases {
         let mut runs: Vec<(f64, dmesh_engine::mesh::Stages, f64)> = (0..5)
             .map(|_| {
@@ -124,6 +125,12 @@ fn main() -> anyhow::Result<()> {
             .collect::<anyhow::Result<_>>()?;
         runs.sort_by(|a, b| a.0.total_cmp(&b.0));
         let (ms, st, ex) = runs[2];
+        let pixels = f64::from(depth.width) * f64::from(depth.height);
+        shares.push((
+            name.clone(),
+            ms / pixels,
+            [st.coarse_ms / ms, st.finest_ms / ms, st.normals_ms / ms],
+        ));
         println!(
             "| {name} | {} x {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {ms:.2} | {ex:.2} |",
             depth.width,
@@ -136,6 +143,22 @@ fn main() -> anyhow::Result<()> {
             st.stats_ms
         );
     }
+    let range = |k: usize| {
+        let v = shares.iter().map(|s| 100.0 * s.2[k]);
+        let (lo, hi) = v.fold((f64::INFINITY, 0f64), |(lo, hi), x| (lo.min(x), hi.max(x)));
+        format!("{lo:.0}-{hi:.0} %")
+    };
+    println!(
+        "\nShares of the whole build: coarse levels {}, finest level {}, normals and rho {}. Build time per pixel (ns): {}.",
+        range(0),
+        range(1),
+        range(2),
+        shares
+            .iter()
+            .map(|(n, per_pixel, _)| format!("{n} {:.0}", per_pixel * 1e6))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
     println!("\n### Strip lengths by tolerance\n");
     println!("Triangles per strip of one reference's mesh, static (epsilon as a fraction of a typical depth: 4 m for the demo, the report's depth scale for Art) and view-dependent (tau, the reference's own camera).\n");
     println!("| scene | tolerance | triangles | strips | triangles per strip |");
@@ -170,6 +193,123 @@ fn main() -> anyhow::Result<()> {
                 m.triangles.len(),
                 m.strip_count(),
                 per_strip(&m)
+            );
+        }
+    }
+    segmentation_methods(&data)?;
+    Ok(())
+}
+
+/// Sec. 7.1 and Fig. 18: the three segmentation methods and none, in build
+/// time and in the quality of the blend of the references each builds.
+fn segmentation_methods(data: &std::path::Path) -> anyhow::Result<()> {
+    use dmesh_client::blend::{blend, BlendOptions, ViewInput};
+    use dmesh_client::report::cases::{self, Case};
+    use dmesh_engine::mesh::segmentation::{KAPPA, LAMBDA, OMEGA_DEG, SIGMA};
+    use dmesh_engine::render_plan::{self, Ask};
+    println!("\n### Sec. 7.1 and Fig. 18: segmentation methods\n");
+    println!(
+        "Each method at the server's default threshold (orthogonality omega = {OMEGA_DEG} degrees, disparity sigma = {SIGMA}, connectedness kappa = {KAPPA}; the depth-range gate lambda = {LAMBDA} for all). \
+         Build: one thread, median of 5 builds of each reference, summed; the segmentation stage (the leaf tests, which is all that differs) beside it; connectedness also needs the normals first, which every build computes anyway. \
+         Blend: each novel view from the references the DMesh rule selects, view-dependent at tau = 1 px, blended by the CPU client without gap filling, scored against the ground truth. \
+         PSNR over the pixels every method covers (the common mask) and over each method's own; coverage is the share of the image each covers. \
+         The demo scene: 16 references of 256 x 192, 8 novel views around it. Art: the left view warped to the right one.\n"
+    );
+    println!("| scene | method | build ms | of which segmentation ms | segmented triangles | PSNR dB, common mask | PSNR dB, own mask | coverage |");
+    println!("|---|---|---|---|---|---|---|---|");
+    let mut scenes: Vec<Case> = vec![cases::simulated("demo", false, 8)?];
+    match cases::middlebury(data, "art") {
+        Ok(case) => scenes.push(case),
+        Err(e) => println!("<!-- art left out: {e} -->"),
+    }
+    let methods = [
+        ("orthogonality", Method::Orthogonality { omega_deg: OMEGA_DEG }),
+        ("disparity", Method::Disparity { sigma: SIGMA }),
+        ("connectedness", Method::Connectedness { kappa: KAPPA }),
+        ("none", Method::None),
+    ];
+    for case in &scenes {
+        let cameras: Vec<Camera> = case.references.iter().map(|r| r.camera).collect();
+        // Per method: build ms, segmented triangles, and per novel view the
+        // blended image and its coverage.
+        let mut results = Vec::new();
+        for (name, method) in methods {
+            let seg = Segmentation {
+                method,
+                ..Default::default()
+            };
+            let (mut build_ms, mut flags_ms, mut segmented) = (0.0, 0.0, 0);
+            let mut hierarchies = Vec::new();
+            for r in &case.references {
+                let (mut times, mut flag_times) = (Vec::new(), Vec::new());
+                let mut last = None;
+                for _ in 0..5 {
+                    let h = DepthMesh::build_with(&r.depth, &r.camera, &seg, Threads::Single)?;
+                    times.push(h.stats().build_ms);
+                    flag_times.push(h.stats().stages.flags_ms);
+                    last = Some(h);
+                }
+                let h = last.ok_or_else(|| anyhow::anyhow!("no build"))?;
+                build_ms += median(times);
+                flags_ms += median(flag_times);
+                segmented += h.stats().segmented_triangles;
+                hierarchies.push(h);
+            }
+            let mut blends = Vec::new();
+            for novel in &case.novels {
+                let selected = render_plan::select(&novel.camera, &cameras, dmesh_proto::Selection::Dmesh, None, None)?;
+                let mut responses = Vec::new();
+                for w in &selected {
+                    let ask = Ask::new(dmesh_proto::Lod::Tau(1.0), Some(novel.camera), None)?.share(w.weight);
+                    let r = &case.references[w.index];
+                    let out = render_plan::extract(&hierarchies[w.index], r.raw_grid, &case.name, "v", &ask, |ms| ms)?;
+                    responses.push((w.weight, out.response, &r.texture));
+                }
+                let inputs: Vec<ViewInput<'_>> = responses
+                    .iter()
+                    .map(|(weight, strips, texture)| ViewInput {
+                        weight: *weight,
+                        strips,
+                        texture,
+                    })
+                    .collect();
+                let options = BlendOptions {
+                    fill_gaps: 0,
+                    ..BlendOptions::default()
+                };
+                blends.push(blend(&novel.camera, &inputs, &options)?);
+            }
+            results.push((name, build_ms, flags_ms, segmented, blends));
+        }
+        // The common mask: covered by every method and valid in the truth.
+        for (name, build_ms, flags_ms, segmented, blends) in &results {
+            let (mut common, mut own, mut cover) = ((0.0, 0usize), (0.0, 0usize), 0.0);
+            for (k, (b, novel)) in blends.iter().zip(&case.novels).enumerate() {
+                let n = novel.depth.len();
+                let mut covered = 0usize;
+                for i in 0..n {
+                    if novel.depth[i] <= 0.0 || b.depth[i] <= 0.0 {
+                        continue;
+                    }
+                    covered += 1;
+                    let se: f64 = (0..3)
+                        .map(|c| (f64::from(b.rgb[3 * i + c]) - f64::from(novel.rgb[3 * i + c])).powi(2))
+                        .sum::<f64>()
+                        / 3.0;
+                    own = (own.0 + se, own.1 + 1);
+                    if results.iter().all(|(_, _, _, _, other)| other[k].depth[i] > 0.0) {
+                        common = (common.0 + se, common.1 + 1);
+                    }
+                }
+                cover += covered as f64 / n as f64;
+            }
+            let psnr = |(se, count): (f64, usize)| 10.0 * (255.0f64 * 255.0 / (se / count.max(1) as f64)).log10();
+            println!(
+                "| {} | {name} | {build_ms:.1} | {flags_ms:.2} | {segmented} | {:.2} | {:.2} | {:.1} % |",
+                case.name,
+                psnr(common),
+                psnr(own),
+                100.0 * cover / case.novels.len().max(1) as f64
             );
         }
     }
