@@ -69,8 +69,13 @@ pub struct ViewInput<'a> {
 pub struct BlendOptions {
     /// Fragments within `eps_z * z` of the nearest depth blend (DMesh's epsilon).
     pub eps_z: f64,
-    /// Verlani's per-pixel `cos^k(theta)` weight, when set.
+    /// Verlani's per-pixel `cos^k(theta)` weight, when set: `theta` is
+    /// the angle at the surface point between the rays to the reference
+    /// and to the novel eye.
     pub cos_k: Option<f64>,
+    /// Verlani's alternative, `exp(-k theta)` with `theta` in radians, when
+    /// set (with `cos_k` too, their product).
+    pub exp_k: Option<f64>,
     /// Relighting with the vertex normals: a directional light (world) and
     /// its specular exponent; `None` keeps the textures' own shading.
     pub relight: Option<(DVec3, f64)>,
@@ -90,6 +95,7 @@ impl Default for BlendOptions {
         Self {
             eps_z: 0.01,
             cos_k: None,
+            exp_k: None,
             relight: None,
             fill_gaps: 2,
         }
@@ -309,10 +315,16 @@ pub fn blend_surfaces(novel: &Camera, surfaces: &[Surface<'_>], options: &BlendO
                 let rho = mix(&|p| p.rho).max(1e-3);
                 let mut wgt = view.weight * rho;
                 let world = a.world * l[0] + b.world * l[1] + c.world * l[2];
-                if let Some(k) = options.cos_k {
+                if options.cos_k.is_some() || options.exp_k.is_some() {
                     let to_ref = (reference.translation - world).normalize_or_zero();
                     let to_novel = (eye - world).normalize_or_zero();
-                    wgt *= to_ref.dot(to_novel).max(0.0).powf(k);
+                    let cos = to_ref.dot(to_novel).clamp(-1.0, 1.0);
+                    if let Some(k) = options.cos_k {
+                        wgt *= cos.max(0.0).powf(k);
+                    }
+                    if let Some(k) = options.exp_k {
+                        wgt *= (-k * cos.acos()).exp();
+                    }
                 }
                 let mut c3 = view.texture.sample(u, v);
                 if let Some((light, shininess)) = options.relight {
@@ -497,6 +509,29 @@ mod tests {
             let p = DVec3::new(0.5 / 16.0 * 2.0, 0.5 / 16.0 * 2.0, 2.0);
             let cos = (side.translation - p).normalize().dot((DVec3::ZERO - p).normalize());
             let w = cos.powf(k);
+            let want = (40.0 + w * 200.0) / (1.0 + w);
+            assert!((got - want).abs() <= 1.0, "k {k}: {got} against {want}");
+        }
+    }
+
+    /// Verlani's other weight, exp(-k theta), on the same two references.
+    #[test]
+    fn exp_k_weighs_a_reference_by_its_angle_to_the_novel_ray() {
+        let side = camera(glam::DQuat::IDENTITY, DVec3::new(0.5, 0.0, 0.0));
+        let mut shifted = square(2.0);
+        shifted.camera = (&side).into();
+        let p = DVec3::new(0.5 / 16.0 * 2.0, 0.5 / 16.0 * 2.0, 2.0);
+        let theta = (side.translation - p).normalize().dot((DVec3::ZERO - p).normalize()).acos();
+        for k in [0.0, 4.0, 16.0] {
+            let got = centre_of(
+                &square(2.0),
+                &shifted,
+                &BlendOptions {
+                    exp_k: Some(k),
+                    ..Default::default()
+                },
+            );
+            let w = (-k * theta).exp();
             let want = (40.0 + w * 200.0) / (1.0 + w);
             assert!((got - want).abs() <= 1.0, "k {k}: {got} against {want}");
         }

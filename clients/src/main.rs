@@ -2,7 +2,7 @@
 //!
 //! - `dmesh-client ingest --server URL --scene ID (--simulate SCENE_FILE|demo | --dir DIR)`
 //! - `dmesh-client render --server URL --scene ID --camera CAM.json [--tau T | --epsilon E]
-//!   --out OUT.png [--depth-out OUT.pfm] [--coverage-out COV.png] [--cos-k K] [--max-views N]`
+//!   --out OUT.png [--depth-out OUT.pfm] [--coverage-out COV.png] [--cos-k K] [--exp-k K] [--max-views N]`
 //! - `dmesh-client compare A.png B.png [--depth-a A.pfm --depth-b B.pfm] [--json]`
 //!
 //! Every failure exits non-zero with one line naming the problem.
@@ -73,6 +73,9 @@ enum Command {
         /// Verlani's per-pixel cos^k weights.
         #[arg(long)]
         cos_k: Option<f64>,
+        /// Verlani's per-pixel exp(-k theta) weights (theta in radians).
+        #[arg(long)]
+        exp_k: Option<f64>,
         /// Relight with the vertex normals (diffuse + specular from a light above and behind the camera).
         #[arg(long)]
         relight: bool,
@@ -349,6 +352,7 @@ fn run(cli: Cli) -> Result<()> {
             depth_out,
             coverage_out,
             cos_k,
+            exp_k,
             relight,
             fill_gaps,
             cache,
@@ -356,6 +360,7 @@ fn run(cli: Cli) -> Result<()> {
             let relight = relight.then(|| (glam::DVec3::new(0.3, 1.0, 0.4).normalize(), 32.0));
             let options = BlendOptions {
                 cos_k,
+                exp_k,
                 relight,
                 fill_gaps,
                 ..Default::default()

@@ -13,6 +13,7 @@ use glam::DVec3;
 use crate::blend::Texture;
 
 /// One reference view as the server would hold it.
+#[derive(Clone)]
 pub struct Reference {
     /// Its camera.
     pub camera: Camera,
@@ -25,6 +26,7 @@ pub struct Reference {
 }
 
 /// A novel camera with what it should see.
+#[derive(Clone)]
 pub struct Novel {
     /// The camera.
     pub camera: Camera,
@@ -35,6 +37,7 @@ pub struct Novel {
 }
 
 /// A scene of the report.
+#[derive(Clone)]
 pub struct Case {
     /// Its name in tables and plots.
     pub name: String,
