@@ -6,7 +6,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use dmesh_client::report::baselines::{compare_case, markdown, write, Options, FULL, RATES, SCENES};
+use dmesh_client::report::baselines::{compare_case, markdown, write, Options, DIBR, FULL, RATES, SCENES};
 use dmesh_client::report::cases;
 use dmesh_engine::baselines;
 
@@ -35,10 +35,23 @@ fn a_2005_scene_warps_onto_its_right_view() {
         repeats: 1,
     };
     let rows = compare_case(&case, &[], &options).unwrap();
-    assert_eq!(rows.len(), 1);
+    assert_eq!(rows.len(), 2);
     assert_eq!(rows[0].mesher, FULL);
     assert!(rows[0].psnr > 24.0, "{:?}", rows[0]);
     assert!((rows[0].coverage - 1.0).abs() < 1e-12);
+    // The valid mask is the left-right check: no pixel of the full mesh's
+    // own warp in it is off by more than a pixel of disparity.
+    assert_eq!(rows[0].bad_pixels_common, 0.0, "{:?}", rows[0]);
+    // Per-pixel DIBR: splats cover nearly all of the mask, and score near
+    // the full mesh (it is the same depth, without the triangles between).
+    let dibr = &rows[1];
+    assert_eq!(dibr.mesher, DIBR);
+    assert!(dibr.coverage > 0.95 && dibr.coverage <= 1.0 + 1e-12, "{dibr:?}");
+    assert!((dibr.psnr - rows[0].psnr).abs() < 3.0, "{dibr:?} against {:?}", rows[0]);
+    // Its errors are the classic ones: a background splat in a crack of
+    // the foreground, a fraction of a per cent of the pixels.
+    assert!(dibr.disparity_mse_full_common.is_finite(), "{dibr:?}");
+    assert!(dibr.bad_pixels_common < 0.02, "{dibr:?}");
 }
 
 /// Every mesher on cones at rate 10: the rate met within 10 %, scores that
@@ -53,7 +66,7 @@ fn every_mesher_meets_the_rate_on_cones_and_the_files_are_written() {
         repeats: 1,
     };
     let rows = compare_case(&case, &meshers, &options).unwrap();
-    assert_eq!(rows.len(), 1 + meshers.len());
+    assert_eq!(rows.len(), 2 + meshers.len());
     let full = &rows[0];
     for m in &meshers {
         let r = rows.iter().find(|r| r.mesher == m.name()).unwrap();
@@ -64,6 +77,10 @@ fn every_mesher_meets_the_rate_on_cones_and_the_files_are_written() {
         // The common mask is inside every mesher's own.
         assert!(r.common_mask > 0.3 && r.common_mask <= r.coverage + 1e-12, "{r:?}");
         assert!(r.psnr_common.is_finite() && r.disparity_mse_common.is_finite(), "{r:?}");
+        assert!(
+            r.disparity_mse_full_common.is_finite() && r.disparity_mse_full_common >= 0.0,
+            "{r:?}"
+        );
         assert!((0.0..0.5).contains(&r.bad_pixels_common), "{r:?}");
         assert!(r.ms > 0.0, "{r:?}");
         // A tenth of the triangles cannot be much better than all of them
@@ -97,6 +114,7 @@ fn the_committed_comparison_is_whole() {
     for scene in SCENES {
         let of_scene: Vec<&serde_json::Value> = rows.iter().filter(|r| r["scene"] == scene).collect();
         assert!(of_scene.iter().any(|r| r["mesher"] == FULL), "{scene}");
+        assert!(of_scene.iter().any(|r| r["mesher"] == DIBR), "{scene}");
         for mesher in &meshers {
             for rate in RATES {
                 let r = of_scene
@@ -109,6 +127,7 @@ fn the_committed_comparison_is_whole() {
                     "coverage",
                     "psnr_common",
                     "disparity_mse_common",
+                    "disparity_mse_full_common",
                     "common_mask",
                     "bad_pixels_common",
                     "ms",

@@ -11,7 +11,8 @@ use plotters::prelude::*;
 
 const FONT: &[u8] = include_bytes!("../../assets/DejaVuSansMono.ttf");
 const SIZE: (u32, u32) = (800, 520);
-const COLOURS: [RGBColor; 8] = [
+/// One colour per series, up to twelve (a chart with more repeats them).
+const COLOURS: [RGBColor; 12] = [
     RGBColor(31, 119, 180),
     RGBColor(214, 39, 40),
     RGBColor(44, 160, 44),
@@ -20,7 +21,32 @@ const COLOURS: [RGBColor; 8] = [
     RGBColor(23, 190, 207),
     RGBColor(120, 80, 40),
     RGBColor(60, 60, 60),
+    RGBColor(227, 119, 194),
+    RGBColor(188, 189, 34),
+    RGBColor(0, 0, 128),
+    RGBColor(140, 200, 140),
 ];
+
+/// At most this many tick labels per axis, so that log axes' labels do
+/// not overlap.
+const TICKS: usize = 8;
+
+/// A tick label: whole numbers without a decimal point (the bundled font's
+/// point renders a pixel high at these sizes), others with the fewest
+/// decimals that tell them apart.
+fn tick(v: &f64) -> String {
+    let v = *v;
+    if (v - v.round()).abs() <= 1e-9 * v.abs().max(1.0) {
+        return format!("{:.0}", v.round());
+    }
+    for decimals in 1..=4 {
+        let s = format!("{v:.decimals$}");
+        if (s.parse::<f64>().unwrap_or(f64::NAN) - v).abs() <= 1e-9 * v.abs().max(1e-12) {
+            return s;
+        }
+    }
+    format!("{v:.3e}")
+}
 
 /// Series with at most this many points get a marker on each.
 const MARKED: usize = 30;
@@ -122,6 +148,10 @@ impl Chart<'_> {
             .configure_mesh()
             .x_desc(self.x_label)
             .y_desc(self.y_label)
+            .x_labels(TICKS)
+            .y_labels(TICKS)
+            .x_label_formatter(&tick)
+            .y_label_formatter(&tick)
             .label_style(("sans-serif", 13))
             .draw()?;
         for (k, (name, pts)) in series.iter().enumerate() {
@@ -157,5 +187,20 @@ impl Chart<'_> {
             .save(&png)
             .with_context(|| format!("cannot write {}", png.display()))?;
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::tick;
+
+    #[test]
+    fn tick_labels_drop_needless_decimals() {
+        assert_eq!(tick(&38.0), "38");
+        assert_eq!(tick(&-2.0), "-2");
+        assert_eq!(tick(&0.5), "0.5");
+        assert_eq!(tick(&0.25), "0.25");
+        assert_eq!(tick(&1000.0), "1000");
+        assert_eq!(tick(&0.00001), "1.000e-5");
     }
 }
