@@ -140,12 +140,24 @@ fn blended(novel: &Camera, views: &[(f64, StripResponse, &Texture)], options: Bl
             texture,
         })
         .collect();
-    Ok(blend(novel, &inputs, &BlendOptions { fill_gaps: 0, ..options })?)
+    blend(
+        novel,
+        &inputs,
+        &BlendOptions {
+            fill_gaps: 0,
+            ..options
+        },
+    )
 }
 
 /// Every novel view of `scene` through the stream at `detail` and
 /// `planes`: the blends and the zipped bytes per novel view.
-fn through_stream(scene: &Scene, detail: Detail, planes: Option<u8>, options: BlendOptions) -> Result<(Vec<Blended>, f64)> {
+fn through_stream(
+    scene: &Scene,
+    detail: Detail,
+    planes: Option<u8>,
+    options: BlendOptions,
+) -> Result<(Vec<Blended>, f64)> {
     let (mut out, mut bytes) = (Vec::new(), 0usize);
     for (novel, selected) in scene.case.novels.iter().zip(&scene.selections) {
         let (mut body, mut views) = (Vec::new(), Vec::new());
@@ -208,7 +220,11 @@ fn table2(scene: &Scene) -> Result<()> {
     let reference_bytes: f64 = scene
         .selections
         .iter()
-        .map(|sel| sel.iter().map(|w| zipped_depth(&scene.case.references[w.index].depth.z, 16)).sum::<usize>() as f64)
+        .map(|sel| {
+            sel.iter()
+                .map(|w| zipped_depth(&scene.case.references[w.index].depth.z, 16))
+                .sum::<usize>() as f64
+        })
         .sum::<f64>()
         / novels.len() as f64;
     let planes: Vec<Option<u8>> = [0u8, 1, 2, 3, 4, 6, 8, 10, 12, 14, 16]
@@ -319,7 +335,9 @@ fn table1(scene: &Scene) -> Result<()> {
         // bytes are at most the JPEG's, by bisection on log tau; the best
         // PSNR of the three.
         let mean_target = target.iter().sum::<usize>() as f64 / target.len() as f64;
-        let mut best: Option<(f64, Option<u8>, f64, Vec<Blended>, f64)> = None;
+        // tau, planes, bytes, the blends, PSNR.
+        type Fit = (f64, Option<u8>, f64, Vec<Blended>, f64);
+        let mut best: Option<Fit> = None;
         for planes in [None, Some(8u8), Some(4)] {
             let (mut lo, mut hi) = (0.05f64.ln(), 64f64.ln());
             let mut fit = None;
@@ -426,7 +444,9 @@ fn fig5(plot: &std::path::Path) -> Result<()> {
         let name = noise.map_or("none".to_string(), |n| format!("{:.0} mm", n * 1e3));
         let pick = |deg: f64| points.iter().find(|p| p.0 == deg).map_or(f64::NAN, |p| p.1);
         let lowest = points.iter().map(|p| p.1).fold(f64::INFINITY, f64::min);
-        let exact: &[(f64, f64)] = series.first().map_or(&points[..], |(_, p): &(String, Vec<(f64, f64)>)| &p[..]);
+        let exact: &[(f64, f64)] = series
+            .first()
+            .map_or(&points[..], |(_, p): &(String, Vec<(f64, f64)>)| &p[..]);
         let apart = points
             .iter()
             .zip(exact)
@@ -492,7 +512,11 @@ fn table3(scene: &Scene) -> Result<()> {
         let zipped8: f64 = sub
             .selections
             .iter()
-            .map(|sel| sel.iter().map(|w| zipped_depth(&sub.case.references[w.index].depth.z, 8)).sum::<usize>() as f64)
+            .map(|sel| {
+                sel.iter()
+                    .map(|w| zipped_depth(&sub.case.references[w.index].depth.z, 8))
+                    .sum::<usize>() as f64
+            })
             .sum::<f64>()
             / sub.case.novels.len() as f64;
         labels.push((sub.case.references.len(), detail, planes, bytes, zipped8 / bytes));
@@ -521,11 +545,41 @@ fn weights(scene: &Scene) -> Result<()> {
     );
     let settings: Vec<(String, BlendOptions)> = vec![
         ("none".into(), BlendOptions::default()),
-        ("cos^4".into(), BlendOptions { cos_k: Some(4.0), ..Default::default() }),
-        ("cos^16".into(), BlendOptions { cos_k: Some(16.0), ..Default::default() }),
-        ("exp(-2 theta)".into(), BlendOptions { exp_k: Some(2.0), ..Default::default() }),
-        ("exp(-8 theta)".into(), BlendOptions { exp_k: Some(8.0), ..Default::default() }),
-        ("exp(-32 theta)".into(), BlendOptions { exp_k: Some(32.0), ..Default::default() }),
+        (
+            "cos^4".into(),
+            BlendOptions {
+                cos_k: Some(4.0),
+                ..Default::default()
+            },
+        ),
+        (
+            "cos^16".into(),
+            BlendOptions {
+                cos_k: Some(16.0),
+                ..Default::default()
+            },
+        ),
+        (
+            "exp(-2 theta)".into(),
+            BlendOptions {
+                exp_k: Some(2.0),
+                ..Default::default()
+            },
+        ),
+        (
+            "exp(-8 theta)".into(),
+            BlendOptions {
+                exp_k: Some(8.0),
+                ..Default::default()
+            },
+        ),
+        (
+            "exp(-32 theta)".into(),
+            BlendOptions {
+                exp_k: Some(32.0),
+                ..Default::default()
+            },
+        ),
     ];
     let mut rows = Vec::new();
     for (_, options) in &settings {

@@ -521,7 +521,10 @@ mod tests {
         let mut shifted = square(2.0);
         shifted.camera = (&side).into();
         let p = DVec3::new(0.5 / 16.0 * 2.0, 0.5 / 16.0 * 2.0, 2.0);
-        let theta = (side.translation - p).normalize().dot((DVec3::ZERO - p).normalize()).acos();
+        let theta = (side.translation - p)
+            .normalize()
+            .dot((DVec3::ZERO - p).normalize())
+            .acos();
         for k in [0.0, 4.0, 16.0] {
             let got = centre_of(
                 &square(2.0),

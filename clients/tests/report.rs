@@ -18,6 +18,10 @@ fn quick_report_sweeps_and_writes_tables_and_curves() {
     for r in &rows {
         assert!(r.psnr.is_finite() && r.psnr > 15.0, "{r:?}");
         assert!(r.triangles > 0.0 && r.bytes > 0.0 && r.extract_ms >= 0.0, "{r:?}");
+        // The common mask is inside every row's own, and the same for all.
+        assert!(r.psnr_common.is_finite() && r.psnr_common > 15.0, "{r:?}");
+        assert!(r.common_mask > 0.2 && r.common_mask <= r.coverage + 1e-12, "{r:?}");
+        assert_eq!(r.common_mask, rows[0].common_mask, "{r:?}");
     }
     let of = |sweep: Sweep| rows.iter().filter(move |r| r.sweep == sweep);
     let tau: Vec<_> = of(Sweep::Tau).collect();
