@@ -164,8 +164,27 @@ pub fn sweep(case: &Case, options: &Options) -> anyhow::Result<Vec<Row>> {
     let mut per_pixel: Vec<Vec<Vec<f32>>> = Vec::new();
     for sweep in [Sweep::Tau, Sweep::Epsilon, Sweep::Bits, Sweep::Budget] {
         for setting in sweep.settings(options.quick) {
-            // As the server does: a view's share of a budget below its
-            // coarsest mesh is refused, so such a budget has no row.
+            // As the server does (`render_plan::afford`): a budget leaves
+            // out the views whose share no mesh of theirs fits, and the rest
+            // share it; a budget below even the heaviest view's coarsest
+            // mesh is refused, so it has no row.
+            let sweep_selections: Vec<Vec<dmesh_engine::scene::Weighted>> = match sweep {
+                Sweep::Budget => selections
+                    .iter()
+                    .map(|sel| {
+                        let weights: Vec<f64> = sel.iter().map(|w| w.weight).collect();
+                        let coarsest: Vec<u64> =
+                            sel.iter().map(|w| hierarchies[w.index].coarsest_triangles()).collect();
+                        render_plan::afford(&weights, &coarsest, setting)
+                            .into_iter()
+                            .zip(sel)
+                            .filter(|(w, _)| *w > 0.0)
+                            .map(|(weight, v)| dmesh_engine::scene::Weighted { weight, ..*v })
+                            .collect()
+                    })
+                    .collect(),
+                _ => selections.clone(),
+            };
             let budget = Ask::new(WireLod::MaxTriangles(setting as u32), None, None)?;
             let attainable = |sel: &Vec<dmesh_engine::scene::Weighted>| {
                 sel.iter().all(|w| {
@@ -173,9 +192,9 @@ pub fn sweep(case: &Case, options: &Options) -> anyhow::Result<Vec<Row>> {
                         WireLod::MaxTriangles(m) if u64::from(m) >= hierarchies[w.index].coarsest_triangles())
                 })
             };
-            if sweep == Sweep::Budget && !selections.iter().all(attainable) {
+            if sweep == Sweep::Budget && !sweep_selections.iter().all(attainable) {
                 eprintln!(
-                    "{}: max_triangles {setting} is below the coarsest meshes of some selected views; no row",
+                    "{}: max_triangles {setting} is below the coarsest mesh of the heaviest selected view; no row",
                     case.name
                 );
                 continue;
@@ -198,7 +217,7 @@ pub fn sweep(case: &Case, options: &Options) -> anyhow::Result<Vec<Row>> {
                 depth_error: 0.0,
             };
             let mut errors = Vec::new();
-            for (novel, selected) in case.novels.iter().zip(&selections) {
+            for (novel, selected) in case.novels.iter().zip(&sweep_selections) {
                 let mut responses = Vec::new();
                 for w in selected {
                     let (h, r) = (&hierarchies[w.index], &case.references[w.index]);
