@@ -5,8 +5,10 @@
 //! view-dependent) and Sec. 7.1's comparison of the segmentation methods
 //! (Fig. 18: cost and quality). Prints Markdown for `docs/papers.md`.
 //!
-//! Usage: `cargo run --release -p dmesh-client --example papers_dmesh [-- DATA_DIR]`
+//! Usage: `cargo run --release -p dmesh-client --example papers_dmesh [-- [--quick] DATA_DIR]`
 //! (default `../shared/data`; Art is left out when it is missing).
+//! `--quick` runs every table once on small inputs, for the test that
+//! keeps this example from rotting; its figures mean nothing.
 //!
 //! Everything runs in process on the engine: the demo scene's 16
 //! references, the five the DMesh rule selects for a camera looking at the
@@ -25,6 +27,22 @@ use dmesh_engine::scene::{select_views, SelectionRule};
 use dmesh_engine::sim::rig::Rig;
 use dmesh_engine::sim::{render_view, SceneSpec};
 
+/// `--quick`: one run of everything, on small inputs.
+static QUICK: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+fn quick() -> bool {
+    QUICK.load(std::sync::atomic::Ordering::Relaxed)
+}
+
+/// Runs per timing: 5, or 1 when quick.
+fn runs() -> usize {
+    if quick() {
+        1
+    } else {
+        5
+    }
+}
+
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     v[v.len() / 2]
@@ -34,13 +52,13 @@ fn median(mut v: Vec<f64>) -> f64 {
 fn timed(h: &DepthMesh, lod: Lod<'_>) -> anyhow::Result<(Mesh, f64)> {
     let mut times = Vec::new();
     let mut last = None;
-    for _ in 0..5 {
+    for _ in 0..runs() {
         let t = Instant::now();
         let m = h.extract(lod)?;
         times.push(t.elapsed().as_secs_f64() * 1e3);
         last = Some(m);
     }
-    Ok((last.expect("five runs"), median(times)))
+    Ok((last.expect("at least one run"), median(times)))
 }
 
 fn per_strip(m: &Mesh) -> f64 {
@@ -48,7 +66,12 @@ fn per_strip(m: &Mesh) -> f64 {
 }
 
 fn main() -> anyhow::Result<()> {
-    let data = std::path::PathBuf::from(std::env::args().nth(1).unwrap_or_else(|| "../shared/data".into()));
+    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    if let Some(k) = args.iter().position(|a| a == "--quick") {
+        args.remove(k);
+        QUICK.store(true, std::sync::atomic::Ordering::Relaxed);
+    }
+    let data = std::path::PathBuf::from(args.first().cloned().unwrap_or_else(|| "../shared/data".into()));
     let spec = SceneSpec::demo();
     let views = spec.rig.cameras(spec.width, spec.height, spec.fov_deg)?;
     let mut meshes = Vec::new();
@@ -105,9 +128,11 @@ fn main() -> anyhow::Result<()> {
     println!("| scene | size | depths onto the grid | normals and rho | segmentation | finest level | coarse levels (exact deviations) | statistics | whole build | strips (extraction) |");
     println!("|---|---|---|---|---|---|---|---|---|---|");
     let mut cases: Vec<(String, DepthImage, Camera, f64)> = Vec::new();
-    let (d, c) = dmesh_engine::synthetic::terrain_with_boxes(513, 513);
+    let size = if quick() { 65 } else { 513 };
+    let (d, c) = dmesh_engine::synthetic::terrain_with_boxes(size, size);
     cases.push(("synthetic".into(), d, c, 10.0));
-    for name in ["cones", "art", "reindeer"] {
+    let middlebury: &[&str] = if quick() { &[] } else { &["cones", "art", "reindeer"] };
+    for &name in middlebury {
         if let Ok(case) = dmesh_client::report::cases::middlebury(&data, name) {
             let r = &case.references[0];
             cases.push((name.into(), r.depth.clone(), r.camera, case.depth_scale));
@@ -115,7 +140,7 @@ fn main() -> anyhow::Result<()> {
     }
     let mut shares: Vec<(String, f64, [f64; 3])> = Vec::new();
     for (name, depth, cam, scale) in &cases {
-        let mut runs: Vec<(f64, dmesh_engine::mesh::Stages, f64)> = (0..5)
+        let mut runs: Vec<(f64, dmesh_engine::mesh::Stages, f64)> = (0..runs())
             .map(|_| {
                 let h = DepthMesh::build_with(depth, cam, &Default::default(), dmesh_engine::mesh::Threads::Single)?;
                 let s = h.stats();
@@ -124,7 +149,7 @@ fn main() -> anyhow::Result<()> {
             })
             .collect::<anyhow::Result<_>>()?;
         runs.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let (ms, st, ex) = runs[2];
+        let (ms, st, ex) = runs[runs.len() / 2];
         let pixels = f64::from(depth.width) * f64::from(depth.height);
         shares.push((
             name.clone(),
@@ -167,6 +192,7 @@ fn main() -> anyhow::Result<()> {
     let demo_view = &meshes[4];
     scenes.push(("demo v04".into(), demo_view.clone(), 4.0));
     match dmesh_client::report::cases::middlebury(&data, "art") {
+        Ok(_) if quick() => {}
         Ok(case) => {
             let r = &case.references[0];
             let h = DepthMesh::build(&r.depth, &r.camera, &Default::default())?;
@@ -217,8 +243,9 @@ fn segmentation_methods(data: &std::path::Path) -> anyhow::Result<()> {
     );
     println!("| scene | method | build ms | of which segmentation ms | segmented triangles | PSNR dB, common mask | PSNR dB, own mask | coverage |");
     println!("|---|---|---|---|---|---|---|---|");
-    let mut scenes: Vec<Case> = vec![cases::simulated("demo", false, 8)?];
+    let mut scenes: Vec<Case> = vec![cases::simulated("demo", false, if quick() { 2 } else { 8 })?];
     match cases::middlebury(data, "art") {
+        Ok(_) if quick() => {}
         Ok(case) => scenes.push(case),
         Err(e) => println!("<!-- art left out: {e} -->"),
     }
@@ -243,7 +270,7 @@ fn segmentation_methods(data: &std::path::Path) -> anyhow::Result<()> {
             for r in &case.references {
                 let (mut times, mut flag_times) = (Vec::new(), Vec::new());
                 let mut last = None;
-                for _ in 0..5 {
+                for _ in 0..runs() {
                     let h = DepthMesh::build_with(&r.depth, &r.camera, &seg, Threads::Single)?;
                     times.push(h.stats().build_ms);
                     flag_times.push(h.stats().stages.flags_ms);

@@ -18,7 +18,9 @@
 //! Prints Markdown for `docs/papers.md`; writes the plot of Fig. 5 to the
 //! path given (`.png` and `.svg`).
 //!
-//! Usage: `cargo run --release -p dmesh-client --example papers_verlani -- PLOT_BASE`
+//! Usage: `cargo run --release -p dmesh-client --example papers_verlani -- [--quick] PLOT_BASE`.
+//! `--quick` runs every table on a few settings, for the test that keeps
+//! this example from rotting; its figures mean little.
 
 use std::io::Write;
 
@@ -33,6 +35,18 @@ use dmesh_engine::render_plan;
 use dmesh_engine::scene::Weighted;
 use dmesh_engine::wire_compact::{mesh_stream, strip_response};
 use dmesh_proto::StripResponse;
+
+/// `--quick`: a few settings of everything.
+static QUICK: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+fn quick() -> bool {
+    QUICK.load(std::sync::atomic::Ordering::Relaxed)
+}
+
+/// `full` normally, `short` when quick.
+fn pick<T: Clone>(full: &[T], short: &[T]) -> Vec<T> {
+    if quick() { short } else { full }.to_vec()
+}
 
 /// Deflated size (zlib, level 6), as a zip file holds it.
 fn zipped(bytes: &[u8]) -> usize {
@@ -227,7 +241,7 @@ fn table2(scene: &Scene) -> Result<()> {
         })
         .sum::<f64>()
         / novels.len() as f64;
-    let planes: Vec<Option<u8>> = [0u8, 1, 2, 3, 4, 6, 8, 10, 12, 14, 16]
+    let planes: Vec<Option<u8>> = pick(&[0u8, 1, 2, 3, 4, 6, 8, 10, 12, 14, 16], &[0, 8])
         .into_iter()
         .map(Some)
         .chain([None])
@@ -308,7 +322,7 @@ fn table1(scene: &Scene) -> Result<()> {
     let zipped8: usize = refs.iter().map(|r| zipped_depth(&r.depth.z, 8)).sum();
     println!("| JPEG quality | CR | PSNR dB | JPEG bytes per novel view | stream tau px | stream planes | stream bytes | stream PSNR dB |");
     println!("|---|---|---|---|---|---|---|---|");
-    for quality in [10u8, 20, 30, 40, 50, 60, 70, 80, 90, 100] {
+    for quality in pick(&[10u8, 20, 30, 40, 50, 60, 70, 80, 90, 100], &[50]) {
         let mut decoded = Vec::new();
         let mut jpeg_bytes = Vec::new();
         for r in refs {
@@ -338,10 +352,10 @@ fn table1(scene: &Scene) -> Result<()> {
         // tau, planes, bytes, the blends, PSNR.
         type Fit = (f64, Option<u8>, f64, Vec<Blended>, f64);
         let mut best: Option<Fit> = None;
-        for planes in [None, Some(8u8), Some(4)] {
+        for planes in pick(&[None, Some(8u8), Some(4)], &[Some(8)]) {
             let (mut lo, mut hi) = (0.05f64.ln(), 64f64.ln());
             let mut fit = None;
-            for _ in 0..9 {
+            for _ in 0..if quick() { 3 } else { 9 } {
                 let mid = 0.5 * (lo + hi);
                 let (rows, bytes) = through_stream(scene, Detail::Tau(mid.exp()), planes, BlendOptions::default())?;
                 if bytes <= mean_target {
@@ -399,9 +413,15 @@ fn fig5(plot: &std::path::Path) -> Result<()> {
     };
     let refs = [at(0.0)?, at(70.0)?];
     let mut series = Vec::new();
-    println!("| noise | PSNR dB at 0 | 10 | 20 | 30 | 40 | 50 | 60 | 70 degrees | lowest | largest difference from no noise |");
-    println!("|---|---|---|---|---|---|---|---|---|---|---|");
-    for noise in [None, Some(0.003), Some(0.01), Some(0.03)] {
+    // The table's columns: every 10 degrees (the ends only when quick).
+    let columns = pick(&[0.0, 10.0, 20.0, 30.0, 40.0, 50.0, 60.0, 70.0], &[0.0, 70.0]);
+    let heads: Vec<String> = columns.iter().map(|d| format!("{d:.0}")).collect();
+    println!(
+        "| noise | PSNR dB at {} degrees | lowest | largest difference from no noise |",
+        heads.join(" | ")
+    );
+    println!("|---|{}---|---|", "---|".repeat(columns.len()));
+    for noise in pick(&[None, Some(0.003), Some(0.01), Some(0.03)], &[None, Some(0.01)]) {
         let mut spec = base.clone();
         spec.effects.noise = noise;
         let mut views = Vec::new();
@@ -416,7 +436,8 @@ fn fig5(plot: &std::path::Path) -> Result<()> {
             views.push((h, texture));
         }
         let mut points = Vec::new();
-        for step in 0..=35 {
+        let every = if quick() { 35 } else { 1 };
+        for step in (0..=35).step_by(every) {
             let deg = 2.0 * f64::from(step);
             let novel = at(deg)?;
             let truth = base.ground_truth(&novel)?;
@@ -442,7 +463,7 @@ fn fig5(plot: &std::path::Path) -> Result<()> {
             points.push((deg, 10.0 * (255.0f64 * 255.0 / (se / count.max(1) as f64)).log10()));
         }
         let name = noise.map_or("none".to_string(), |n| format!("{:.0} mm", n * 1e3));
-        let pick = |deg: f64| points.iter().find(|p| p.0 == deg).map_or(f64::NAN, |p| p.1);
+        let at_angle = |deg: f64| points.iter().find(|p| p.0 == deg).map_or(f64::NAN, |p| p.1);
         let lowest = points.iter().map(|p| p.1).fold(f64::INFINITY, f64::min);
         let exact: &[(f64, f64)] = series
             .first()
@@ -454,8 +475,10 @@ fn fig5(plot: &std::path::Path) -> Result<()> {
             .fold(0f64, f64::max);
         println!(
             "| {name} | {} | {lowest:.2} | {apart:.2} |",
-            [0.0, 10.0, 20.0, 30.0, 40.0, 50.0, 60.0, 70.0]
-                .map(|d| format!("{:.2}", pick(d)))
+            columns
+                .iter()
+                .map(|&d| format!("{:.2}", at_angle(d)))
+                .collect::<Vec<_>>()
                 .join(" | ")
         );
         series.push((format!("noise {name}"), points));
@@ -482,7 +505,7 @@ fn table3(scene: &Scene) -> Result<()> {
     );
     let mut rows = Vec::new();
     let mut labels = Vec::new();
-    for (every, detail, planes) in [
+    let levels = [
         (1usize, Detail::Exact, None),
         (1, Detail::Tau(1.0), None),
         (1, Detail::Tau(1.0), Some(8u8)),
@@ -493,7 +516,8 @@ fn table3(scene: &Scene) -> Result<()> {
         (2, Detail::Tau(4.0), Some(8)),
         (4, Detail::Tau(1.0), None),
         (4, Detail::Tau(4.0), Some(8)),
-    ] {
+    ];
+    for (every, detail, planes) in pick(&levels, &levels[8..10]) {
         let mut case = scene.case.clone();
         case.references = case.references.into_iter().step_by(every).collect();
         let kept: Vec<usize> = (0..scene.case.references.len()).step_by(every).collect();
@@ -581,6 +605,7 @@ fn weights(scene: &Scene) -> Result<()> {
             },
         ),
     ];
+    let settings = pick(&settings, &settings[..2]);
     let mut rows = Vec::new();
     for (_, options) in &settings {
         rows.push(through_stream(scene, Detail::Exact, None, *options)?.0);
@@ -596,15 +621,20 @@ fn weights(scene: &Scene) -> Result<()> {
 }
 
 fn main() -> Result<()> {
+    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    if let Some(k) = args.iter().position(|a| a == "--quick") {
+        args.remove(k);
+        QUICK.store(true, std::sync::atomic::Ordering::Relaxed);
+    }
     let plot = std::path::PathBuf::from(
-        std::env::args()
-            .nth(1)
+        args.first()
+            .cloned()
             .unwrap_or_else(|| "docs/papers/verlani-fig5".into()),
     );
     if let Some(dir) = plot.parent() {
         std::fs::create_dir_all(dir)?;
     }
-    let scene = Scene::new(cases::simulated("demo", false, 8)?, None)?;
+    let scene = Scene::new(cases::simulated("demo", false, if quick() { 2 } else { 8 })?, None)?;
     table2(&scene)?;
     table1(&scene)?;
     fig5(&plot)?;

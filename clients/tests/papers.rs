@@ -1,0 +1,85 @@
+//! The seeds' experiments (`scripts/papers.sh`, minutes in release) stay out
+//! of the test command, but a quick form of each runs here so that none of
+//! them rots: every table printed, every number finite, the plot written.
+
+use std::path::PathBuf;
+use std::process::Command;
+
+/// An example binary `cargo test` built beside this test.
+fn example(name: &str) -> PathBuf {
+    // target/debug/deps/papers-HASH -> target/debug/examples/NAME
+    let path = std::env::current_exe()
+        .unwrap()
+        .parent()
+        .unwrap()
+        .parent()
+        .unwrap()
+        .join("examples")
+        .join(name);
+    assert!(
+        path.exists(),
+        "{} is missing: build it with `cargo build -p dmesh-client --examples` (cargo test --workspace does)",
+        path.display()
+    );
+    path
+}
+
+/// Runs an example with `args` and returns what it printed.
+fn run(name: &str, args: &[&str]) -> String {
+    let out = Command::new(example(name)).args(args).output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "{name} failed: {}\n{text}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        !text.contains("NaN") && !text.contains("inf"),
+        "{name} printed a non-finite number:\n{text}"
+    );
+    text
+}
+
+fn data() -> String {
+    let data = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data");
+    assert!(data.is_dir(), "the Middlebury data must be at {}", data.display());
+    data.display().to_string()
+}
+
+#[test]
+fn dmesh_experiments_run_in_their_quick_form() {
+    let text = run("papers_dmesh", &["--quick", &data()]);
+    for section in [
+        "### Table 4",
+        "### Table 1's stages",
+        "Shares of the whole build",
+        "### Strip lengths by tolerance",
+        "### Sec. 7.1 and Fig. 18",
+    ] {
+        assert!(text.contains(section), "{section} is missing:\n{text}");
+    }
+    for method in ["orthogonality", "disparity", "connectedness", "none"] {
+        assert!(text.contains(&format!("| demo | {method} |")), "{method}:\n{text}");
+    }
+}
+
+#[test]
+fn verlani_experiments_run_in_their_quick_form() {
+    let dir = tempfile::tempdir().unwrap();
+    let plot = dir.path().join("fig5");
+    let text = run("papers_verlani", &["--quick", plot.to_str().unwrap()]);
+    for section in [
+        "### Table 2",
+        "### Table 1",
+        "### Fig. 5",
+        "### Table 3",
+        "### The angular weights",
+    ] {
+        assert!(text.contains(section), "{section} is missing:\n{text}");
+    }
+    let png = image::open(plot.with_extension("png")).unwrap();
+    assert_eq!((png.width(), png.height()), (800, 520));
+    assert!(std::fs::read_to_string(plot.with_extension("svg"))
+        .unwrap()
+        .contains("<svg"));
+}
