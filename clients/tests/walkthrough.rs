@@ -192,3 +192,25 @@ async fn a_cut_turns_into_holes_not_budget_overruns() {
     assert!(at.holes >= 2, "the cut at frame {jump} made {} holes", at.holes);
     assert!(at.stale + at.uncovered + at.missing == at.holes);
 }
+
+/// The committed walkthroughs' plots redraw from their CSV and JSON alone.
+#[test]
+fn saved_walkthroughs_replot_from_their_csv() {
+    let dir = tempfile::tempdir().unwrap();
+    let docs = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/walkthrough");
+    for ext in ["csv", "json"] {
+        std::fs::copy(
+            docs.join(format!("demo-orbit.{ext}")),
+            dir.path().join(format!("demo-orbit.{ext}")),
+        )
+        .unwrap();
+    }
+    dmesh_client::walkthrough::summary::replot(dir.path(), "demo-orbit").unwrap();
+    for chart in ["frame-ms", "fetch-ms", "psnr"] {
+        let png = image::open(dir.path().join(format!("demo-orbit-{chart}.png"))).unwrap();
+        assert_eq!((png.width(), png.height()), (800, 520), "{chart}");
+        let svg = std::fs::read_to_string(dir.path().join(format!("demo-orbit-{chart}.svg"))).unwrap();
+        assert!(svg.contains("balanced") && svg.contains("keyframe"), "{chart}");
+    }
+    assert!(dmesh_client::walkthrough::summary::replot(dir.path(), "nowhere").is_err());
+}

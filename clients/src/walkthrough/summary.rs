@@ -213,49 +213,22 @@ pub fn write(dir: &Path, name: &str, title: &str, walks: &[(String, Vec<Frame>)]
         summaries: &summaries,
     };
     std::fs::write(dir.join(format!("{name}.json")), serde_json::to_vec_pretty(&out)?)?;
-    // One chart per per-frame figure, a line per strategy.
-    let plot = |suffix: &str, what: &str, y_label: &str, f: fn(&Frame) -> Option<f64>| {
-        let series = walks
-            .iter()
-            .map(|(s, frames)| {
-                let pts = frames
-                    .iter()
-                    .filter_map(|fr| f(fr).map(|y| (f64::from(fr.frame), y)))
-                    .collect();
-                (s.clone(), pts)
-            })
-            .collect();
-        Chart {
-            title: &format!("{title}: {what}"),
-            x_label: "frame",
-            y_label,
-            series,
-            linear_x: true,
-            log_y: false,
-            legend: plotters::prelude::SeriesLabelPosition::LowerRight,
-        }
-        .write(&dir.join(format!("{name}-{suffix}")))
-    };
-    plot(
-        "frame-ms",
-        "time per frame",
-        "frame ms (requests waited on + blend)",
-        |f| Some(f.frame_ms),
-    )?;
-    plot(
-        "fetch-ms",
-        "requests waited on per frame",
-        "fetch ms (the part the strategy controls)",
-        |f| Some(f.fetch_ms),
-    )?;
-    if walks.iter().any(|(_, f)| f.iter().any(|fr| fr.psnr.is_some())) {
-        plot(
-            "psnr",
-            "PSNR per frame",
-            "PSNR dB against ground truth (valid mask)",
-            |f| f.psnr.filter(|p| p.is_finite()),
-        )?;
-    }
+    let series: Vec<(String, Vec<Plotted>)> = walks
+        .iter()
+        .map(|(name, frames)| {
+            let pts = frames
+                .iter()
+                .map(|f| Plotted {
+                    frame: f64::from(f.frame),
+                    frame_ms: f.frame_ms,
+                    fetch_ms: f.fetch_ms,
+                    psnr: f.psnr,
+                })
+                .collect();
+            (name.clone(), pts)
+        })
+        .collect();
+    charts(dir, name, title, &series)?;
     Ok(summaries)
 }
 
@@ -287,4 +260,99 @@ mod tests {
         assert_eq!(s.cv, 0.0);
         assert_eq!(s.budget_overruns, 1);
     }
+}
+
+/// What the plots show of a frame.
+struct Plotted {
+    frame: f64,
+    frame_ms: f64,
+    fetch_ms: f64,
+    psnr: Option<f64>,
+}
+
+/// The plots `NAME-frame-ms`, `NAME-fetch-ms` and, when any frame has a
+/// PSNR, `NAME-psnr`: one chart per per-frame figure, a line per strategy.
+fn charts(dir: &Path, name: &str, title: &str, walks: &[(String, Vec<Plotted>)]) -> anyhow::Result<()> {
+    let plot = |suffix: &str, what: &str, y_label: &str, f: fn(&Plotted) -> Option<f64>| {
+        let series = walks
+            .iter()
+            .map(|(s, frames)| {
+                (
+                    s.clone(),
+                    frames.iter().filter_map(|fr| f(fr).map(|y| (fr.frame, y))).collect(),
+                )
+            })
+            .collect();
+        Chart {
+            title: &format!("{title}: {what}"),
+            x_label: "frame",
+            y_label,
+            series,
+            linear_x: true,
+            log_y: false,
+            legend: plotters::prelude::SeriesLabelPosition::LowerRight,
+        }
+        .write(&dir.join(format!("{name}-{suffix}")))
+    };
+    plot(
+        "frame-ms",
+        "time per frame",
+        "frame ms (requests waited on + blend)",
+        |f| Some(f.frame_ms),
+    )?;
+    plot(
+        "fetch-ms",
+        "requests waited on per frame",
+        "fetch ms (the part the strategy controls)",
+        |f| Some(f.fetch_ms),
+    )?;
+    if walks.iter().any(|(_, f)| f.iter().any(|fr| fr.psnr.is_some())) {
+        plot("psnr", "PSNR per frame", "PSNR dB (each frame's covered pixels)", |f| {
+            f.psnr.filter(|p| p.is_finite())
+        })?;
+    }
+    Ok(())
+}
+
+/// Redraws the plots of a walk written by [`write`] from its `NAME.csv`
+/// and `NAME.json` in `dir`, without walking again.
+pub fn replot(dir: &Path, name: &str) -> anyhow::Result<()> {
+    let read = |ext: &str| {
+        let path = dir.join(format!("{name}.{ext}"));
+        std::fs::read_to_string(&path).with_context(|| format!("cannot read {}", path.display()))
+    };
+    let json: serde_json::Value = serde_json::from_str(&read("json")?)?;
+    let title = json["title"].as_str().unwrap_or(name).to_string();
+    let csv = read("csv")?;
+    let mut lines = csv.lines();
+    let head: Vec<&str> = lines.next().unwrap_or_default().split(',').collect();
+    let col = |n: &str| {
+        head.iter()
+            .position(|h| *h == n)
+            .ok_or_else(|| anyhow::anyhow!("{name}.csv has no {n} column"))
+    };
+    let (strategy, frame, frame_ms, fetch_ms, psnr) = (
+        col("strategy")?,
+        col("frame")?,
+        col("frame_ms")?,
+        col("fetch_ms")?,
+        col("psnr")?,
+    );
+    let mut walks: Vec<(String, Vec<Plotted>)> = Vec::new();
+    for line in lines {
+        let f: Vec<&str> = line.split(',').collect();
+        let num = |k: usize| f.get(k).and_then(|v| v.parse::<f64>().ok());
+        let row = Plotted {
+            frame: num(frame).ok_or_else(|| anyhow::anyhow!("{name}.csv: a row without a frame"))?,
+            frame_ms: num(frame_ms).unwrap_or(f64::NAN),
+            fetch_ms: num(fetch_ms).unwrap_or(f64::NAN),
+            psnr: num(psnr),
+        };
+        let s = f.get(strategy).copied().unwrap_or_default();
+        match walks.iter_mut().find(|(n, _)| n == s) {
+            Some((_, rows)) => rows.push(row),
+            None => walks.push((s.to_string(), vec![row])),
+        }
+    }
+    charts(dir, name, &title, &walks)
 }
