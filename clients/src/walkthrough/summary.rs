@@ -232,36 +232,6 @@ pub fn write(dir: &Path, name: &str, title: &str, walks: &[(String, Vec<Frame>)]
     Ok(summaries)
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn quantiles_are_nearest_rank() {
-        let v: Vec<f64> = (1..=100).map(f64::from).collect();
-        assert_eq!(quantile(&v, 0.5), 50.0);
-        assert_eq!(quantile(&v, 0.99), 99.0);
-        assert_eq!(quantile(&v, 1.0), 100.0);
-        assert!(quantile(&[], 0.5).is_nan());
-    }
-
-    #[test]
-    fn a_summary_leaves_the_first_frame_out_of_the_times_and_counts_overruns() {
-        let frame = |t: u32, ms: f64, planned: f64| Frame {
-            frame: t,
-            frame_ms: ms,
-            budget: Some(10.0),
-            planned_refresh: planned,
-            ..Frame::default()
-        };
-        let frames = vec![frame(0, 100.0, 0.0), frame(1, 2.0, 5.0), frame(2, 2.0, 11.0)];
-        let s = Summary::of("balanced", &frames);
-        assert_eq!(s.median_ms, 2.0);
-        assert_eq!(s.cv, 0.0);
-        assert_eq!(s.budget_overruns, 1);
-    }
-}
-
 /// What the plots show of a frame.
 struct Plotted {
     frame: f64,
@@ -355,4 +325,34 @@ pub fn replot(dir: &Path, name: &str) -> anyhow::Result<()> {
         }
     }
     charts(dir, name, &title, &walks)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quantiles_are_nearest_rank() {
+        let v: Vec<f64> = (1..=100).map(f64::from).collect();
+        assert_eq!(quantile(&v, 0.5), 50.0);
+        assert_eq!(quantile(&v, 0.99), 99.0);
+        assert_eq!(quantile(&v, 1.0), 100.0);
+        assert!(quantile(&[], 0.5).is_nan());
+    }
+
+    #[test]
+    fn a_summary_leaves_the_first_frame_out_of_the_times_and_counts_overruns() {
+        let frame = |t: u32, ms: f64, planned: f64| Frame {
+            frame: t,
+            frame_ms: ms,
+            budget: Some(10.0),
+            planned_refresh: planned,
+            ..Frame::default()
+        };
+        let frames = vec![frame(0, 100.0, 0.0), frame(1, 2.0, 5.0), frame(2, 2.0, 11.0)];
+        let s = Summary::of("balanced", &frames);
+        assert_eq!(s.median_ms, 2.0);
+        assert_eq!(s.cv, 0.0);
+        assert_eq!(s.budget_overruns, 1);
+    }
 }
