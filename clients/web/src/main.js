@@ -993,6 +993,9 @@ function drawTimes(n) {
 }
 /** True when the picture is the answer for the current state and nothing is in flight. */
 const idle = () => !inFlight && sent === wanted && firstDrawn;
-Object.assign(window, { dmeshCapture: capture, dmeshDrawTimes: drawTimes, dmeshIdle: idle, dmeshRefresh: () => changed() });
+// For tests: a turn of the camera by a fixed step, as a held key turns it
+// by a step that depends on the frame rate.
+const turnBy = (/** @type {number} */ dx, /** @type {number} */ dy) => nav.turn(dx, dy);
+Object.assign(window, { dmeshCapture: capture, dmeshDrawTimes: drawTimes, dmeshIdle: idle, dmeshRefresh: () => changed(), dmeshTurn: turnBy });
 
 start();
