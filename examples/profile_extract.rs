@@ -1,6 +1,7 @@
 //! Extracts the synthetic scene at tau = 1 px repeatedly and prints the
-//! minimum and median time, for profiling. Usage:
-//! `profile_extract [SIZE] [ITERATIONS] [traversal|greedy|tunnelled]`.
+//! first (which computes the outline the extraction keeps, once per
+//! hierarchy), minimum and median time, for profiling. Usage:
+//! `profile_extract [SIZE] [ITERATIONS] [traversal|greedy|tunnelled] [kept|dropped]`.
 fn main() {
     let mut args = std::env::args().skip(1);
     let size: u32 = args.next().and_then(|s| s.parse().ok()).unwrap_or(513);
@@ -9,6 +10,10 @@ fn main() {
         Some("greedy") => dmesh::mesh::StripOrder::Greedy,
         Some("tunnelled") => dmesh::mesh::StripOrder::Tunnelled,
         _ => dmesh::mesh::StripOrder::Traversal,
+    };
+    let outlines = match args.next().as_deref() {
+        Some("dropped") => dmesh::mesh::Outlines::Dropped,
+        _ => dmesh::mesh::Outlines::Kept,
     };
     let (d, c) = dmesh::synthetic::terrain_with_boxes(size, size);
     let h = dmesh::mesh::DepthMesh::build(&d, &c, &Default::default()).unwrap();
@@ -25,16 +30,17 @@ fn main() {
     for _ in 0..iterations.max(1) {
         let t = std::time::Instant::now();
         tris = std::hint::black_box(
-            h.extract_with(dmesh::mesh::Lod::Tau { tau: 1.0, view: &view }, order)
+            h.extract_as(dmesh::mesh::Lod::Tau { tau: 1.0, view: &view }, order, outlines)
                 .unwrap(),
         )
         .triangles
         .len();
         times.push(t.elapsed());
     }
+    let first = times[0];
     times.sort();
     println!(
-        "min {:?} median {:?}, {tris} triangles",
+        "first {first:?} min {:?} median {:?}, {tris} triangles",
         times[0],
         times[times.len() / 2]
     );

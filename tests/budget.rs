@@ -7,7 +7,7 @@ mod common;
 use common::*;
 use dmesh::camera::Camera;
 use dmesh::image::DepthImage;
-use dmesh::mesh::{DepthMesh, Lod, Segmentation};
+use dmesh::mesh::{DepthMesh, Lod, Outlines, Segmentation, StripOrder};
 use dmesh_proto::Lod as Chosen;
 use glam::{DQuat, DVec3};
 use proptest::prelude::*;
@@ -39,6 +39,74 @@ fn static_budgets_are_met_and_nearly_used() {
         }
     }
     assert_eq!(extract_budgeted(&h, 10 * full, None).0, Chosen::Epsilon(0.0));
+}
+
+/// Doubled area in grid cells of a mesh's triangles.
+fn area2(mesh: &dmesh::mesh::Mesh) -> i64 {
+    mesh.triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|v| ij(mesh, v));
+            ((b.0 - a.0) * (c.1 - a.1) - (b.1 - a.1) * (c.0 - a.0)).abs()
+        })
+        .sum()
+}
+
+#[test]
+fn a_budget_with_room_keeps_the_outlines_and_a_tight_one_still_fits() {
+    // A box in front of a wall: its outline crosses coarse triangles.
+    let (w, h) = (129, 97);
+    let depth = depth_from(w, h, |x, y| {
+        if (40..90).contains(&x) && (30..70).contains(&y) {
+            1.0
+        } else {
+            3.0
+        }
+    });
+    let cam = camera(w, h);
+    let hier = DepthMesh::build(&depth, &cam, &Segmentation::default()).unwrap();
+    let unsegmented: i64 = (0..w - 1)
+        .flat_map(|x| (0..h - 1).map(move |y| (x, y)))
+        .map(|c| (0..2).filter(|&half| !hier.cell_segmented(c, half)).count() as i64)
+        .sum();
+    let outline = hier.coarsest_triangles_with_outlines(1);
+    assert!(outline > hier.coarsest_triangles(), "the outline forces vertices");
+    // Room for twice the outline's coarsest mesh: every unsegmented cell is
+    // covered, and the budget is met.
+    for max in [2 * outline, 3 * outline, 20 * outline] {
+        let mesh = hier.extract(Lod::Triangles { max, view: None }).unwrap();
+        assert!(
+            mesh.triangles.len() as u64 <= max,
+            "max {max}: {}",
+            mesh.triangles.len()
+        );
+        assert_eq!(area2(&mesh), unsegmented, "max {max}: outline eroded");
+        assert_conforming(&mesh);
+    }
+    // Less room: a coarser refinement, or none, and the budget is still met,
+    // down to the coarsest mesh; the outline erodes, as DMesh Sec. 5.3's does.
+    let mut areas = Vec::new();
+    for max in [outline, outline / 2, hier.coarsest_triangles()] {
+        let mesh = hier.extract(Lod::Triangles { max, view: None }).unwrap();
+        assert!(
+            mesh.triangles.len() as u64 <= max,
+            "max {max}: {}",
+            mesh.triangles.len()
+        );
+        assert_conforming(&mesh);
+        areas.push(area2(&mesh));
+    }
+    assert!(
+        areas.windows(2).all(|a| a[0] >= a[1]) && areas[2] < unsegmented,
+        "{areas:?}"
+    );
+    // Dropping outlines at the tolerance the budget chose loses area.
+    let kept = hier.extract(Lod::Epsilon(0.05)).unwrap();
+    let dropped = hier
+        .extract_as(Lod::Epsilon(0.05), StripOrder::Traversal, Outlines::Dropped)
+        .unwrap();
+    assert_eq!(area2(&kept), unsegmented);
+    assert!(area2(&dropped) < unsegmented && dropped.triangles.len() < kept.triangles.len());
 }
 
 #[test]

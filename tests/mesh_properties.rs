@@ -7,7 +7,7 @@ mod common;
 use common::*;
 use dmesh::camera::Camera;
 use dmesh::image::DepthImage;
-use dmesh::mesh::{DepthMesh, Lod, Method, Segmentation, StripOrder, Threads};
+use dmesh::mesh::{DepthMesh, Lod, Method, Outlines, Segmentation, StripOrder, Threads};
 use proptest::prelude::*;
 
 fn check_all(depth: &DepthImage, cam: &Camera, seg: &Segmentation, eps: f64) {
@@ -376,10 +376,11 @@ proptest! {
 proptest! {
     #![proptest_config(ProptestConfig { cases: 96, ..ProptestConfig::default() })]
 
-    /// Refining at discontinuities (`extract_refining_edges`) keeps every
-    /// guarantee of the extraction (finite, conforming, strips, the epsilon
-    /// bound) and drops nothing but the segmented cells: the mesh covers
-    /// exactly the unsegmented halves of the image's cells, at any tolerance.
+    /// Keeping outlines (the default extraction, `Outlines::Kept`) keeps
+    /// every guarantee of the extraction (finite, conforming, strips, the
+    /// epsilon bound) and drops nothing but the segmented cells: the mesh
+    /// covers exactly the unsegmented halves of the image's cells, at any
+    /// tolerance.
     #[test]
     fn refining_edges_covers_every_unsegmented_cell_and_stays_conforming(
         (w, h, z) in arb_depth(24),
@@ -388,7 +389,7 @@ proptest! {
         let depth = DepthImage::from_z(w, h, z).unwrap();
         let cam = camera(w, h);
         let hier = DepthMesh::build(&depth, &cam, &Segmentation::default()).unwrap();
-        let mesh = hier.extract_refining_edges(Lod::Epsilon(eps), 1).unwrap();
+        let mesh = hier.extract(Lod::Epsilon(eps)).unwrap();
         assert_finite(&mesh, w, h);
         assert_conforming(&mesh);
         assert_strips_match(&mesh);
@@ -408,8 +409,9 @@ proptest! {
         prop_assert_eq!(area2, unsegmented);
         // Never fewer triangles than the extraction that drops coarse ones,
         // and a partial refinement in between, conforming too.
-        let plain = hier.extract(Lod::Epsilon(eps)).unwrap();
-        let partial = hier.extract_refining_edges(Lod::Epsilon(eps), 2).unwrap();
+        let as_dmesh = |o| hier.extract_as(Lod::Epsilon(eps), StripOrder::Traversal, o).unwrap();
+        let plain = as_dmesh(Outlines::Dropped);
+        let partial = as_dmesh(Outlines::Refined(2));
         assert_conforming(&partial);
         assert_epsilon_bound(&partial, &depth, eps);
         prop_assert!(mesh.triangles.len() >= partial.triangles.len());
@@ -446,8 +448,7 @@ proptest! {
         }
         // A budget that the coarsest mesh meets is met.
         let coarsest = hier.coarsest_triangles();
-        let budgeted = hier.lod_for_triangles(coarsest, None).unwrap();
-        let mesh = hier.extract(budgeted).unwrap();
+        let mesh = hier.extract(Lod::Triangles { max: coarsest, view: None }).unwrap();
         prop_assert!(mesh.triangles.len() as u64 <= coarsest);
         assert_covers_image(&mesh, w, h);
     }

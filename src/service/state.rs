@@ -75,9 +75,11 @@ impl Loaded {
 }
 
 impl Loaded {
-    /// Bytes this entry keeps in memory.
+    /// Bytes this entry keeps in memory, at most: its size must not change
+    /// while it is cached (the hierarchy computes its outlines on first
+    /// use), so the hierarchy's bound is charged.
     pub fn bytes(&self) -> usize {
-        self.hierarchy.heap_bytes() + self.color.len()
+        self.hierarchy.heap_bytes_bound() + self.color.len()
     }
 
     /// Builds from a stored view at `version`.

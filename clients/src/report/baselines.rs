@@ -530,7 +530,7 @@ pub fn markdown(rows: &[Row]) -> String {
         rates.sort_by(f64::total_cmp);
         rates.dedup();
         for rate in rates {
-            for variant in ["rqt", "rqt_refined"] {
+            for variant in ["rqt", "rqt_dropping"] {
                 let Some(rqt) = find(scene, variant, rate) else {
                     continue;
                 };

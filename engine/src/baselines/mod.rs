@@ -122,12 +122,13 @@ pub trait Mesher: Sync {
 }
 
 /// Every mesher of the comparison, the restricted quadtree first (as the
-/// service extracts it, then refined at discontinuities).
+/// service extracts it, keeping outlines, then dropping the coarse
+/// triangles a discontinuity crosses as DMesh Sec. 5.3 does).
 pub fn all() -> Vec<Box<dyn Mesher>> {
     vec![
         Box::new(rqt::Rqt::default()),
         Box::new(rqt::Rqt {
-            refine_edges: Some(1),
+            outlines: crate::mesh::Outlines::Dropped,
             ..rqt::Rqt::default()
         }),
         Box::new(decimate::Decimate),

@@ -25,7 +25,7 @@ use super::{Knob, Mesher, TriMesh};
 use crate::camera::Camera;
 use crate::error::Result;
 use crate::image::DepthImage;
-use crate::mesh::{DepthMesh, Lod, Segmentation, Threads};
+use crate::mesh::{DepthMesh, Lod, Outlines, Segmentation, StripOrder, Threads};
 
 /// The restricted quadtree at an image-space tolerance (or, as its
 /// fallback, an object-space one).
@@ -35,12 +35,10 @@ pub struct Rqt {
     pub segmentation: Segmentation,
     /// Extract at `epsilon` metres instead of `tau` reference pixels.
     pub object_space: bool,
-    /// Refine triangles that a discontinuity crosses down to this many
-    /// samples from their split vertex to their hypotenuse's ends (1: to the
-    /// cells) rather than drop them whole
-    /// ([`DepthMesh::extract_refining_edges`]); `None` extracts as the
-    /// service does.
-    pub refine_edges: Option<u32>,
+    /// What to do with the coarse triangles a discontinuity crosses:
+    /// [`Outlines::Kept`] (the default) extracts as the service does,
+    /// [`Outlines::Dropped`] as DMesh Sec. 5.3 does.
+    pub outlines: Outlines,
 }
 
 /// The coarsest refinement of edges the comparison falls back to (triangles
@@ -49,18 +47,18 @@ const COARSEST_REFINEMENT: u32 = 32;
 
 impl Mesher for Rqt {
     fn name(&self) -> &'static str {
-        if self.refine_edges.is_some() {
-            "rqt_refined"
-        } else {
-            "rqt"
+        match self.outlines {
+            Outlines::Dropped => "rqt_dropping",
+            Outlines::Refined(_) | Outlines::Kept => "rqt",
         }
     }
 
     fn knob_name(&self) -> String {
         let knob = if self.object_space { "epsilon (m)" } else { "tau (px)" };
-        match self.refine_edges {
-            Some(finest) => format!("{knob}, edges to {finest}"),
-            None => knob.to_string(),
+        match self.outlines {
+            Outlines::Refined(finest) => format!("{knob}, edges to {finest}"),
+            Outlines::Kept => format!("{knob}, edges to 1"),
+            Outlines::Dropped => knob.to_string(),
         }
     }
 
@@ -93,16 +91,22 @@ impl Mesher for Rqt {
     }
 
     /// For the rates a refinement cannot reach (its edges alone take more
-    /// triangles), the next coarser refinement, then none; for those `tau`
-    /// cannot reach, `epsilon`.
+    /// triangles), the next coarser refinement, then none, as a triangle
+    /// budget falls back (`outline.rs`); for those `tau` cannot reach,
+    /// `epsilon`.
     fn fallback(&self) -> Option<Box<dyn Mesher>> {
-        let next = match (self.refine_edges, self.object_space) {
+        let finest = match self.outlines {
+            Outlines::Kept => Some(1),
+            Outlines::Refined(finest) => Some(finest),
+            Outlines::Dropped => None,
+        };
+        let next = match (finest, self.object_space) {
             (Some(finest), _) if finest < COARSEST_REFINEMENT => Rqt {
-                refine_edges: Some(2 * finest),
+                outlines: Outlines::Refined(2 * finest),
                 ..*self
             },
             (Some(_), _) => Rqt {
-                refine_edges: None,
+                outlines: Outlines::Dropped,
                 ..*self
             },
             (None, false) => Rqt {
@@ -151,10 +155,7 @@ impl Rqt {
     }
 
     fn mesh_of(&self, hierarchy: &DepthMesh, lod: Lod<'_>) -> Result<TriMesh> {
-        let mesh = match self.refine_edges {
-            Some(finest) => hierarchy.extract_refining_edges(lod, finest)?,
-            None => hierarchy.extract(lod)?,
-        };
+        let mesh = hierarchy.extract_as(lod, StripOrder::Traversal, self.outlines)?;
         Ok(TriMesh {
             vertices: mesh
                 .vertices
@@ -172,20 +173,20 @@ mod tests {
 
     #[test]
     fn meets_rates_is_valid_and_exact_on_planes() {
+        // Rate 20 is below the floor of fully refined edges (the boxes'
+        // outlines at full resolution, about 2,500 triangles): drive()
+        // falls back to coarser refinements.
         super::super::tests::check_mesher(&Rqt::default(), true, &[5.0, 20.0]);
         let object_space = Rqt {
             object_space: true,
             ..Rqt::default()
         };
         super::super::tests::check_mesher(&object_space, true, &[5.0, 20.0]);
-        let refined = Rqt {
-            refine_edges: Some(1),
+        let dropping = Rqt {
+            outlines: Outlines::Dropped,
             ..Rqt::default()
         };
-        // Rate 20 is below the floor of fully refined edges (the boxes'
-        // outlines at full resolution, about 2,500 triangles): drive()
-        // falls back to coarser refinements.
-        super::super::tests::check_mesher(&refined, true, &[5.0, 20.0]);
+        super::super::tests::check_mesher(&dropping, true, &[5.0, 20.0]);
     }
 
     #[test]

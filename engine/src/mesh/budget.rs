@@ -91,22 +91,33 @@ impl ErrorStats {
     /// Gathers the statistics of a built hierarchy from its saturated
     /// squared errors: one pass over them.
     pub(crate) fn gather(grid: Grid, err2: &[f32]) -> Self {
+        Self::gather_with(grid, err2, |i| err2[i] == FORCED)
+    }
+
+    /// [`Self::gather`] with the vertices every mesh selects named by
+    /// `forced` (the border's, and `outline.rs`'s), counted in the base.
+    pub(crate) fn gather_with(grid: Grid, err2: &[f32], forced: impl Fn(usize) -> bool) -> Self {
         let s = grid.side();
         let mut all = vec![0u32; BUCKETS];
         // Vertices along a padded border are always selected (`border.rs`):
         // they belong to the base, not to any threshold's count.
-        let mut forced = 0u64;
-        for &e in err2 {
-            if e == FORCED {
-                forced += 1;
+        let mut base_vertices = 0u64;
+        for (i, &e) in err2.iter().enumerate() {
+            if forced(i) {
+                base_vertices += 1;
             } else {
                 all[bucket(e)] += 1;
             }
         }
-        // Root corners are no split vertices.
+        // Root corners are no split vertices (and never forced).
         for y in (0..grid.gh()).step_by(s as usize) {
             for x in (0..grid.gw()).step_by(s as usize) {
-                all[bucket(err2[grid.index((x, y))])] -= 1;
+                let i = grid.index((x, y));
+                if forced(i) {
+                    base_vertices -= 1;
+                } else {
+                    all[bucket(err2[i])] -= 1;
+                }
             }
         }
         // Frontiers: centres of half-side h, from the root quads' down to
@@ -126,10 +137,11 @@ impl ErrorStats {
                     if is_root || odd_x != odd_y {
                         continue;
                     }
-                    let e = err2[grid.index((x, y))];
+                    let i = grid.index((x, y));
+                    let e = err2[i];
                     // A forced vertex is counted in the base already (but
                     // stays a frontier centre: the spheres below nest in it).
-                    if e != FORCED {
+                    if !forced(i) {
                         coarse += 1;
                         fine[bucket(e)] -= 1;
                     }
@@ -151,7 +163,7 @@ impl ErrorStats {
         Self {
             all: suffix(all),
             frontiers,
-            base: 2 * u64::from(grid.m) * u64::from(grid.n) + 2 * forced,
+            base: 2 * u64::from(grid.m) * u64::from(grid.n) + 2 * base_vertices,
         }
     }
 

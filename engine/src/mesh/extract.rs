@@ -7,8 +7,13 @@
 //! its split vertex is selected, and emits the unsplit ones in Sierpinski
 //! order. A triangle is skipped, breaking the strip, when it is segmented or
 //! outside the requesting view; a fully segmented one is skipped without
-//! descending into it. Because selection is monotone (`select.rs`), the emitted
-//! triangles form a conforming triangulation: no cracks, no T-junctions.
+//! descending into it. A coarse triangle that is partly segmented is split
+//! further, down to the segmented cells, when the extraction keeps outlines
+//! ([`Outlines::Kept`], the default: the vertices this forces are
+//! `outline.rs`'s), and dropped whole as Sec. 5.3 drops it otherwise.
+//! Because selection is monotone (`select.rs`) and the forced set closed
+//! under dependency, the emitted triangles form a conforming triangulation:
+//! no cracks, no T-junctions.
 //!
 //! What the static tolerance guarantees (checked over every sample by the
 //! tests): for every emitted triangle and every grid sample inside or on it,
@@ -24,9 +29,10 @@ use std::time::Instant;
 use glam::DVec3;
 
 use super::error_metric::norm_bound;
-use super::grid::{cell_half, half_of, Kind, Pt};
+use super::grid::{cell_half, half_of, Pt};
 use super::hierarchy::DepthMesh;
 use super::lod::Lod;
+use super::outline::bit;
 use super::reach::{merge_spheres, Reach, MAX_CULLED};
 use super::select::{PlaneMask, Select, Static, ViewDependent, ALL_PLANES};
 use super::strips::{stripify, stripify_greedy, stripify_tunnelled, StripOrder, BREAK};
@@ -92,11 +98,30 @@ impl Mesh {
     }
 }
 
+/// What an extraction does with a coarse triangle that a discontinuity
+/// crosses (it holds a segmented full-resolution triangle, but not only
+/// those).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Outlines {
+    /// Drops it whole at the extracted resolution, as DMesh Sec. 5.3 does:
+    /// the foreground's outline erodes by up to the triangle's size.
+    Dropped,
+    /// Refines it down to triangles `2 * finest` samples across (`finest`
+    /// rounded up to a power of two, at most 32), which are dropped whole;
+    /// with 1, down to the segmented cells themselves.
+    Refined(u32),
+    /// `Refined(1)` for a tolerance; for a triangle budget, the finest
+    /// refinement whose forced triangles take at most half the budget, or
+    /// none when no refinement's do. What the service serves.
+    #[default]
+    Kept,
+}
+
 struct Walk<'a, S> {
     mesh: &'a DepthMesh,
     sel: &'a S,
     /// Vertices split whatever `sel` says (one bit per grid vertex; empty
-    /// for none): [`DepthMesh::extract_refining_edges`].
+    /// for none): the outlines' (`outline.rs`).
     forced: &'a [u64],
     tris: Vec<[u32; 3]>,
     dropped: usize,
@@ -243,49 +268,59 @@ struct Scratch {
     slot: Vec<u32>,
 }
 
-/// True when bit `i` of `bits` is set (false past its end).
-#[inline]
-fn bit(bits: &[u64], i: usize) -> bool {
-    bits.get(i / 64).is_some_and(|w| w >> (i % 64) & 1 == 1)
-}
-
 /// Triangles whose hypotenuse spans fewer grid steps than this are not
 /// tested against the frustum (their parent straddled it).
 const CULL_MIN_SPAN: u32 = 8;
 
 impl DepthMesh {
-    /// Extracts the mesh at level of detail `lod`, strips in traversal order.
+    /// Extracts the mesh at level of detail `lod`, strips in traversal
+    /// order, keeping outlines ([`Outlines::Kept`]): the mesh the service
+    /// serves.
     pub fn extract(&self, lod: Lod<'_>) -> Result<Mesh> {
         self.extract_with(lod, StripOrder::Traversal)
     }
 
-    /// Extracts the mesh at level of detail `lod` with strips built in `strips` order.
+    /// [`Self::extract`] with strips built in `strips` order.
     pub fn extract_with(&self, lod: Lod<'_>, strips: StripOrder) -> Result<Mesh> {
-        self.extract_inner(lod, strips, None)
+        self.extract_as(lod, strips, Outlines::Kept)
     }
 
-    /// [`Self::extract`], refining instead of dropping whole a coarse
-    /// triangle that a discontinuity crosses: every split vertex whose
-    /// diamond holds a segmented cell in a half that is not wholly segmented
-    /// is selected while it lies at least `finest` samples from its
-    /// hypotenuse's ends, with the vertices it depends on (so the mesh stays
-    /// conforming). With `finest = 1` the only triangles left out are the
-    /// segmented cells themselves and the wholly segmented triangles, so the
-    /// foreground keeps its outline at any tolerance; larger values stop
-    /// the refinement at triangles `2 * finest` samples across, which are
-    /// dropped whole as [`Self::extract`] drops them. It costs the
-    /// triangles along the edges and one pass over the grid's flags. A
-    /// triangle budget (`Lod::Triangles`) is resolved as for
-    /// [`Self::extract`] and its bound does not count these triangles, so
-    /// the mesh may exceed it: the service does not use this extraction.
-    pub fn extract_refining_edges(&self, lod: Lod<'_>, finest: u32) -> Result<Mesh> {
-        self.extract_inner(lod, StripOrder::Traversal, Some(finest.max(1)))
-    }
-
-    fn extract_inner(&self, lod: Lod<'_>, strips: StripOrder, refine: Option<u32>) -> Result<Mesh> {
-        let _span = tracing::debug_span!("extract", lod = %lod.kind(), strips = ?strips).entered();
+    /// Extracts the mesh at level of detail `lod`, strips in `strips`
+    /// order, treating the coarse triangles that a discontinuity crosses as
+    /// `outlines` says. A triangle budget (`Lod::Triangles`) is resolved
+    /// with the refinement counted (`outline.rs`), so it is met whatever
+    /// `outlines` is.
+    pub fn extract_as(&self, lod: Lod<'_>, strips: StripOrder, outlines: Outlines) -> Result<Mesh> {
+        let _span = tracing::debug_span!("extract", lod = %lod.kind(), strips = ?strips, ?outlines).entered();
         let start = Instant::now();
-        let tris = match lod {
+        let finest = match (outlines, lod) {
+            (_, Lod::Triangles { max, view }) => {
+                // Resolved to `Epsilon` or `Tau` with the refinement it counted.
+                let (lod, finest) = match outlines {
+                    Outlines::Dropped => (self.lod_for_triangles(max, view)?, None),
+                    Outlines::Refined(finest) => {
+                        let lod = self.outline(finest).stats.lod_for_triangles(
+                            max,
+                            view,
+                            |v| self.camera.to_camera(v.translation),
+                            |p| (self.position(p), self.radius(p)),
+                        )?;
+                        (lod, Some(finest))
+                    }
+                    Outlines::Kept => {
+                        let (lod, outline) = self.outline_lod_for_triangles(max, view)?;
+                        (lod, outline.map(|o| o.finest))
+                    }
+                };
+                let outlines = finest.map_or(Outlines::Dropped, Outlines::Refined);
+                return self.extract_as(lod, strips, outlines);
+            }
+            (Outlines::Dropped, _) => None,
+            (Outlines::Refined(finest), _) => Some(finest),
+            (Outlines::Kept, _) => Some(1),
+        };
+        let forced: &[u64] = finest.map_or(&[], |f| &self.outline(f).forced);
+        let mut mesh = match lod {
             Lod::Epsilon(eps) => {
                 if !(eps.is_finite() && eps >= 0.0) {
                     return Err(Error::invalid(format!(
@@ -297,7 +332,7 @@ impl DepthMesh {
                     eps2: if eps2.is_finite() { eps2 } else { f32::MAX },
                     all: eps == 0.0,
                 };
-                self.run(&sel, strips, refine).0
+                self.run(&sel, strips, forced).0
             }
             Lod::Tau { tau, view } => {
                 if !(tau.is_finite() && tau >= 0.0) {
@@ -306,16 +341,12 @@ impl DepthMesh {
                     )));
                 }
                 let sel = ViewDependent::new(&self.camera, view, tau);
-                let (mut mesh, walked) = self.run(&sel, strips, refine);
+                let (mut mesh, walked) = self.run(&sel, strips, forced);
                 mesh.reach = Some(self.reach(view, walked, &sel));
                 mesh
             }
-            // Resolved to `Epsilon` or `Tau`, never to `Triangles` again.
-            Lod::Triangles { max, view } => {
-                return self.extract_inner(self.lod_for_triangles(max, view)?, strips, refine)
-            }
+            Lod::Triangles { .. } => unreachable!("resolved above"),
         };
-        let mut mesh = tris;
         mesh.extract_ms = start.elapsed().as_secs_f64() * 1e3;
         if let Some(wire) = lod.wire() {
             mesh.lod = wire;
@@ -327,7 +358,7 @@ impl DepthMesh {
     /// Walks and assembles with this thread's scratch buffers: the triangle
     /// list of the walk and the grid-sized vertex map are kept between
     /// extractions, so a request allocates only what it returns.
-    fn run<S: Select>(&self, sel: &S, strips: StripOrder, refine: Option<u32>) -> (Mesh, Walked) {
+    fn run<S: Select>(&self, sel: &S, strips: StripOrder, forced: &[u64]) -> (Mesh, Walked) {
         thread_local! {
             static SCRATCH: std::cell::RefCell<Scratch> = const {
                 std::cell::RefCell::new(Scratch { tris: Vec::new(), slot: Vec::new() })
@@ -337,10 +368,7 @@ impl DepthMesh {
             let mut scratch = cell.borrow_mut();
             let Scratch { tris, slot } = &mut *scratch;
             tris.clear();
-            let walked = match refine {
-                Some(finest) => self.walk_refining_edges(sel, tris, finest),
-                None => self.walk(sel, tris, &[]),
-            };
+            let walked = self.walk(sel, tris, forced);
             let mut mesh = self.assemble(tris, strips, slot);
             mesh.dropped_triangles = walked.dropped;
             (mesh, walked)
@@ -384,52 +412,6 @@ impl DepthMesh {
                 })
                 .collect(),
         }
-    }
-
-    /// Walks with every split vertex at least `finest` samples from its
-    /// hypotenuse's ends forced whose diamond holds a segmented cell in a
-    /// half that is not wholly segmented (so no triangle that size or larger
-    /// is dropped for a segmented part), and with the vertices those depend
-    /// on (the apexes of their diamonds, up to roots or vertices `sel`
-    /// selects), so selection stays monotone and the mesh conforming.
-    fn walk_refining_edges<S: Select>(&self, sel: &S, tris: &mut Vec<[u32; 3]>, finest: u32) -> Walked {
-        let g = self.grid;
-        let gw = g.gw() as usize;
-        let mut forced = vec![0u64; g.len().div_ceil(64)];
-        let mut stack: Vec<usize> = (0..g.len())
-            .filter(|&i| {
-                let f = self.flags[i];
-                let h = match g.kind(((i % gw) as u32, (i / gw) as u32)) {
-                    Kind::Root => 0,
-                    Kind::Centre { h } | Kind::Edge { h, .. } => h,
-                };
-                h >= finest && (0..2).any(|k| f.half(k).any && !f.half(k).all)
-            })
-            .collect();
-        while let Some(v) = stack.pop() {
-            let pt = ((v % gw) as u32, (v / gw) as u32);
-            let Some(d) = g.diamond(pt) else {
-                continue;
-            };
-            if bit(&forced, v) {
-                continue;
-            }
-            forced[v / 64] |= 1 << (v % 64);
-            for (x, y) in d.apex {
-                if !g.contains(x, y) {
-                    continue;
-                }
-                let p = (x as u32, y as u32);
-                let pi = g.index(p);
-                if g.diamond(p).is_some()
-                    && !bit(&forced, pi)
-                    && !sel.active(self.err2[pi], self.position(p), self.radius[pi])
-                {
-                    stack.push(pi);
-                }
-            }
-        }
-        self.walk(sel, tris, &forced)
     }
 
     fn walk<S: Select>(&self, sel: &S, tris: &mut Vec<[u32; 3]>, forced: &[u64]) -> Walked {

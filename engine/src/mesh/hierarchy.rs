@@ -48,6 +48,7 @@ use super::grid::{Grid, Pt};
 use super::levels::{coarse_deviations, run_coarse, run_finest, Levels};
 use super::lod::Lod;
 use super::normals::normals_and_quality;
+use super::outline::{Outline, OutlineCache, DEPTHS, OUTLINE_SHARE};
 use super::segmentation::{leaf_flags, Method, Samples, Segmentation};
 use crate::camera::Camera;
 use crate::error::{Error, Result};
@@ -75,6 +76,9 @@ pub struct DepthMesh {
     pub(crate) flags: Vec<Flags>,
     /// Error statistics for budgeted requests.
     pub(crate) stats: ErrorStats,
+    /// The outlines' forced vertices and statistics, per refinement depth,
+    /// computed on first use (`outline.rs`).
+    pub(crate) outlines: OutlineCache,
     segmented: usize,
     build_peak_bytes: usize,
     build_ms: f64,
@@ -329,6 +333,7 @@ impl DepthMesh {
             rho: p.rho,
             flags: p.flags,
             stats: ErrorStats::default(),
+            outlines: OutlineCache::default(),
             segmented: p.segmented,
             build_peak_bytes: 0,
             build_ms: 0.0,
@@ -389,11 +394,15 @@ impl DepthMesh {
         self.stats.coarsest_triangles()
     }
 
-    /// The finest level of detail whose mesh has at most `max_triangles`
-    /// triangles, for the requesting camera `view` (view-dependent) or none
-    /// (static), from the error statistics gathered at build time
-    /// (`budget.rs`): `Tau` for `view` or `Epsilon`, never `Triangles`. Fails
-    /// when even the coarsest mesh has more.
+    /// The finest level of detail whose mesh, extracted dropping outlines
+    /// ([`Outlines::Dropped`](super::Outlines::Dropped)), has at most
+    /// `max_triangles` triangles, for the requesting camera `view`
+    /// (view-dependent) or none (static), from the error statistics
+    /// gathered at build time (`budget.rs`): `Tau` for `view` or `Epsilon`,
+    /// never `Triangles`. Fails when even the coarsest mesh has more, and
+    /// only then does a budget given to an extraction that keeps outlines
+    /// fail. Such an extraction resolves a [`Lod::Triangles`] itself, with
+    /// its refinement counted.
     pub fn lod_for_triangles<'v>(&self, max_triangles: u64, view: Option<&'v Camera>) -> Result<Lod<'v>> {
         self.stats.lod_for_triangles(
             max_triangles,
@@ -401,6 +410,46 @@ impl DepthMesh {
             |v| self.camera.to_camera(v.translation),
             |p| (self.position(p), self.radius(p)),
         )
+    }
+
+    /// The outline of refinement depth `finest` (`outline.rs`), computed
+    /// on first use.
+    pub(crate) fn outline(&self, finest: u32) -> &Outline {
+        self.outlines.get(finest, self.grid, &self.flags, &self.err2)
+    }
+
+    /// Triangles of the coarsest mesh whose coarse triangles a
+    /// discontinuity crosses are refined down to `2 * finest` samples
+    /// across (`finest` rounded up to a power of two, at most 32), rather
+    /// than dropped: the smallest budget [`Self::extract_keeping_outlines`]
+    /// keeps such outlines in.
+    pub fn coarsest_triangles_with_outlines(&self, finest: u32) -> u64 {
+        self.outline(finest).stats.coarsest_triangles()
+    }
+
+    /// [`Self::lod_for_triangles`] for an extraction that keeps outlines:
+    /// the finest refinement depth whose forced triangles take at most half
+    /// of `max_triangles` (`outline.rs`), with the level of detail whose
+    /// mesh, refined so, provably fits; or, when no depth's do, no
+    /// refinement and [`Self::lod_for_triangles`].
+    pub(crate) fn outline_lod_for_triangles<'v>(
+        &self,
+        max_triangles: u64,
+        view: Option<&'v Camera>,
+    ) -> Result<(Lod<'v>, Option<&Outline>)> {
+        for finest in DEPTHS {
+            let outline = self.outline(finest);
+            if outline.stats.coarsest_triangles() as f64 <= OUTLINE_SHARE * max_triangles as f64 {
+                let lod = outline.stats.lod_for_triangles(
+                    max_triangles,
+                    view,
+                    |v| self.camera.to_camera(v.translation),
+                    |p| (self.position(p), self.radius(p)),
+                )?;
+                return Ok((lod, Some(outline)));
+            }
+        }
+        Ok((self.lod_for_triangles(max_triangles, view)?, None))
     }
 
     /// True when the full-resolution triangle half `h` of the unit cell with
@@ -422,6 +471,16 @@ impl DepthMesh {
             + self.flags.capacity()
             + self.bp.heap_bytes()
             + self.stats.heap_bytes()
+            + self.outlines.heap_bytes()
+    }
+
+    /// The most heap bytes the hierarchy will keep: [`Self::heap_bytes`]
+    /// with every outline computed (`outline.rs`: one bit per grid vertex
+    /// and the budget's statistics per refinement depth), which extractions
+    /// add on first use. Constant, so a cache can charge it once.
+    pub fn heap_bytes_bound(&self) -> usize {
+        self.heap_bytes() - self.outlines.heap_bytes()
+            + DEPTHS.len() * (8 * self.grid.len().div_ceil(64) + self.stats.heap_bytes())
     }
 
     /// Figures of this build.

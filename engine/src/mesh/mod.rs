@@ -16,6 +16,8 @@
 //! - [`lod`]: the level of detail of an extraction, and what a budget resolves to;
 //! - `select`: static (Eq. 3) and view-dependent (Eq. 4) selection;
 //! - [`extract`]: the top-down traversal emitting a conforming mesh (Sec. 4.3-4.4);
+//! - `outline`: outlines kept at any level of detail, refining the coarse
+//!   triangles a discontinuity crosses, with the budget counting them (Sec. 5.3);
 //! - [`strips`]: generalised strips with primitive restart (Fig. 13): the
 //!   traversal's order, greedy strips over the adjacency, and tunnels
 //!   joining them weighed by their index count.
@@ -33,12 +35,13 @@ pub mod hierarchy;
 mod levels;
 pub mod lod;
 pub mod normals;
+mod outline;
 pub mod reach;
 pub mod segmentation;
 mod select;
 pub mod strips;
 
-pub use extract::{Mesh, MeshVertex};
+pub use extract::{Mesh, MeshVertex, Outlines};
 pub use grid::Grid;
 pub use hierarchy::{BuildStats, DepthMesh, Stages, Threads};
 pub use lod::Lod;

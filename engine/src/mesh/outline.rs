@@ -1,0 +1,128 @@
+//! Outlines kept at any level of detail: the coarse triangles that a
+//! discontinuity crosses are refined instead of dropped whole, and the
+//! triangle budget's bound counts what that refinement forces.
+//!
+//! DMesh Sec. 5.3 skips a segmented triangle at the extracted resolution,
+//! so a coarse triangle that holds one segmented cell is lost with all its
+//! valid samples: the foreground's outline erodes by the triangle's size.
+//! Here every split vertex at least `finest` samples from its hypotenuse's
+//! ends is *forced* when its diamond holds a segmented cell in a half that
+//! is not wholly segmented, and so is every vertex it depends on (the
+//! apexes of its diamond, up to the roots). The forced set is closed under
+//! dependency, and the selection of any tolerance is monotone (`select.rs`),
+//! so the selected-or-forced set is monotone too and the mesh conforming.
+//! With `finest = 1` the only triangles left out are the segmented cells
+//! themselves and the wholly segmented triangles above them; a larger
+//! `finest` stops at triangles `2 * finest` samples across, dropped whole
+//! as Sec. 5.3 drops them.
+//!
+//! The set does not depend on the level of detail. It is computed once per
+//! hierarchy and depth, on the first extraction that asks for it, with the
+//! budget's statistics (`budget.rs`) counting the forced vertices in the
+//! base as they count the always-refined border: the mesh of any tolerance
+//! has at most `2 m n + 2 |forced or border| + 2 |selected, not forced|`
+//! triangles, so a budget resolved from these statistics is met with the
+//! outlines kept.
+
+use std::sync::OnceLock;
+
+use super::border::FORCED;
+use super::budget::ErrorStats;
+use super::flags::Flags;
+use super::grid::{Grid, Kind};
+
+/// The refinement depths kept: triangles 2, 4, ..., 64 samples across.
+pub(crate) const DEPTHS: [u32; 6] = [1, 2, 4, 8, 16, 32];
+
+/// The largest share of a triangle budget that forced outline triangles
+/// may take: a budget picks the finest depth whose forced triangles fit in
+/// it, so that at least the rest is left for the surfaces' interiors.
+pub(crate) const OUTLINE_SHARE: f64 = 0.5;
+
+/// One refinement depth's forced vertices and budget statistics.
+#[derive(Clone, Debug)]
+pub(crate) struct Outline {
+    /// Triangles no finer than `2 * finest` samples across are refined.
+    pub finest: u32,
+    /// One bit per grid vertex: forced.
+    pub forced: Vec<u64>,
+    /// The budget's statistics with the forced vertices in the base.
+    pub stats: ErrorStats,
+}
+
+/// The outlines of a hierarchy, one per depth in [`DEPTHS`], each
+/// computed on first use.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct OutlineCache {
+    depths: [OnceLock<Outline>; DEPTHS.len()],
+}
+
+/// True when bit `i` of `bits` is set (false past its end).
+#[inline]
+pub(crate) fn bit(bits: &[u64], i: usize) -> bool {
+    bits.get(i / 64).is_some_and(|w| w >> (i % 64) & 1 == 1)
+}
+
+impl OutlineCache {
+    /// The outline of refinement depth `finest` (rounded up to one of
+    /// [`DEPTHS`], at most the coarsest), computing it on first use from
+    /// the hierarchy's grid, flags and saturated errors.
+    pub(crate) fn get(&self, finest: u32, grid: Grid, flags: &[Flags], err2: &[f32]) -> &Outline {
+        let k = DEPTHS.iter().position(|&d| d >= finest).unwrap_or(DEPTHS.len() - 1);
+        self.depths[k].get_or_init(|| {
+            let forced = forced_set(grid, flags, DEPTHS[k]);
+            let stats = ErrorStats::gather_with(grid, err2, |i| err2[i] == FORCED || bit(&forced, i));
+            Outline {
+                finest: DEPTHS[k],
+                forced,
+                stats,
+            }
+        })
+    }
+
+    /// Heap bytes of the outlines computed so far.
+    pub(crate) fn heap_bytes(&self) -> usize {
+        self.depths
+            .iter()
+            .filter_map(OnceLock::get)
+            .map(|o| 8 * o.forced.capacity() + o.stats.heap_bytes())
+            .sum()
+    }
+}
+
+/// The forced vertices of refinement depth `finest`: one pass over the
+/// flags for the seeds, then their dependencies, each vertex visited once.
+fn forced_set(grid: Grid, flags: &[Flags], finest: u32) -> Vec<u64> {
+    let gw = grid.gw() as usize;
+    let mut forced = vec![0u64; grid.len().div_ceil(64)];
+    let mut stack: Vec<usize> = (0..grid.len())
+        .filter(|&i| {
+            let f = flags[i];
+            let partial = (0..2).any(|k| f.half(k).any && !f.half(k).all);
+            partial
+                && match grid.kind(((i % gw) as u32, (i / gw) as u32)) {
+                    Kind::Root => false,
+                    Kind::Centre { h } | Kind::Edge { h, .. } => h >= finest,
+                }
+        })
+        .collect();
+    while let Some(v) = stack.pop() {
+        if bit(&forced, v) {
+            continue;
+        }
+        let pt = ((v % gw) as u32, (v / gw) as u32);
+        let Some(d) = grid.diamond(pt) else {
+            continue;
+        };
+        forced[v / 64] |= 1 << (v % 64);
+        for (x, y) in d.apex {
+            if grid.contains(x, y) {
+                let p = (x as u32, y as u32);
+                if grid.kind(p) != Kind::Root && !bit(&forced, grid.index(p)) {
+                    stack.push(grid.index(p));
+                }
+            }
+        }
+    }
+    forced
+}
