@@ -138,6 +138,33 @@ fn a_triangle_budget_is_met_and_its_tolerance_printed() {
 }
 
 #[test]
+fn outlines_are_kept_unless_dropped_on_request() {
+    let dir = tempfile::tempdir().unwrap();
+    let (depth, _, cam) = scene(dir.path());
+    let triangles = |extra: &[&str]| {
+        let mut args = vec![
+            "mesh",
+            "--depth",
+            &depth,
+            "--camera",
+            &cam,
+            "--epsilon",
+            "0.5",
+            "--json",
+        ];
+        args.extend_from_slice(extra);
+        let (code, out, err) = dmesh(&args);
+        assert_eq!(code, 0, "{err}");
+        let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
+        v["triangles"].as_u64().unwrap()
+    };
+    // At a coarse tolerance the step's outline is refined down to its
+    // cells; dropping whole the coarse triangles across it keeps fewer.
+    let (kept, dropped) = (triangles(&[]), triangles(&["--drop-outlines"]));
+    assert!(dropped < kept, "dropped {dropped}, kept {kept}");
+}
+
+#[test]
 fn ply_has_a_header_that_matches_the_figures() {
     let dir = tempfile::tempdir().unwrap();
     let (depth, _, cam) = scene(dir.path());

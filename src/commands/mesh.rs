@@ -8,7 +8,7 @@ use clap::{ArgGroup, ValueEnum};
 use dmesh::camera::{camera_from_json, Camera};
 use dmesh::image::{decode_view, ColorImage, DecodedView, DepthKind, DepthOptions, Limits, ViewFiles};
 use dmesh::mesh::segmentation;
-use dmesh::mesh::{DepthMesh, Lod, Mesh, Method, Segmentation, StripOrder, Threads};
+use dmesh::mesh::{DepthMesh, Lod, Mesh, Method, Outlines, Segmentation, StripOrder, Threads};
 
 #[derive(Clone, Copy, ValueEnum)]
 enum KindArg {
@@ -96,6 +96,12 @@ pub struct MeshArgs {
     /// tunnelled (fewest indices, slowest).
     #[arg(long, value_enum, default_value = "traversal")]
     strips: StripsArg,
+    /// Drop whole a coarse triangle that a discontinuity crosses, as DMesh
+    /// Sec. 5.3 does, instead of refining it down to the segmented cells
+    /// (fewer triangles; the foreground's outline erodes by up to the
+    /// triangle's size).
+    #[arg(long)]
+    drop_outlines: bool,
     /// Largest accepted image, in pixels.
     #[arg(long, default_value_t = 64 << 20)]
     max_pixels: u64,
@@ -197,7 +203,12 @@ pub fn run(a: &MeshArgs) -> Result<()> {
         StripsArg::Greedy => StripOrder::Greedy,
         StripsArg::Tunnelled => StripOrder::Tunnelled,
     };
-    let mesh = hierarchy.extract_with(lod, order)?;
+    let outlines = if a.drop_outlines {
+        Outlines::Dropped
+    } else {
+        Outlines::Kept
+    };
+    let mesh = hierarchy.extract_as(lod, order, outlines)?;
     // The tolerance used (a budget's resolution).
     let (lod_name, lod_value) = match mesh.lod {
         dmesh_proto::Lod::Tau(t) => ("tau", t),
