@@ -17,9 +17,10 @@ cat >"$out" <<MD
 
 Written by \`bash scripts/papers.sh\` (machine: $machine). One section per
 seed; each table says what was measured and how it differs from the paper's
-setting. Still to come (issue 29): Naik's protocol (no gap filling inside
-a scored warp, disparity MSE against the full mesh, a left-right valid
-mask, per-pixel DIBR).
+setting. Naik's comparison, on his protocol, is the README's "The thesis's
+baselines" (\`docs/baselines/\`); Qu et al.'s walkthroughs are
+\`docs/walkthrough.md\`. Meshes are extracted as the service extracts
+them, outlines kept.
 
 ## DMesh (\`000_…\`)
 
@@ -29,10 +30,10 @@ $dmesh_tables
 55-99 thousand view-dependent for its objects (Table 4). Here the
 references are small (256 x 192), so the counts are a tenth of the
 paper's, but the shape is the same: the view-dependent meshes are smaller
-than the static ones at every range, most of all far away (0.63 of the
+than the static ones at every range, most of all far away (0.70 of the
 static count at 3 times the rig's distance, 0.95 and 0.86 at the rig's
 distance and half of it, where culling takes what the near camera does not
-see). Extraction takes 2-4 ms for the five meshes on one CPU thread, where
+see). Extraction takes 1.5-2.5 ms for the five meshes on one CPU thread, where
 the paper's view-dependent frames took 114-157 ms on its 2004 machine.
 
 Table 1: the paper builds six 513 x 513 depth-meshes' quadtrees in 641-660 ms
@@ -47,14 +48,18 @@ the largest, the finest level about a quarter, normals and rho about a
 sixth. The time per pixel grows slowly with the image, as the paper's
 \`n log n\` says (the exact deviations scan every sample once per level).
 The stages also appear in \`dmesh mesh --json\`
-(\`stages_ms\`).
+(\`stages_ms\`). The strips column is a hierarchy's first extraction,
+which also computes the vertices that keeping outlines forces (once per
+hierarchy): 1.4 ms of the synthetic scene's, 5.7 of Art's.
 
 Strips: the paper reports 20-40 triangles per strip static and 15-30
 view-dependent. Art at fine tolerances (0.1 % of its depth, tau up to 1 px)
-reaches 38, and 22.5 at tau = 4 px; at coarse tolerances, and on the demo's
-small views with their many depth edges, strips are 5-15 triangles long:
-every segmented triangle breaks a strip (Sec. 5.3, Fig. 13), and a coarse
-mesh has few triangles between breaks.
+reaches 37, and 15 at tau = 4 px; at coarse tolerances, and on the demo's
+small views with their many depth edges, strips are 6-15 triangles long:
+every segmented triangle breaks a strip (Sec. 5.3, Fig. 13), and with
+outlines kept a coarse mesh is mostly the short runs along its depth edges
+(Art has 7,599 strips at every tolerance in the table, about one per run
+of edge triangles).
 
 Sec. 7.1 and Fig. 18: DMesh finds connectedness "by far the most
 expensive" of the three tests, disparity the fastest and orthogonality
@@ -104,15 +109,20 @@ $verlani_tables
   - Here JPEG scores 21.5-30.1 dB at qualities 10-90 and 34.2 at 100.
   - Its ratios (1.98 down to 0.33) are lower than his, because the demo's
     8-bit maps zip well: smooth surfaces and an empty background.
-  - At the same bytes, the stream beats JPEG at every quality but 20 (a
-    tie), by 1.3 dB at quality 10 and up to 8.5 dB from quality 50 on.
+  - At the same bytes, the stream beats JPEG from quality 80 on, by 3.1
+    to 7.2 dB. Below that it does not: the served meshes keep their
+    outlines at full resolution, so the coarsest stream (tau 64 px) is
+    larger than JPEG's files at qualities 10 and 20, and at 30-70 only 4
+    planes fit, 22.7-22.9 dB against JPEG's 24.7-27.6. Before outlines were
+    kept the stream won at every quality but 20, by up to 8.5 dB: coarse
+    meshes were smaller, at the price of eroded foreground edges.
 - *Fig. 5 held: locality.* PSNR is highest at the two references (41 dB)
   and lowest midway between them (19 dB at 40 degrees). Noise of 3 mm
   changes it by at most 0.8 dB anywhere, 10 mm by at most 1.7 dB. "High
   near the given DIs even with high noise" held up to 10 mm. With 30 mm,
   the views at the references fall to 28-32 dB.
-- *Table 3 held.* The quality levels span 39.4 dB at 114 kB per novel view
-  to 17.5 dB at 4 kB.
+- *Table 3 held.* The quality levels span 39.2 dB at 114 kB per novel view
+  to 17.5 dB at 5.7 kB.
   - The number of references matters most: with every fourth reference,
     coverage falls to 62 % and the PSNR to 28.
   - Down to tau = 4 px and 8 planes, the tolerance costs less than halving
