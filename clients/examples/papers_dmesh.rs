@@ -292,14 +292,7 @@ fn segmentation_methods(data: &std::path::Path) -> anyhow::Result<()> {
                     let out = render_plan::extract(&hierarchies[w.index], r.raw_grid, &case.name, "v", &ask, |ms| ms)?;
                     responses.push((w.weight, out.response, &r.texture));
                 }
-                let inputs: Vec<ViewInput<'_>> = responses
-                    .iter()
-                    .map(|(weight, strips, texture)| ViewInput {
-                        weight: *weight,
-                        strips,
-                        texture,
-                    })
-                    .collect();
+                let inputs = ViewInput::of_responses(&responses);
                 let options = BlendOptions {
                     fill_gaps: 0,
                     ..BlendOptions::default()

@@ -146,14 +146,7 @@ fn streamed(
 
 /// A blend without gap filling, optionally with an angular weight.
 fn blended(novel: &Camera, views: &[(f64, StripResponse, &Texture)], options: BlendOptions) -> Result<Blended> {
-    let inputs: Vec<ViewInput<'_>> = views
-        .iter()
-        .map(|(weight, strips, texture)| ViewInput {
-            weight: *weight,
-            strips,
-            texture,
-        })
-        .collect();
+    let inputs = ViewInput::of_responses(views);
     blend(
         novel,
         &inputs,

@@ -64,6 +64,21 @@ pub struct ViewInput<'a> {
     pub texture: &'a Texture,
 }
 
+impl<'a> ViewInput<'a> {
+    /// The inputs of decoded responses held as (weight, strips, texture),
+    /// in their order.
+    pub fn of_responses(views: &'a [(f64, StripResponse, &'a Texture)]) -> Vec<Self> {
+        views
+            .iter()
+            .map(|(weight, strips, texture)| ViewInput {
+                weight: *weight,
+                strips,
+                texture,
+            })
+            .collect()
+    }
+}
+
 /// Blending settings.
 #[derive(Clone, Copy, Debug)]
 pub struct BlendOptions {

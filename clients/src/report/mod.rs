@@ -250,14 +250,7 @@ pub fn sweep(case: &Case, options: &Options) -> anyhow::Result<Vec<Row>> {
                     }
                     responses.push((w.weight, back, &r.texture));
                 }
-                let inputs: Vec<ViewInput<'_>> = responses
-                    .iter()
-                    .map(|(weight, strips, texture)| ViewInput {
-                        weight: *weight,
-                        strips,
-                        texture,
-                    })
-                    .collect();
+                let inputs = ViewInput::of_responses(&responses);
                 let mut times = Vec::new();
                 let mut blended = None;
                 for _ in 0..repeats {

@@ -298,15 +298,10 @@ impl DepthMesh {
                 // Resolved to `Epsilon` or `Tau` with the refinement it counted.
                 let (lod, finest) = match outlines {
                     Outlines::Dropped => (self.lod_for_triangles(max, view)?, None),
-                    Outlines::Refined(finest) => {
-                        let lod = self.outline(finest).stats.lod_for_triangles(
-                            max,
-                            view,
-                            |v| self.camera.to_camera(v.translation),
-                            |p| (self.position(p), self.radius(p)),
-                        )?;
-                        (lod, Some(finest))
-                    }
+                    Outlines::Refined(finest) => (
+                        self.resolve_budget(&self.outline(finest).stats, max, view)?,
+                        Some(finest),
+                    ),
                     Outlines::Kept => {
                         let (lod, outline) = self.outline_lod_for_triangles(max, view)?;
                         (lod, outline.map(|o| o.finest))

@@ -404,7 +404,19 @@ impl DepthMesh {
     /// fail. Such an extraction resolves a [`Lod::Triangles`] itself, with
     /// its refinement counted.
     pub fn lod_for_triangles<'v>(&self, max_triangles: u64, view: Option<&'v Camera>) -> Result<Lod<'v>> {
-        self.stats.lod_for_triangles(
+        self.resolve_budget(&self.stats, max_triangles, view)
+    }
+
+    /// The level of detail `stats` (the plain ones or an outline's) resolve
+    /// a budget of `max_triangles` to, for `view`, with this hierarchy's
+    /// eye and spheres.
+    pub(crate) fn resolve_budget<'v>(
+        &self,
+        stats: &ErrorStats,
+        max_triangles: u64,
+        view: Option<&'v Camera>,
+    ) -> Result<Lod<'v>> {
+        stats.lod_for_triangles(
             max_triangles,
             view,
             |v| self.camera.to_camera(v.translation),
@@ -440,12 +452,7 @@ impl DepthMesh {
         for finest in DEPTHS {
             let outline = self.outline(finest);
             if outline.stats.coarsest_triangles() as f64 <= OUTLINE_SHARE * max_triangles as f64 {
-                let lod = outline.stats.lod_for_triangles(
-                    max_triangles,
-                    view,
-                    |v| self.camera.to_camera(v.translation),
-                    |p| (self.position(p), self.radius(p)),
-                )?;
+                let lod = self.resolve_budget(&outline.stats, max_triangles, view)?;
                 return Ok((lod, Some(outline)));
             }
         }
