@@ -11,7 +11,8 @@
 //! along rows, along columns, centres) and row, with the rows a kind's
 //! children lie on sliced once beside the row it writes. A general kernel
 //! per split vertex, `split_vertex`, states the same computation once for
-//! any vertex; the tests check the loops against it.
+//! any vertex; the tests check the loops against it. The finest level's
+//! loops are in `finest.rs`.
 
 use super::backproject::BackProject;
 use super::deviation::{half_rows, max_deviation, small_half_deviation, SmallHalf};
@@ -46,7 +47,7 @@ impl Bisects {
 
 /// `v` as f32, rounded up (an error or radius may grow, never shrink),
 /// saturated at `f32::MAX`.
-fn round_up(v: f64) -> f32 {
+pub(super) fn round_up(v: f64) -> f32 {
     let f = v as f32;
     if f64::from(f) < v { f.next_up() } else { f }.min(f32::MAX)
 }
@@ -61,17 +62,10 @@ fn eq12(bisects: Bisects, pv: DVec3, pa: DVec3, pb: DVec3) -> f64 {
     }
 }
 
-/// The squared detail of `v` against the midpoint of `a-b`: a finest half's
-/// exact deviation (its only interior sample is `v`).
-fn detail2(za: f32, zv: f32, zb: f32) -> f64 {
-    let detail = f64::from(zv) - 0.5 * (f64::from(za) + f64::from(zb));
-    detail * detail
-}
-
 /// The squared footprint of a partly segmented half: its hypotenuse, `len`
 /// pixels, at the pixel size of the deepest valid of `corners` (or of the
 /// image's deepest sample when none is valid).
-fn footprint2(camera: &Camera, len: f64, corners: [f32; 4], zmax: f32) -> f64 {
+pub(super) fn footprint2(camera: &Camera, len: f64, corners: [f32; 4], zmax: f32) -> f64 {
     let zref = corners.into_iter().fold(0f32, f32::max);
     let zref = if zref > 0.0 { zref } else { zmax };
     let extent = len * camera.pixel_size(f64::from(zref));
@@ -258,16 +252,19 @@ fn small_half(gw: usize, s: Split, apex: Pt) -> SmallHalf {
 }
 
 crate::simd::dispatch! {
-    /// The finest level (three quarters of all vertices), in dedicated
-    /// passes (with AVX2 where the CPU has it: [`crate::simd`]).
+    /// The finest level (three quarters of all vertices), in the row
+    /// sweeps of `finest.rs` (with AVX2 where the CPU has it:
+    /// [`crate::simd`]).
     pub(crate) fn run_finest(levels: &mut Levels<'_>, flags: &mut [Flags], zmax: f32) -> () = run_finest_body;
 }
 
 #[inline(always)]
 fn run_finest_body(levels: &mut Levels<'_>, flags: &mut [Flags], zmax: f32) {
-    levels.finest_edges::<true>(flags, zmax);
-    levels.finest_edges::<false>(flags, zmax);
-    levels.finest_centres(flags, zmax);
+    let gw = levels.grid.gw() as usize;
+    let (mut geo, mut rad) = (vec![0f32; gw], vec![0f32; gw]);
+    levels.finest_edges::<true>(flags, zmax, &mut geo);
+    levels.finest_edges::<false>(flags, zmax, &mut geo);
+    levels.finest_centres(flags, zmax, &mut geo, &mut rad);
 }
 
 crate::simd::dispatch! {
@@ -424,179 +421,6 @@ impl Levels<'_> {
         }
     }
 
-    /// The edge midpoints of level 0, which bisect an edge of length 2: their
-    /// halves are finest triangles, so there are no children to saturate over,
-    /// the radius is 0 and the deviation interval is the detail itself.
-    /// The results of [`Self::split_vertex`] in a tight loop, except that a
-    /// partly segmented half's footprint is taken at the deeper of the two
-    /// apexes (never smaller; a test checks). `ROW`: edges
-    /// along rows, else along columns (a constant, so each direction
-    /// compiles to its own straight loop).
-    #[inline(always)]
-    fn finest_edges<const ROW: bool>(&mut self, flags: &mut [Flags], zmax: f32) {
-        let (gw, gh) = (self.grid.gw() as usize, self.grid.gh() as usize);
-        let row = ROW;
-        let bisects = if row { Bisects::Row } else { Bisects::Column };
-        // Step between a and v, and between v and an apex, in the flat index.
-        let (along, across) = if row { (1, gw) } else { (gw, 1) };
-        // Cells holding the two finest triangles of each half, and which
-        // triangle of the cell: half 0 (apex before v across the edge), half 1 (after).
-        let g = gw as isize;
-        let cells: [[(isize, usize); 2]; 2] = if row {
-            [[(-g - 1, 1), (-g, 0)], [(-1, 1), (0, 0)]]
-        } else {
-            [[(-g - 1, 1), (-1, 1)], [(-g, 0), (0, 0)]]
-        };
-        let (ys, xs) = if row {
-            ((0..gh).step_by(2), 1)
-        } else {
-            ((1..gh).step_by(2), 0)
-        };
-        for y in ys {
-            for x in (xs..gw).step_by(2) {
-                let vi = y * gw + x;
-                let exists = if row { [y > 0, y + 1 < gh] } else { [x > 0, x + 1 < gw] };
-                let (za, zv, zb) = (self.z[vi - along], self.z[vi], self.z[vi + along]);
-                let mut bits = flags[vi].cell_only();
-                let mut unflagged = false;
-                let mut partial = false;
-                for half in 0..2 {
-                    let flagged = if exists[half] {
-                        let leaf = |(o, h): (isize, usize)| Half::leaf(flags[(vi as isize + o) as usize].cell(h));
-                        let [c0, c1] = cells[half];
-                        leaf(c0).join(leaf(c1))
-                    } else {
-                        Half::ABSENT
-                    };
-                    bits.set_half(half, flagged);
-                    unflagged |= flagged.unflagged();
-                    partial |= flagged.partial();
-                }
-                flags[vi] = bits;
-                let mut own = 0f64;
-                if unflagged {
-                    let (xv, yv) = ((x as u32), (y as u32));
-                    let pv = self.bp.point(xv, yv, zv);
-                    let (pa, pb) = if row {
-                        (self.bp.point(xv - 1, yv, za), self.bp.point(xv + 1, yv, zb))
-                    } else {
-                        (self.bp.point(xv, yv - 1, za), self.bp.point(xv, yv + 1, zb))
-                    };
-                    own = eq12(bisects, pv, pa, pb).max(detail2(za, zv, zb));
-                }
-                if partial {
-                    let zapex = match exists {
-                        [true, true] => self.z[vi - across].max(self.z[vi + across]),
-                        [true, false] => self.z[vi - across],
-                        [false, true] => self.z[vi + across],
-                        [false, false] => 0.0,
-                    };
-                    own = own.max(footprint2(
-                        self.camera,
-                        bisects.hypotenuse(1),
-                        [za, zb, zv, zapex],
-                        zmax,
-                    ));
-                }
-                self.err2[vi] = round_up(own);
-                self.radius[vi] = 0.0;
-            }
-        }
-    }
-
-    /// The centres of level 0, which bisect the diagonal of a unit cell
-    /// pair: their four children are the finest edge midpoints around them
-    /// (radius 0). A half's deviation is the largest detail of `v` and of
-    /// the two leg midpoints; the latter are already in those children's
-    /// errors whenever the half is unflagged, so only `v`'s own detail is
-    /// added. The results of [`Self::split_vertex`] in a tight loop, except
-    /// that partly segmented halves share the deeper apex's footprint.
-    #[inline(always)]
-    fn finest_centres(&mut self, flags: &mut [Flags], zmax: f32) {
-        let (gw, gh) = (self.grid.gw() as usize, self.grid.gh() as usize);
-        let (bp, camera, z) = (self.bp, self.camera, self.z);
-        let cols = bp.cols();
-        let point = BackProject::point_from;
-        // Row by row: the rows above and below are read (their edge
-        // midpoints are the children), the centres' row is written.
-        for y in (1..gh).step_by(2) {
-            let rows = [bp.row(y - 1), bp.row(y), bp.row(y + 1)];
-            let zs = [
-                &z[(y - 1) * gw..y * gw],
-                &z[y * gw..(y + 1) * gw],
-                &z[(y + 1) * gw..(y + 2) * gw],
-            ];
-            let (head, tail) = self.err2.split_at_mut(y * gw);
-            let (err_row, rest) = tail.split_at_mut(gw);
-            let (err_up, err_down) = (&head[(y - 1) * gw..], &rest[..gw]);
-            let (head, tail) = flags.split_at_mut(y * gw);
-            let (flag_row, rest) = tail.split_at_mut(gw);
-            let (flag_up, flag_down) = (&head[(y - 1) * gw..], &rest[..gw]);
-            let radius_row = &mut self.radius[y * gw..(y + 1) * gw];
-            // The diagonal through v runs from (px, py) to (qx, qy): py is
-            // the row above (0) or below (2), qy the other.
-            let p_row = if (y - 1) / 2 % 2 == 1 { 0 } else { 2 };
-            let q_row = 2 - p_row;
-            for x in (1..gw).step_by(2) {
-                let px = if (x - 1) / 2 % 2 == 1 { x - 1 } else { x + 1 };
-                let qx = 2 * x - px;
-                // Half 0 has its apex at x - 1, half 1 at x + 1; each holds
-                // the child beside v on its side and the one above or below
-                // v on its apex's row. Children before v (left, or above)
-                // hold v in their half 1, those after in half 0.
-                let apex_rows = if px < qx { [q_row, p_row] } else { [p_row, q_row] };
-                let vertical = |apex_row: usize| {
-                    if apex_row == 0 {
-                        flag_up[x].half(1)
-                    } else {
-                        flag_down[x].half(0)
-                    }
-                };
-                let beside = [flag_row[x - 1].half(1), flag_row[x + 1].half(0)];
-                let mut bits = flag_row[x].cell_only();
-                let mut unflagged = false;
-                let mut partial_zapex = None::<f32>;
-                for half in 0..2 {
-                    let flagged = beside[half].join(vertical(apex_rows[half]));
-                    bits.set_half(half, flagged);
-                    unflagged |= flagged.unflagged();
-                    if flagged.partial() {
-                        let za = zs[apex_rows[half]][x + 2 * half - 1];
-                        partial_zapex = Some(partial_zapex.map_or(za, |z: f32| z.max(za)));
-                    }
-                }
-                flag_row[x] = bits;
-                let zv = zs[1][x];
-                let (za, zb) = (zs[p_row][px], zs[q_row][qx]);
-                let pv = point(cols[x], rows[1], zv);
-                let err = err_row[x - 1].max(err_row[x + 1]).max(err_up[x]).max(err_down[x]);
-                let mut radius = 0f64;
-                for (col, row, zc) in [
-                    (cols[x - 1], rows[1], zs[1][x - 1]),
-                    (cols[x + 1], rows[1], zs[1][x + 1]),
-                    (cols[x], rows[0], zs[0][x]),
-                    (cols[x], rows[2], zs[2][x]),
-                ] {
-                    radius = radius.max(norm_bound(pv - point(col, row, zc)));
-                }
-                let mut own = 0f64;
-                if unflagged {
-                    let pa = point(cols[px], rows[p_row], za);
-                    let pb = point(cols[qx], rows[q_row], zb);
-                    own = eq12(Bisects::Diagonal, pv, pa, pb).max(detail2(za, zv, zb));
-                }
-                if let Some(zapex) = partial_zapex {
-                    // Each partial half's footprint; the larger apex depth
-                    // covers both when both are partial.
-                    let len = Bisects::Diagonal.hypotenuse(1);
-                    own = own.max(footprint2(camera, len, [za, zb, zv, zapex], zmax));
-                }
-                err_row[x] = err.max(round_up(own));
-                radius_row[x] = round_up(radius);
-            }
-        }
-    }
-
     /// Computes flags, own and saturated error and radius of the split vertex
     /// `s`, given its halves' squared deviations (`None`: scanned here).
     /// Children are finer and already done. This is the general kernel:
@@ -700,13 +524,17 @@ mod tests {
         let start = fx.start(cells);
         let edges = [
             fx.run(&start, &|l, flags| {
-                l.finest_edges::<true>(flags, zmax);
-                l.finest_edges::<false>(flags, zmax);
+                let mut geo = vec![0f32; grid.gw() as usize];
+                l.finest_edges::<true>(flags, zmax, &mut geo);
+                l.finest_edges::<false>(flags, zmax, &mut geo);
             }),
             fx.run(&start, &general(false)),
         ];
         let centres = [
-            fx.run(&edges[0], &|l, flags| l.finest_centres(flags, zmax)),
+            fx.run(&edges[0], &|l, flags| {
+                let (mut geo, mut rad) = (vec![0f32; grid.gw() as usize], vec![0f32; grid.gw() as usize]);
+                l.finest_centres(flags, zmax, &mut geo, &mut rad)
+            }),
             fx.run(&edges[0], &general(true)),
         ];
         [edges, centres]

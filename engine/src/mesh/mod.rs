@@ -12,7 +12,8 @@
 //! - `flags`: segmentation flags and their OR/AND propagation (Sec. 5.3);
 //! - [`hierarchy`]: the build, on one thread or two (Sec. 4.2, 5.3);
 //! - `levels`: its bottom-up pass: saturated errors, nested radii and
-//!   propagated segmentation flags (Sec. 4.2, 5.3);
+//!   propagated segmentation flags (Sec. 4.2, 5.3), with `finest`: the
+//!   finest level in branch-free row sweeps;
 //! - [`lod`]: the level of detail of an extraction, and what a budget resolves to;
 //! - `select`: static (Eq. 3) and view-dependent (Eq. 4) selection;
 //! - [`extract`]: the top-down traversal emitting a conforming mesh (Sec. 4.3-4.4);
@@ -29,6 +30,7 @@ pub mod derived_normals;
 mod deviation;
 pub mod error_metric;
 pub mod extract;
+mod finest;
 mod flags;
 pub mod grid;
 pub mod hierarchy;

@@ -1,0 +1,274 @@
+//! The finest level of the bottom-up pass (DMesh Sec. 4.2, Eq. 1-2, and
+//! Sec. 5.3): three quarters of all split vertices, whose halves are
+//! full-resolution triangles. Per row, in two sweeps:
+//!
+//! - **geometry**, without branches over the row's vertices: Eq. 1 or Eq. 2
+//!   and the detail (a finest half's exact deviation: its one interior
+//!   sample is `v`), rounded up to f32, and for centres the nested radius.
+//!   Every vertex of a kind on a row has the same shape, so the loop is
+//!   straight and the compiler widens it (AVX2 where the CPU has it);
+//! - **flags**, byte by byte: the halves' segmentation from the leaf cells,
+//!   which geometric error counts (an unflagged half's), a partly segmented
+//!   half's footprint (rare: only along discontinuities), and the
+//!   saturation over a centre's four children.
+//!
+//! The results are bit for bit those of the general kernel in `levels.rs`
+//! (`split_vertex`), except that a partly segmented half's footprint is
+//! taken at the deeper of the two apexes (never smaller); the tests there
+//! check both.
+
+use super::backproject::BackProject;
+use super::error_metric::norm_bound;
+use super::flags::{Flags, Half};
+use super::levels::{footprint2, round_up, Levels};
+use glam::DVec3;
+
+/// Eq. 2 in the plane of one image axis and depth, squared, as
+/// `point_line_2d_sq` computes it (the same operations in the same order,
+/// both branches evaluated and one selected, so the loop has none).
+#[inline(always)]
+fn eq2(sa: f64, za: f64, sv: f64, zv: f64, sb: f64, zb: f64) -> f64 {
+    let (ds, dz) = (sb - sa, zb - za);
+    let (ps, pz) = (sv - sa, zv - za);
+    let len2 = ds * ds + dz * dz;
+    let cross = ds * pz - dz * ps;
+    let on_line = cross * cross / len2;
+    let degenerate = ps * ps + pz * pz;
+    if len2 > 0.0 {
+        on_line
+    } else {
+        degenerate
+    }
+}
+
+/// The squared detail of `zv` against the midpoint of `za` and `zb`.
+#[inline(always)]
+fn detail2(za: f64, zv: f64, zb: f64) -> f64 {
+    let detail = zv - 0.5 * (za + zb);
+    detail * detail
+}
+
+/// [`round_up`] without branches: `v >= 0` (or NaN, which saturates).
+#[inline(always)]
+fn round_up_straight(v: f64) -> f32 {
+    let f = v as f32;
+    let up = f32::from_bits(f.to_bits() + u32::from(f64::from(f) < v));
+    up.min(f32::MAX)
+}
+
+/// Eq. 1, squared, as `point_line_3d_sq` computes it, without branches.
+#[inline(always)]
+fn eq1(p: DVec3, a: DVec3, b: DVec3) -> f64 {
+    let ab = b - a;
+    let ap = p - a;
+    let len2 = ab.length_squared();
+    let on_line = (ab.cross(ap).length_squared() / len2).max(0.0);
+    let degenerate = ap.length_squared();
+    if len2 > 0.0 {
+        on_line
+    } else {
+        degenerate
+    }
+}
+
+/// Whether a leaf cell's finest triangle `t` is segmented, as a join.
+#[inline(always)]
+fn leaf(f: Flags, t: usize) -> Half {
+    Half::leaf(f.cell(t))
+}
+
+impl Levels<'_> {
+    /// The edge midpoints of level 0 along rows (`ROW`) or columns.
+    #[inline(always)]
+    pub(super) fn finest_edges<const ROW: bool>(&mut self, flags: &mut [Flags], zmax: f32, geo: &mut [f32]) {
+        let (gw, gh) = (self.grid.gw() as usize, self.grid.gh() as usize);
+        let (bp, camera, z) = (self.bp, self.camera, self.z);
+        let cols = bp.cols();
+        let len = 2.0;
+        let ys = if ROW { (0..gh).step_by(2) } else { (1..gh).step_by(2) };
+        for y in ys {
+            let zr = &z[y * gw..(y + 1) * gw];
+            // Geometry of every vertex of the row: v at x = 2i + 1 along
+            // rows, x = 2i along columns.
+            if ROW {
+                let n = gw / 2;
+                let geo = &mut geo[..n];
+                for (i, g) in geo.iter_mut().enumerate() {
+                    let x = 2 * i + 1;
+                    let (za, zv, zb) = (f64::from(zr[x - 1]), f64::from(zr[x]), f64::from(zr[x + 1]));
+                    let ((aa, ba), (av, bv), (ab, bb)) = (cols[x - 1], cols[x], cols[x + 1]);
+                    let own = eq2(aa + ba * za, za, av + bv * zv, zv, ab + bb * zb, zb).max(detail2(za, zv, zb));
+                    *g = round_up_straight(own);
+                }
+            } else {
+                let (zu, zd) = (&z[(y - 1) * gw..y * gw], &z[(y + 1) * gw..(y + 2) * gw]);
+                let [(au, bu), (av, bv), (ad, bd)] = [bp.row(y - 1), bp.row(y), bp.row(y + 1)];
+                let n = gw / 2 + 1;
+                let geo = &mut geo[..n];
+                for (i, g) in geo.iter_mut().enumerate() {
+                    let x = 2 * i;
+                    let (za, zv, zb) = (f64::from(zu[x]), f64::from(zr[x]), f64::from(zd[x]));
+                    let own = eq2(au + bu * za, za, av + bv * zv, zv, ad + bd * zb, zb).max(detail2(za, zv, zb));
+                    *g = round_up_straight(own);
+                }
+            }
+            // Flags, and which error counts.
+            let (head, tail) = flags.split_at_mut(y * gw);
+            let row = &mut tail[..gw];
+            let up: &[Flags] = if y > 0 { &head[(y - 1) * gw..] } else { &[] };
+            let err = &mut self.err2[y * gw..(y + 1) * gw];
+            self.radius[y * gw..(y + 1) * gw].fill(0.0);
+            let xs = if ROW { 1 } else { 0 };
+            for (i, x) in (xs..gw).step_by(2).enumerate() {
+                let exists = if ROW { [y > 0, y + 1 < gh] } else { [x > 0, x + 1 < gw] };
+                let halves = if ROW {
+                    [
+                        exists[0].then(|| leaf(up[x - 1], 1).join(leaf(up[x], 0))),
+                        exists[1].then(|| leaf(row[x - 1], 1).join(leaf(row[x], 0))),
+                    ]
+                } else {
+                    [
+                        exists[0].then(|| leaf(up[x - 1], 1).join(leaf(row[x - 1], 1))),
+                        exists[1].then(|| leaf(up[x], 0).join(leaf(row[x], 0))),
+                    ]
+                };
+                let mut bits = row[x].cell_only();
+                let (mut unflagged, mut partial) = (false, false);
+                for (half, flagged) in halves.into_iter().enumerate() {
+                    let flagged = flagged.unwrap_or(Half::ABSENT);
+                    bits.set_half(half, flagged);
+                    unflagged |= flagged.unflagged();
+                    partial |= flagged.partial();
+                }
+                row[x] = bits;
+                let mut e = if unflagged { geo[i] } else { 0.0 };
+                if partial {
+                    let apex = |dx: isize, dy: isize| {
+                        let (ax, ay) = (x as isize + dx, y as isize + dy);
+                        z[(ay as usize) * gw + ax as usize]
+                    };
+                    let (back, forth) = if ROW { ((0, -1), (0, 1)) } else { ((-1, 0), (1, 0)) };
+                    let zapex = match exists {
+                        [true, true] => apex(back.0, back.1).max(apex(forth.0, forth.1)),
+                        [true, false] => apex(back.0, back.1),
+                        [false, true] => apex(forth.0, forth.1),
+                        [false, false] => 0.0,
+                    };
+                    let (za, zb) = if ROW {
+                        (zr[x - 1], zr[x + 1])
+                    } else {
+                        (z[(y - 1) * gw + x], z[(y + 1) * gw + x])
+                    };
+                    e = e.max(round_up(footprint2(camera, len, [za, zb, zr[x], zapex], zmax)));
+                }
+                err[x] = e;
+            }
+        }
+    }
+
+    /// The centres of level 0: their four children are the finest edge
+    /// midpoints around them (radius 0), already done.
+    #[inline(always)]
+    pub(super) fn finest_centres(&mut self, flags: &mut [Flags], zmax: f32, geo: &mut [f32], rad: &mut [f32]) {
+        let (gw, gh) = (self.grid.gw() as usize, self.grid.gh() as usize);
+        let (bp, camera, z) = (self.bp, self.camera, self.z);
+        let cols = bp.cols();
+        let point = BackProject::point_from;
+        for y in (1..gh).step_by(2) {
+            let rows = [bp.row(y - 1), bp.row(y), bp.row(y + 1)];
+            let zs = [
+                &z[(y - 1) * gw..y * gw],
+                &z[y * gw..(y + 1) * gw],
+                &z[(y + 1) * gw..(y + 2) * gw],
+            ];
+            // The diagonal through v runs from (px, py) to (qx, qy): py is
+            // the row above (0) or below (2), qy the other; px is x - 1 for
+            // odd i (v at x = 2i + 1), x + 1 for even.
+            let p_row = if (y - 1) / 2 % 2 == 1 { 0 } else { 2 };
+            let q_row = 2 - p_row;
+            let (zp, zq) = (zs[p_row], zs[q_row]);
+            let (rp, rq) = (rows[p_row], rows[q_row]);
+            let n = gw / 2;
+            let (geo, rad) = (&mut geo[..n], &mut rad[..n]);
+            for (i, (g, r)) in geo.iter_mut().zip(rad.iter_mut()).enumerate() {
+                let x = 2 * i + 1;
+                let odd = i % 2 == 1;
+                let za = if odd { zp[x - 1] } else { zp[x + 1] };
+                let zb = if odd { zq[x + 1] } else { zq[x - 1] };
+                let (ca, cb) = if odd {
+                    (cols[x - 1], cols[x + 1])
+                } else {
+                    (cols[x + 1], cols[x - 1])
+                };
+                let zv = zs[1][x];
+                let pv = point(cols[x], rows[1], zv);
+                let mut radius = 0f64;
+                for (col, row, zc) in [
+                    (cols[x - 1], rows[1], zs[1][x - 1]),
+                    (cols[x + 1], rows[1], zs[1][x + 1]),
+                    (cols[x], rows[0], zs[0][x]),
+                    (cols[x], rows[2], zs[2][x]),
+                ] {
+                    radius = radius.max(norm_bound(pv - point(col, row, zc)));
+                }
+                let pa = point(ca, rp, za);
+                let pb = point(cb, rq, zb);
+                let own = eq1(pv, pa, pb).max(detail2(f64::from(za), f64::from(zv), f64::from(zb)));
+                *g = round_up_straight(own);
+                *r = round_up_straight(radius);
+            }
+            let (head, tail) = self.err2.split_at_mut(y * gw);
+            let (err_row, rest) = tail.split_at_mut(gw);
+            let (err_up, err_down) = (&head[(y - 1) * gw..], &rest[..gw]);
+            let (head, tail) = flags.split_at_mut(y * gw);
+            let (flag_row, rest) = tail.split_at_mut(gw);
+            let (flag_up, flag_down) = (&head[(y - 1) * gw..], &rest[..gw]);
+            let radius_row = &mut self.radius[y * gw..(y + 1) * gw];
+            for i in 0..n {
+                let x = 2 * i + 1;
+                let odd = i % 2 == 1;
+                // Half 0 has its apex at x - 1, half 1 at x + 1; each holds
+                // the child beside v on its side and the one above or below
+                // v on its apex's row. Children before v (left, or above)
+                // hold v in their half 1, those after in half 0.
+                let apex_rows = if odd { [q_row, p_row] } else { [p_row, q_row] };
+                let vertical = |apex_row: usize| {
+                    if apex_row == 0 {
+                        flag_up[x].half(1)
+                    } else {
+                        flag_down[x].half(0)
+                    }
+                };
+                let beside = [flag_row[x - 1].half(1), flag_row[x + 1].half(0)];
+                let mut bits = flag_row[x].cell_only();
+                let mut unflagged = false;
+                let mut partial_zapex = None::<f32>;
+                for half in 0..2 {
+                    let flagged = beside[half].join(vertical(apex_rows[half]));
+                    bits.set_half(half, flagged);
+                    unflagged |= flagged.unflagged();
+                    if flagged.partial() {
+                        let za = zs[apex_rows[half]][x + 2 * half - 1];
+                        partial_zapex = Some(partial_zapex.map_or(za, |z: f32| z.max(za)));
+                    }
+                }
+                flag_row[x] = bits;
+                let err = err_row[x - 1].max(err_row[x + 1]).max(err_up[x]).max(err_down[x]);
+                let mut own = if unflagged { geo[i] } else { 0.0 };
+                if let Some(zapex) = partial_zapex {
+                    // Each partial half's footprint; the larger apex depth
+                    // covers both when both are partial.
+                    let (za, zb) = if odd {
+                        (zs[p_row][x - 1], zs[q_row][x + 1])
+                    } else {
+                        (zs[p_row][x + 1], zs[q_row][x - 1])
+                    };
+                    let len = 2.0 * std::f64::consts::SQRT_2;
+                    own = own.max(round_up(footprint2(camera, len, [za, zb, zs[1][x], zapex], zmax)));
+                }
+                err_row[x] = err.max(own);
+                radius_row[x] = rad[i];
+            }
+        }
+    }
+}
