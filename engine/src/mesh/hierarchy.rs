@@ -182,8 +182,12 @@ impl Passes {
             let (send, receive) = mpsc::channel();
             let job = helper.then(|| {
                 scope.spawn(move || {
-                    // The receiver outlives this thread: sending cannot fail.
-                    let _ = send.send(coarse_deviations(grid, z));
+                    // Level by level, so the pass can start on one while
+                    // the next is computed. The receiver outlives this
+                    // thread: sending cannot fail.
+                    for g in 1..grid.k {
+                        let _ = send.send(coarse_deviations(grid, z, g));
+                    }
                     (!normals_first).then(|| {
                         let t = Instant::now();
                         let done = normals_and_quality(&grid, camera, bp, z);
@@ -237,17 +241,16 @@ impl Passes {
                 job.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic))
             };
             // On one thread each unsegmented half's deviation is computed as
-            // the pass comes to it; the helper computes all of them.
-            let (deviations, job) = match job.map(|job| (receive.recv(), job)) {
-                Some((Ok(d), job)) => (Some(d), Some(job)),
-                Some((Err(_), job)) => {
-                    // The helper panicked before sending: pass its panic on.
-                    let _ = join(job);
-                    (None, None)
-                }
-                None => (None, None),
+            // the pass comes to it; the helper sends them a level at a time
+            // (if it panicked, the pass computes the rest and the join
+            // below passes the panic on).
+            let mut scratch_bytes = 0;
+            let mut given = |_g: u32| {
+                let level = job.as_ref().and_then(|_| receive.recv().ok());
+                scratch_bytes += level.as_ref().map_or(0, |d: &Vec<[f32; 2]>| d.capacity() * 8);
+                level
             };
-            run_coarse(&mut levels, &mut flags, zmax, deviations.as_deref());
+            run_coarse(&mut levels, &mut flags, zmax, &mut given);
             stages.coarse_ms = ms(t);
             let late = job.and_then(join).map(|(done, ms)| {
                 stages.normals_ms = ms;
@@ -265,7 +268,7 @@ impl Passes {
                 err2,
                 radius,
                 segmented,
-                scratch_bytes: deviations.map_or(0, |d| d.capacity() * 8),
+                scratch_bytes,
                 stages,
             }
         })

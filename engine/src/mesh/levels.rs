@@ -4,8 +4,8 @@
 //! `hierarchy.rs`). It reads the depths and writes flags, errors and radii
 //! only, so the normals can be computed beside it; the exact deviations of
 //! the levels above the finest, which need the depths alone, can be computed
-//! beforehand on another thread ([`coarse_deviations`]) while this pass
-//! builds the finest level.
+//! on another thread ([`coarse_deviations`]), level by level, while this
+//! pass builds the finest level and the levels below.
 //!
 //! Every level runs in straight loops per kind of vertex (edge midpoints
 //! along rows, along columns, centres) and row, with the rows a kind's
@@ -122,12 +122,15 @@ impl Split {
 /// Calls `f` on every split vertex above level 0 in the order the pass
 /// needs them: level by level from fine to coarse, and within a level the
 /// edge midpoints (which depend on the centres of the level below) before
-/// the centres (which depend on them).
+/// the centres (which depend on them). The general kernel's order in the
+/// tests.
+#[cfg(test)]
 fn for_each_coarse(grid: Grid, f: impl FnMut(Split)) {
     for_each_split(grid, 1..grid.k, f);
 }
 
-/// [`for_each_coarse`] over the given levels (0 is the finest).
+/// The split vertices of the given levels (0 is the finest) in the order
+/// the pass needs them (see `for_each_coarse`).
 fn for_each_split(grid: Grid, levels: std::ops::Range<u32>, mut f: impl FnMut(Split)) {
     let (gw, gh) = (grid.gw(), grid.gh());
     for g in levels {
@@ -178,23 +181,23 @@ fn for_each_split(grid: Grid, levels: std::ops::Range<u32>, mut f: impl FnMut(Sp
 }
 
 crate::simd::dispatch! {
-    /// The exact depth deviation of each half of every split vertex above
-    /// level 0, squared and rounded up (0 where a half does not exist), in
-    /// the order [`Levels::run_coarse`] takes them. It reads only the
-    /// depths, so it can run on another thread while the finest level is
-    /// built. Halves that turn out segmented get a value too, which the
+    /// The exact depth deviation of each half of every split vertex of
+    /// level `g` (at least 1), squared and rounded up (0 where a half does
+    /// not exist), in the order [`Levels::run_coarse`] takes them. It reads
+    /// only the depths, so it can run on another thread, a level ahead of
+    /// the pass. Halves that turn out segmented get a value too, which the
     /// pass ignores (it is finite: invalid samples are 0). With AVX2 where
     /// the CPU has it.
-    pub(crate) fn coarse_deviations(grid: Grid, z: &[f32]) -> Vec<[f32; 2]> = coarse_deviations_body;
+    pub(crate) fn coarse_deviations(grid: Grid, z: &[f32], g: u32) -> Vec<[f32; 2]> = coarse_deviations_body;
 }
 
 #[inline(always)]
-fn coarse_deviations_body(grid: Grid, z: &[f32]) -> Vec<[f32; 2]> {
+fn coarse_deviations_body(grid: Grid, z: &[f32], g: u32) -> Vec<[f32; 2]> {
     let mut count = 0;
-    for_each_coarse(grid, |_| count += 1);
+    for_each_split(grid, g..g + 1, |_| count += 1);
     let gw = grid.gw() as usize;
     let mut out = Vec::with_capacity(count);
-    for_each_coarse(grid, |s| {
+    for_each_split(grid, g..g + 1, |s| {
         let h = s.h();
         out.push(
             s.apex
@@ -203,6 +206,11 @@ fn coarse_deviations_body(grid: Grid, z: &[f32]) -> Vec<[f32; 2]> {
     });
     out
 }
+
+/// Where the pass over the levels above the finest gets each level's
+/// deviations: called once per level, finest first; `None` has the pass
+/// scan each unflagged half as it comes.
+pub(crate) type DeviationSource<'a> = &'a mut dyn FnMut(u32) -> Option<Vec<[f32; 2]>>;
 
 /// The squared exact deviation of the half of `s` with apex `apex`, rounded
 /// up: in straight code for the two levels just above the finest (nine in
@@ -270,25 +278,26 @@ fn run_finest_body(levels: &mut Levels<'_>, flags: &mut [Flags], zmax: f32) {
 crate::simd::dispatch! {
     /// The levels above the finest: [`Levels::run_coarse`] (with AVX2 where
     /// the CPU has it).
-    pub(crate) fn run_coarse(levels: &mut Levels<'_>, flags: &mut [Flags], zmax: f32, deviations: Option<&[[f32; 2]]>) -> () = run_coarse_body;
+    pub(crate) fn run_coarse(levels: &mut Levels<'_>, flags: &mut [Flags], zmax: f32, deviations: DeviationSource<'_>) -> () = run_coarse_body;
 }
 
 #[inline(always)]
-fn run_coarse_body(levels: &mut Levels<'_>, flags: &mut [Flags], zmax: f32, deviations: Option<&[[f32; 2]]>) {
+fn run_coarse_body(levels: &mut Levels<'_>, flags: &mut [Flags], zmax: f32, deviations: DeviationSource<'_>) {
     levels.run_coarse(flags, zmax, deviations);
 }
 
 impl Levels<'_> {
-    /// The levels above the finest, given their [`coarse_deviations`] or
-    /// (`None`) computing each unsegmented half's as it comes: per level the
-    /// edge midpoints along rows, along columns, then the centres, each in
-    /// a straight loop over rows ([`Self::coarse_row`]), in the order of
-    /// [`for_each_coarse`].
+    /// The levels above the finest, each given its [`coarse_deviations`]
+    /// by `deviations` or computing each unsegmented half's as it comes:
+    /// per level the edge midpoints along rows, along columns, then the
+    /// centres, each in a straight loop over rows ([`Self::coarse_row`]),
+    /// in the order of [`for_each_split`].
     #[inline(always)]
-    pub(crate) fn run_coarse(&mut self, flags: &mut [Flags], zmax: f32, deviations: Option<&[[f32; 2]]>) {
-        let mut next = deviations.map(|d| d.iter());
+    pub(crate) fn run_coarse(&mut self, flags: &mut [Flags], zmax: f32, deviations: DeviationSource<'_>) {
         let gh = self.grid.gh();
         for g in 1..self.grid.k {
+            let given = deviations(g);
+            let mut next = given.as_deref().map(|d| d.iter());
             let h = 1u32 << g;
             let step = 2 * h as usize;
             for y in (0..gh).step_by(step) {
@@ -300,8 +309,8 @@ impl Levels<'_> {
             for y in (h..gh).step_by(step) {
                 self.coarse_row(flags, zmax, Bisects::Diagonal, h, y, &mut next);
             }
+            debug_assert!(next.is_none_or(|mut it| it.next().is_none()), "deviations left over");
         }
-        debug_assert!(next.is_none_or(|mut it| it.next().is_none()), "deviations left over");
     }
 
     /// The split vertices of one kind (`bisects`) on row `y` of the level of
@@ -547,10 +556,12 @@ mod tests {
         let fx = Fixture::new(n, z);
         let (grid, zmax) = (fx.grid, fx.zmax);
         let finest = fx.run(&fx.start(cells), &|l, flags| run_finest(l, flags, zmax));
-        let deviations = coarse_deviations(grid, z);
+        let levels: Vec<_> = (1..grid.k).map(|g| coarse_deviations(grid, z, g)).collect();
         [
-            fx.run(&finest, &|l, flags| run_coarse(l, flags, zmax, None)),
-            fx.run(&finest, &|l, flags| run_coarse(l, flags, zmax, Some(&deviations))),
+            fx.run(&finest, &|l, flags| run_coarse(l, flags, zmax, &mut |_| None)),
+            fx.run(&finest, &|l, flags| {
+                run_coarse(l, flags, zmax, &mut |g| Some(levels[g as usize - 1].clone()))
+            }),
             fx.run(&finest, &|l, flags| {
                 for_each_coarse(grid, |s| l.split_vertex(flags, zmax, s, None))
             }),
