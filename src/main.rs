@@ -7,7 +7,7 @@
 //!
 //! Every failure exits non-zero with one line naming the problem.
 
-mod cli;
+use dmesh_cli as cli;
 mod commands {
     pub mod demo;
     pub mod demo_live;

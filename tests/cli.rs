@@ -3,7 +3,7 @@
 use std::path::Path;
 use std::process::Command;
 
-use dmesh::image::{encode_exr, encode_pfm};
+use dmesh_engine::image::{encode_exr, encode_pfm};
 
 fn dmesh(args: &[&str]) -> (i32, String, String) {
     let out = Command::new(env!("CARGO_BIN_EXE_dmesh")).args(args).output().unwrap();

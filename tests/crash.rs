@@ -7,7 +7,7 @@ mod raw_http;
 
 use std::time::{Duration, Instant};
 
-use dmesh::image::encode_pfm;
+use dmesh_engine::image::encode_pfm;
 use raw_http::{http, multipart, start_with};
 
 const W: u32 = 24;

@@ -4,6 +4,8 @@
 //! uploads (s3s-fs keeps its files): no acknowledged view lost, no torn
 //! view, `Unavailable` (the server's 503) while it is down.
 
+// The engine's mesh checks (conforming triangulations), shared with its tests.
+#[path = "../engine/tests/common/mod.rs"]
 mod common;
 mod server_support;
 

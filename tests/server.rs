@@ -4,13 +4,15 @@
 //! checked conforming), ETags, render weights, restart, deletion, shedding,
 //! timeouts, compression, and a table of bad inputs with their statuses.
 
+// The engine's mesh checks (conforming triangulations), shared with its tests.
+#[path = "../engine/tests/common/mod.rs"]
 mod common;
 mod server_support;
 
 use axum::body::Body;
 use axum::http::{header, Request, StatusCode};
 use dmesh::http::{Pipeline, Settings};
-use dmesh::image::{encode_exr, encode_pfm, Limits};
+use dmesh_engine::image::{encode_exr, encode_pfm, Limits};
 use dmesh_proto::{RenderResponse, StripResponse, ViewSummary};
 use hyper_util::client::legacy::Client;
 use hyper_util::rt::TokioExecutor;
@@ -440,7 +442,7 @@ async fn a_pgm_depth_is_the_png_depth_it_holds() {
     let store = Backing::new(Store::File);
     let router = start(store.state(Settings::default()), Pipeline::default()).await;
     let samples: Vec<u16> = (0..W * H).map(|k| 2000 + ((k % W) * 3 + k / W) as u16).collect();
-    let pgm = dmesh::image::pgm::encode16(W, H, &samples);
+    let pgm = dmesh_engine::image::pgm::encode16(W, H, &samples);
     for (view, bytes) in [("png", png16_depth()), ("pgm", pgm)] {
         let body = upload_body(&bytes, &[("scale", b"0.001")], &camera_json(0.0, 0.0));
         let (status, _, body) = send(&router, put(&format!("/v1/scenes/s/views/{view}"), body)).await;

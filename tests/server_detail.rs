@@ -1,13 +1,15 @@
 //! Residual bit-depth and budgets end to end, and view selection from the
 //! store's metadata, through the real server (see `server_support`).
 
+// The engine's mesh checks (conforming triangulations), shared with its tests.
+#[path = "../engine/tests/common/mod.rs"]
 mod common;
 mod server_support;
 
 use axum::body::Body;
 use axum::http::{header, Request, StatusCode};
 use dmesh::http::{Pipeline, Settings};
-use dmesh::image::encode_pfm;
+use dmesh_engine::image::encode_pfm;
 use dmesh_proto::StripResponse;
 use server_support::*;
 

@@ -24,7 +24,7 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, RwLock};
 use std::time::{Duration, Instant};
 
-use dmesh::image::encode_pfm;
+use dmesh_engine::image::encode_pfm;
 use raw_http::{http, multipart, start_with};
 
 const W: u32 = 160;

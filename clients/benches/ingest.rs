@@ -79,20 +79,20 @@ struct Row {
 }
 
 fn measure(width: u32, height: u32, mode: Mode, seconds: f64, fps: f64, clients: usize) -> anyhow::Result<Row> {
-    let (depth, camera) = dmesh::synthetic::terrain_with_boxes(width, height);
+    let (depth, camera) = dmesh_engine::synthetic::terrain_with_boxes(width, height);
     let frames: Vec<Vec<u8>> = (0..FRAMES)
         .map(|k| {
             // Each frame moves the surface by a little: a new image each time.
             let scale = 1.0 + 0.002 * k as f32;
             let z: Vec<f32> = depth.z.iter().map(|&z| z * scale).collect();
             match mode {
-                Mode::Durable => dmesh::image::encode_pfm(width, height, &z),
+                Mode::Durable => dmesh_engine::image::encode_pfm(width, height, &z),
                 Mode::Live => {
                     let mm: Vec<u16> = z
                         .iter()
                         .map(|&z| (z * 1000.0).round().clamp(0.0, 65535.0) as u16)
                         .collect();
-                    dmesh::image::pgm::encode16(width, height, &mm)
+                    dmesh_engine::image::pgm::encode16(width, height, &mm)
                 }
             }
         })
@@ -108,7 +108,11 @@ fn measure(width: u32, height: u32, mode: Mode, seconds: f64, fps: f64, clients:
         let mut t: Vec<f64> = (0..5)
             .map(|_| {
                 let s = Instant::now();
-                let _ = std::hint::black_box(dmesh::mesh::DepthMesh::build(&depth, &camera, &Default::default()));
+                let _ = std::hint::black_box(dmesh_engine::mesh::DepthMesh::build(
+                    &depth,
+                    &camera,
+                    &Default::default(),
+                ));
                 s.elapsed().as_secs_f64() * 1e3
             })
             .collect();

@@ -28,17 +28,17 @@ fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with("--")).collect();
     let seconds: f64 = args.first().map_or(Ok(10.0), |s| s.parse())?;
     let clients: usize = args.get(1).map_or(Ok(32), |s| s.parse())?;
-    let mut spec = dmesh::sim::SceneSpec::demo();
+    let mut spec = dmesh_engine::sim::SceneSpec::demo();
     spec.width = 320;
     spec.height = 240;
-    spec.rig = dmesh::sim::rig::Rig::Ring {
+    spec.rig = dmesh_engine::sim::rig::Rig::Ring {
         count: 4,
         radius: 4.0,
         heights: vec![1.6],
         target: [0.0, 0.4, 0.0],
     };
     let views = spec.reference_views()?;
-    let cameras: Vec<dmesh::camera::Camera> = views.iter().map(|v| v.camera).collect();
+    let cameras: Vec<dmesh_engine::camera::Camera> = views.iter().map(|v| v.camera).collect();
     let novel = orbit(&cameras, 32)?;
     let defaults = Pipeline::default();
     let settings = [
@@ -75,7 +75,7 @@ fn main() -> anyhow::Result<()> {
             let server = Server::new(&base, None);
             for (k, v) in views.iter().enumerate() {
                 let cam = serde_json::to_string(&dmesh_proto::Camera::from(&v.camera))?;
-                let depth = dmesh::image::encode_pfm(v.depth.width, v.depth.height, &v.depth.z);
+                let depth = dmesh_engine::image::encode_pfm(v.depth.width, v.depth.height, &v.depth.z);
                 server
                     .put_view(
                         "ring",

@@ -21,15 +21,15 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use dmesh::camera::Camera;
-use dmesh::mesh::{DepthMesh, Lod, Segmentation};
 use dmesh_client::http::Server;
 use dmesh_client::loadtest::{run, Detail, Report, Stop};
+use dmesh_engine::camera::Camera;
+use dmesh_engine::mesh::{DepthMesh, Lod, Segmentation};
 use glam::DVec3;
 
 /// Cameras on a circle of eyes 20 degrees off the reference axis, looking at
 /// the surface point under the image centre.
-fn orbit(reference: &Camera, depth: &dmesh::image::DepthImage, count: usize) -> anyhow::Result<Vec<Camera>> {
+fn orbit(reference: &Camera, depth: &dmesh_engine::image::DepthImage, count: usize) -> anyhow::Result<Vec<Camera>> {
     let (w, h) = (reference.width, reference.height);
     let z = f64::from(depth.z[(h / 2 * w + w / 2) as usize]);
     let target = reference.to_world(reference.back_project(f64::from(w / 2), f64::from(h / 2), z));
@@ -41,7 +41,7 @@ fn orbit(reference: &Camera, depth: &dmesh::image::DepthImage, count: usize) -> 
         .map(|k| {
             let t = std::f64::consts::TAU * k as f64 / count as f64;
             let eye = eye0 + side * t.cos() + up * t.sin();
-            let rotation = dmesh::sim::rig::look_at(eye, target);
+            let rotation = dmesh_engine::sim::rig::look_at(eye, target);
             Ok(Camera::new(w, h, reference.projection, rotation, eye)?)
         })
         .collect()
@@ -105,7 +105,7 @@ fn main() -> anyhow::Result<()> {
     } else {
         vec![64, 256]
     };
-    let (depth, camera) = dmesh::synthetic::terrain_with_boxes(513, 513);
+    let (depth, camera) = dmesh_engine::synthetic::terrain_with_boxes(513, 513);
     let hierarchy = Arc::new(DepthMesh::build(&depth, &camera, &Segmentation::default())?);
     let cams = Arc::new(orbit(&camera, &depth, 32)?);
 
@@ -122,7 +122,7 @@ fn main() -> anyhow::Result<()> {
     let client_rt = tokio::runtime::Builder::new_current_thread().enable_all().build()?;
     let reports = client_rt.block_on(async {
         let server = Server::new(&base, None);
-        let pfm = dmesh::image::encode_pfm(513, 513, &depth.z);
+        let pfm = dmesh_engine::image::encode_pfm(513, 513, &depth.z);
         let mut png = Vec::new();
         image::DynamicImage::ImageRgb8(image::RgbImage::from_pixel(513, 513, image::Rgb([128, 128, 128])))
             .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)?;

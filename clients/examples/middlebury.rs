@@ -71,7 +71,7 @@ async fn main() -> anyhow::Result<()> {
             )
             .await?;
         let right = camera(1.0);
-        let novel = dmesh::camera::Camera::try_from(&right)?;
+        let novel = dmesh_engine::camera::Camera::try_from(&right)?;
         let truth = image::load_from_memory(&im6)?.to_rgb8();
         let truth_depth: Vec<f32> = image::load_from_memory(&disp6)?
             .to_luma8()

@@ -1,4 +1,4 @@
-//! The meshes of the stream comparison (`benches/peer/stream.sh`): each case
+//! The meshes of the stream comparison (`engine/benches/peer/stream.sh`): each case
 //! is extracted as the server extracts it, encoded as protocol 6 at 8, 10
 //! and 12 planes and all of them, and as protocol 5 bincode, and coded as the
 //! server's content coding codes it (zstd 3, brotli 4, gzip 6: tower-http's
@@ -150,7 +150,7 @@ fn cases(data: &Path) -> Result<Vec<Case>> {
             });
         }
     }
-    // The 513 x 513 height field of benches/peer/martini.sh at its tolerances.
+    // The 513 x 513 height field of engine/benches/peer/martini.sh at its tolerances.
     let (depth, camera) = dmesh_engine::synthetic::height_field(513);
     for e in [0.5, 2.0, 8.0] {
         let ask = Ask::new(dmesh_proto::Lod::Epsilon(e), None, None)?;

@@ -7,9 +7,8 @@
 //!
 //! Every failure exits non-zero with one line naming the problem.
 
-// The command-line glue both binaries share, kept out of the libraries.
-#[path = "../../src/cli.rs"]
-mod cli;
+// The command-line glue both binaries share (`dmesh-cli`).
+use dmesh_cli as cli;
 mod commands;
 
 use std::io::Write;

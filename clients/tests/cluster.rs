@@ -13,9 +13,9 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use cluster_support::{get, Cluster};
-use dmesh::sim::SceneSpec;
 use dmesh_client::http::Server;
 use dmesh_client::loadtest::{orbit, run, Detail, Stop};
+use dmesh_engine::sim::SceneSpec;
 
 /// These tests measure latency over time: one cluster at a time.
 static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
@@ -31,7 +31,7 @@ fn small_scene() -> SceneSpec {
     SceneSpec {
         width: 128,
         height: 96,
-        rig: dmesh::sim::rig::Rig::Ring {
+        rig: dmesh_engine::sim::rig::Rig::Ring {
             count: 6,
             radius: 4.0,
             heights: vec![1.8],
@@ -45,7 +45,7 @@ fn small_scene() -> SceneSpec {
 /// upload it came from.
 fn view(mark: u32) -> (String, Vec<u8>, Vec<u8>) {
     let (w, h) = (32u32, 24u32);
-    let camera = dmesh::sim::rig::camera(
+    let camera = dmesh_engine::sim::rig::camera(
         w,
         h,
         60.0,
@@ -55,7 +55,7 @@ fn view(mark: u32) -> (String, Vec<u8>, Vec<u8>) {
     .unwrap();
     let camera = serde_json::to_string(&dmesh_proto::Camera::from(&camera)).unwrap();
     let z: Vec<f32> = (0..w * h).map(|i| 3.0 + 0.01 * (i % w) as f32).collect();
-    let depth = dmesh::image::encode_pfm(w, h, &z);
+    let depth = dmesh_engine::image::encode_pfm(w, h, &z);
     let rgb: Vec<u8> = (0..w * h)
         .flat_map(|i| (mark.wrapping_add(i)).to_le_bytes()[..3].to_vec())
         .collect();

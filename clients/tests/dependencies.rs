@@ -50,3 +50,38 @@ fn the_wire_needs_only_serde() {
         assert!(!crates(&t).contains(&outside), "dmesh-proto depends on {outside}:\n{t}");
     }
 }
+
+/// Every Rust source under `dir`, recursively.
+fn sources(dir: &std::path::Path, out: &mut Vec<std::path::PathBuf>) {
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.is_dir() {
+            sources(&path, out);
+        } else if path.extension().is_some_and(|e| e == "rs") {
+            out.push(path);
+        }
+    }
+}
+
+#[test]
+fn the_server_names_the_engine_and_re_exports_nothing_of_it() {
+    let t = tree("dmesh");
+    assert!(crates(&t).contains(&"dmesh-engine"), "{t}");
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../src");
+    let mut files = Vec::new();
+    sources(&root, &mut files);
+    assert!(files.len() > 10, "found only {files:?}");
+    let mut named = 0;
+    for file in &files {
+        let text = std::fs::read_to_string(file).unwrap();
+        named += text.matches("dmesh_engine::").count();
+        for line in text.lines().map(str::trim) {
+            assert!(
+                !(line.starts_with("pub use dmesh_engine") || line.starts_with("pub(crate) use dmesh_engine")),
+                "{} re-exports the engine: {line}",
+                file.display()
+            );
+        }
+    }
+    assert!(named > 0, "the server's sources never name dmesh_engine");
+}

@@ -5,14 +5,14 @@
 mod common;
 
 use common::{ingest, start};
-use dmesh::camera::Camera;
-use dmesh::sim::rig::camera;
-use dmesh::sim::SceneSpec;
 use dmesh_client::blend::{BlendOptions, Blended};
 use dmesh_client::compare::compare;
 use dmesh_client::http::Server;
 use dmesh_client::loadtest::Detail;
 use dmesh_client::novel::render_novel;
+use dmesh_engine::camera::Camera;
+use dmesh_engine::sim::rig::camera;
+use dmesh_engine::sim::SceneSpec;
 use glam::DVec3;
 
 async fn render(server: &Server, novel: &Camera, tau: f64, max_views: u32) -> Blended {

@@ -71,7 +71,7 @@ fn quick_report_sweeps_and_writes_tables_and_curves() {
 /// sends, and no bit-depth is worse than `bits = 0`'s interpolation.
 #[test]
 fn each_residual_bit_at_least_halves_the_error_on_every_report_scene() {
-    use dmesh::mesh::{DepthMesh, Lod, Segmentation};
+    use dmesh_engine::mesh::{DepthMesh, Lod, Segmentation};
     use dmesh_proto::ResidualDepths;
     let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data");
     assert!(data.is_dir(), "the report's data must be at {}", data.display());

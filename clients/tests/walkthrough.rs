@@ -6,11 +6,11 @@
 mod common;
 
 use common::{ingest, start};
-use dmesh::sim::SceneSpec;
 use dmesh_client::http::Server;
 use dmesh_client::walkthrough::path::{Key, Path};
 use dmesh_client::walkthrough::policy::{Budget, Policy, Strategy};
 use dmesh_client::walkthrough::{run, Frame, Options, Scene};
+use dmesh_engine::sim::SceneSpec;
 
 /// Six keys on a circle of radius 3.3 around the demo scene, over `arc` radians.
 fn orbit(frames: u32, arc: f64, cut: bool) -> Path {

@@ -3,7 +3,8 @@
 //! warping", 2003), with no HTTP, no async and no store. The server
 //! (`dmesh`) and the clients (`dmesh-client`, third parties) build on it.
 //!
-//! - [`baselines`]: the thesis's baseline meshers beside the restricted quadtree;
+//! - `baselines` (feature `baselines`, which `qem` implies): the thesis's
+//!   baseline meshers beside the restricted quadtree;
 //! - [`camera`]: intrinsics, pose, projection and back-projection;
 //! - [`image`]: decoding depth (EXR, PNG, PFM) and colour, conversion to `z`;
 //! - [`mesh`]: the hierarchy, its error metric, segmentation and extraction;
@@ -27,6 +28,7 @@
 //! # Ok::<(), dmesh_engine::Error>(())
 //! ```
 
+#[cfg(feature = "baselines")]
 pub mod baselines;
 pub mod camera;
 mod error;

@@ -1,7 +1,7 @@
 //! Camera JSON of any text: an error or a camera of finite numbers and a unit rotation.
 #![no_main]
 
-use dmesh::camera::{camera_from_json, Projection};
+use dmesh_engine::camera::{camera_from_json, Projection};
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

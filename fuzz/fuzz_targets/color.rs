@@ -1,7 +1,7 @@
 //! Colour images (PNG, JPEG) of any bytes: an error or an image of the size it says.
 #![no_main]
 
-use dmesh::image::{decode_color, Limits};
+use dmesh_engine::image::{decode_color, Limits};
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

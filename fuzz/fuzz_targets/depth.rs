@@ -2,8 +2,8 @@
 //! depth map whose samples are finite and positive, or 0 (invalid).
 #![no_main]
 
-use dmesh::camera::Camera;
-use dmesh::image::{decode_depth, DepthKind, DepthOptions, Limits};
+use dmesh_engine::camera::Camera;
+use dmesh_engine::image::{decode_depth, DepthKind, DepthOptions, Limits};
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

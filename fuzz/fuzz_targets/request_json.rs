@@ -2,7 +2,7 @@
 //! either validates or is refused, never a panic.
 #![no_main]
 
-use dmesh::camera::Camera;
+use dmesh_engine::camera::Camera;
 use dmesh_proto::{RenderRequest, StripRequest};
 use libfuzzer_sys::fuzz_target;
 

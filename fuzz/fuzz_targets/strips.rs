@@ -2,7 +2,7 @@
 //! distinct indices taken from the input, none across a restart.
 #![no_main]
 
-use dmesh::mesh::{decode_strips, RESTART};
+use dmesh_engine::mesh::{decode_strips, RESTART};
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

@@ -22,7 +22,7 @@ fn world() -> &'static World {
         let dir = tempfile::tempdir().unwrap();
         let store = Arc::new(dmesh::store::FileStore::open(dir.path()).unwrap());
         let settings = dmesh::http::Settings {
-            limits: dmesh::image::Limits { max_pixels: 1 << 18 },
+            limits: dmesh_engine::image::Limits { max_pixels: 1 << 18 },
             ..dmesh::http::Settings::default()
         };
         let state = Arc::new(dmesh::http::AppState::new(store, settings));

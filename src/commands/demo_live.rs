@@ -53,8 +53,8 @@ pub fn start(state: Arc<AppState>, fps: f64) -> Result<()> {
 
 /// One period of frames, rendered as they are first needed.
 struct Frames {
-    spec: dmesh::sim::SceneSpec,
-    camera: dmesh::camera::Camera,
+    spec: dmesh_engine::sim::SceneSpec,
+    camera: dmesh_engine::camera::Camera,
     fps: f64,
     rendered: Vec<StoredView>,
     count: usize,
@@ -62,13 +62,13 @@ struct Frames {
 
 impl Frames {
     fn new(fps: f64) -> Result<Self> {
-        let spec = dmesh::sim::SceneSpec::demo();
+        let spec = dmesh_engine::sim::SceneSpec::demo();
         let camera = *spec
             .rig
             .cameras(SIZE.0, SIZE.1, spec.fov_deg)?
             .get(CAMERA)
             .context("the demo rig has too few cameras")?;
-        let count = (fps * dmesh::sim::SWAY_PERIOD_S).round().max(1.0) as usize;
+        let count = (fps * dmesh_engine::sim::SWAY_PERIOD_S).round().max(1.0) as usize;
         Ok(Self {
             spec,
             camera,
@@ -82,7 +82,7 @@ impl Frames {
     fn store(&mut self, state: &AppState, k: u64) -> Result<()> {
         let i = (k % self.count as u64) as usize;
         if i == self.rendered.len() {
-            let view = dmesh::sim::render_view(&self.spec.swayed(i as f64 / self.fps), &self.camera, true, k)?;
+            let view = dmesh_engine::sim::render_view(&self.spec.swayed(i as f64 / self.fps), &self.camera, true, k)?;
             let img = image::RgbImage::from_raw(view.color.width, view.color.height, view.color.rgb)
                 .context("frame colour")?;
             let mut color = Vec::new();

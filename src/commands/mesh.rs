@@ -5,10 +5,10 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, bail, Context, Result};
 use clap::{ArgGroup, ValueEnum};
-use dmesh::camera::{camera_from_json, Camera};
-use dmesh::image::{decode_view, ColorImage, DecodedView, DepthKind, DepthOptions, Limits, ViewFiles};
-use dmesh::mesh::segmentation;
-use dmesh::mesh::{DepthMesh, Lod, Mesh, Method, Outlines, Segmentation, StripOrder, Threads};
+use dmesh_engine::camera::{camera_from_json, Camera};
+use dmesh_engine::image::{decode_view, ColorImage, DecodedView, DepthKind, DepthOptions, Limits, ViewFiles};
+use dmesh_engine::mesh::segmentation;
+use dmesh_engine::mesh::{DepthMesh, Lod, Mesh, Method, Outlines, Segmentation, StripOrder, Threads};
 
 #[derive(Clone, Copy, ValueEnum)]
 enum KindArg {
@@ -140,7 +140,7 @@ pub fn peak_rss_bytes() -> u64 {
 }
 
 pub fn write_ply(path: &Path, mesh: &Mesh, camera: &Camera, color: Option<&ColorImage>) -> Result<()> {
-    std::fs::write(path, dmesh::ply::encode_ply(mesh, camera, color))
+    std::fs::write(path, dmesh_engine::ply::encode_ply(mesh, camera, color))
         .with_context(|| format!("cannot write PLY file {}", path.display()))
 }
 

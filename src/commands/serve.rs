@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use anyhow::{Context, Result};
-use dmesh::image::Limits;
+use dmesh_engine::image::Limits;
 
 #[derive(clap::Args)]
 pub struct ServeArgs {
@@ -70,7 +70,7 @@ pub struct ServeArgs {
 /// Stores the simulated demo scene's reference views as scene `demo`, unless present.
 fn ingest_demo(store: &dyn dmesh::store::ViewStore) -> Result<()> {
     use dmesh::store::{SegmentationSpec, StoredView};
-    let scene = dmesh::sim::SceneSpec::demo();
+    let scene = dmesh_engine::sim::SceneSpec::demo();
     let existing = store.views("demo")?.unwrap_or_default();
     let views = scene.reference_views()?;
     for (k, v) in views.iter().enumerate() {

@@ -333,10 +333,10 @@ mod tests {
 
     /// A 16 x 12 view: a slanted plane and a grey image.
     fn upload() -> (String, Request<Body>) {
-        let camera = crate::camera::Camera::perspective(16, 12, 14.0, 14.0, 7.5, 5.5).unwrap();
+        let camera = dmesh_engine::camera::Camera::perspective(16, 12, 14.0, 14.0, 7.5, 5.5).unwrap();
         let camera = serde_json::to_string(&dmesh_proto::Camera::from(&camera)).unwrap();
         let z: Vec<f32> = (0..16 * 12).map(|i| 2.0 + 0.01 * (i % 16) as f32).collect();
-        let depth = crate::image::encode_pfm(16, 12, &z);
+        let depth = dmesh_engine::image::encode_pfm(16, 12, &z);
         let mut color = Vec::new();
         image::DynamicImage::ImageRgb8(image::RgbImage::from_pixel(16, 12, image::Rgb([90, 90, 90])))
             .write_to(&mut std::io::Cursor::new(&mut color), image::ImageFormat::Png)

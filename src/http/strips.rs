@@ -16,9 +16,9 @@ use dmesh_proto::{
 };
 use serde::Deserialize;
 
-use crate::camera::{camera_from_json, Camera};
-use crate::render_plan::{self, Ask};
 use crate::store::validate_id;
+use dmesh_engine::camera::{camera_from_json, Camera};
+use dmesh_engine::render_plan::{self, Ask};
 
 use super::negotiate::{encode, encode_compact, wants_compact};
 use super::views::{color_url, load};

@@ -8,8 +8,8 @@ use axum::http::{header, HeaderMap, StatusCode};
 use axum::response::{IntoResponse, Response};
 use dmesh_proto::{SceneList, ViewList, ViewSummary, PROTOCOL_VERSION};
 
-use crate::image::DepthOptions;
 use crate::store::{validate_id, SegmentMethod, SegmentationSpec};
+use dmesh_engine::image::DepthOptions;
 
 use super::negotiate::encode;
 use crate::service::ingest::{ingest, Upload};
@@ -39,7 +39,7 @@ pub(crate) fn summary(scene: &str, view: &str, l: &Loaded) -> ViewSummary {
 
 /// Depth of the sample nearest the principal point, if valid.
 fn center_depth(l: &Loaded) -> Option<f64> {
-    use crate::camera::Projection;
+    use dmesh_engine::camera::Projection;
     let (cx, cy) = match l.camera.projection {
         Projection::Perspective { cx, cy, .. } | Projection::Orthographic { cx, cy, .. } => (cx, cy),
     };

@@ -51,14 +51,14 @@ impl std::fmt::Display for AppError {
 
 impl std::error::Error for AppError {}
 
-impl From<crate::Error> for AppError {
-    fn from(e: crate::Error) -> Self {
+impl From<dmesh_engine::Error> for AppError {
+    fn from(e: dmesh_engine::Error) -> Self {
         match e {
-            crate::Error::InvalidInput(m) => Self::BadRequest(m),
-            crate::Error::TooLarge(m) => Self::TooLarge(m),
-            crate::Error::Decode(m) => Self::Undecodable(m),
-            crate::Error::Unattainable(m) => Self::Conflict(m),
-            crate::Error::Internal(m) => Self::Internal(m),
+            dmesh_engine::Error::InvalidInput(m) => Self::BadRequest(m),
+            dmesh_engine::Error::TooLarge(m) => Self::TooLarge(m),
+            dmesh_engine::Error::Decode(m) => Self::Undecodable(m),
+            dmesh_engine::Error::Unattainable(m) => Self::Conflict(m),
+            dmesh_engine::Error::Internal(m) => Self::Internal(m),
         }
     }
 }

@@ -6,9 +6,9 @@
 
 use std::sync::Arc;
 
-use crate::camera::{camera_from_json, Camera};
-use crate::image::{decode_view, DepthKind, DepthOptions, ViewFiles};
 use crate::store::{SegmentationSpec, StoredView};
+use dmesh_engine::camera::{camera_from_json, Camera};
+use dmesh_engine::image::{decode_view, DepthKind, DepthOptions, ViewFiles};
 
 use super::error::AppError;
 use super::state::{AppState, Loaded};

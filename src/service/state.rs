@@ -30,10 +30,10 @@ use std::hash::{Hash, Hasher};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use crate::camera::Camera;
-use crate::image::{sniff, DepthImage, Format, Limits};
-use crate::mesh::DepthMesh;
 use crate::store::{StoredView, Version, ViewStore};
+use dmesh_engine::camera::Camera;
+use dmesh_engine::image::{sniff, DepthImage, Format, Limits};
+use dmesh_engine::mesh::DepthMesh;
 
 use super::error::AppError;
 use super::metrics::Metrics;

@@ -51,7 +51,7 @@ pub enum SegmentMethod {
     None,
 }
 
-use crate::mesh::segmentation;
+use dmesh_engine::mesh::segmentation;
 
 impl Default for SegmentationSpec {
     fn default() -> Self {
@@ -68,15 +68,15 @@ impl Default for SegmentationSpec {
 impl SegmentationSpec {
     /// Checks every threshold, the unused ones too (an upload that sends
     /// `omega=200` with `segment=none` is as wrong as one that uses it).
-    pub fn validate(&self) -> crate::Result<()> {
-        use crate::mesh::Method;
+    pub fn validate(&self) -> dmesh_engine::Result<()> {
+        use dmesh_engine::mesh::Method;
         let all = [
             Method::Orthogonality { omega_deg: self.omega },
             Method::Disparity { sigma: self.sigma },
             Method::Connectedness { kappa: self.kappa },
         ];
         for method in all {
-            crate::mesh::Segmentation {
+            dmesh_engine::mesh::Segmentation {
                 method,
                 lambda: self.lambda,
             }
@@ -86,15 +86,15 @@ impl SegmentationSpec {
     }
 
     /// The engine's form.
-    pub fn to_engine(&self) -> crate::mesh::Segmentation {
-        use crate::mesh::Method;
+    pub fn to_engine(&self) -> dmesh_engine::mesh::Segmentation {
+        use dmesh_engine::mesh::Method;
         let method = match self.method {
             SegmentMethod::Orthogonality => Method::Orthogonality { omega_deg: self.omega },
             SegmentMethod::Disparity => Method::Disparity { sigma: self.sigma },
             SegmentMethod::Connectedness => Method::Connectedness { kappa: self.kappa },
             SegmentMethod::None => Method::None,
         };
-        crate::mesh::Segmentation {
+        dmesh_engine::mesh::Segmentation {
             method,
             lambda: self.lambda,
         }

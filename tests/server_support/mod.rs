@@ -183,12 +183,12 @@ pub fn canon(mut t: [u32; 3]) -> [u32; 3] {
 
 pub fn check_strips(r: &StripResponse) {
     assert!(!r.vertices.is_empty());
-    let vertices = dmesh::wire::mesh_vertices(r).unwrap();
+    let vertices = dmesh_engine::wire::mesh_vertices(r).unwrap();
     for v in &vertices {
         assert!(u32::from(v.i) < W && u32::from(v.j) < H && v.depth.is_finite() && v.depth > 0.0);
     }
     let wide = r.indices.to_u32();
-    let tris = dmesh::mesh::decode_strips(&wide);
+    let tris = dmesh_engine::mesh::decode_strips(&wide);
     assert_eq!(tris.len(), r.triangles as usize);
     let unique: std::collections::HashSet<_> = tris.iter().map(|t| canon(*t)).collect();
     assert_eq!(unique.len(), tris.len(), "a triangle is drawn twice");
@@ -208,7 +208,7 @@ pub fn check_strips(r: &StripResponse) {
             }
         })
         .collect();
-    common::assert_conforming(&dmesh::mesh::Mesh {
+    common::assert_conforming(&dmesh_engine::mesh::Mesh {
         vertices,
         strips: wide,
         triangles,

@@ -4,8 +4,8 @@
 
 use std::sync::Arc;
 
-use dmesh::sim::SceneSpec;
 use dmesh_client::http::Server;
+use dmesh_engine::sim::SceneSpec;
 
 /// A running server; dropping it stops the server and removes its store.
 pub struct Running {
@@ -44,7 +44,7 @@ pub async fn start() -> Running {
 pub async fn ingest(server: &Server, scene: &str, spec: &SceneSpec) {
     for (k, v) in spec.reference_views().unwrap().iter().enumerate() {
         let cam = serde_json::to_string(&dmesh_proto::Camera::from(&v.camera)).unwrap();
-        let depth = dmesh::image::encode_pfm(v.depth.width, v.depth.height, &v.depth.z);
+        let depth = dmesh_engine::image::encode_pfm(v.depth.width, v.depth.height, &v.depth.z);
         let img = image::RgbImage::from_raw(v.color.width, v.color.height, v.color.rgb.clone()).unwrap();
         let mut color = Vec::new();
         image::DynamicImage::ImageRgb8(img)

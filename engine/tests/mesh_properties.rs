@@ -5,9 +5,9 @@
 mod common;
 
 use common::*;
-use dmesh::camera::Camera;
-use dmesh::image::DepthImage;
-use dmesh::mesh::{DepthMesh, Lod, Method, Outlines, Segmentation, StripOrder, Threads};
+use dmesh_engine::camera::Camera;
+use dmesh_engine::image::DepthImage;
+use dmesh_engine::mesh::{DepthMesh, Lod, Method, Outlines, Segmentation, StripOrder, Threads};
 use proptest::prelude::*;
 
 fn check_all(depth: &DepthImage, cam: &Camera, seg: &Segmentation, eps: f64) {
@@ -272,7 +272,7 @@ fn hierarchy_stays_within_24_bytes_per_grid_vertex() {
 type VertexAnswer = (u32, u32, u32, bool, bool);
 
 /// Everything a hierarchy answers, as comparable values.
-fn answers(h: &DepthMesh) -> (Vec<VertexAnswer>, dmesh::mesh::Mesh) {
+fn answers(h: &DepthMesh) -> (Vec<VertexAnswer>, dmesh_engine::mesh::Mesh) {
     let g = *h.grid();
     let per_vertex = (0..g.gh())
         .flat_map(|y| (0..g.gw()).map(move |x| (x, y)))

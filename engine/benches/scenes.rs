@@ -1,20 +1,20 @@
 //! Scenes for the benchmarks: the synthetic terrain with boxes
-//! (`dmesh::synthetic`) and the Middlebury scenes from `../shared/data` when
+//! (`dmesh_engine::synthetic`) and the Middlebury scenes from `../shared/data` when
 //! that folder is present.
 
-use dmesh::camera::Camera;
-use dmesh::image::{decode_depth, DepthImage, DepthKind, DepthOptions, Limits};
+use dmesh_engine::camera::Camera;
+use dmesh_engine::image::{decode_depth, DepthImage, DepthKind, DepthOptions, Limits};
 
 /// Rolling terrain at 4-6 m with three boxes at 2-3 m.
 pub fn synthetic(w: u32, h: u32) -> (DepthImage, Camera) {
-    dmesh::synthetic::terrain_with_boxes(w, h)
+    dmesh_engine::synthetic::terrain_with_boxes(w, h)
 }
 
 /// A Middlebury scene's left disparity as depth, or `None` when the data is absent.
 #[allow(dead_code)]
 pub fn middlebury(name: &str) -> Option<(DepthImage, Camera)> {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data")
+        .join("../../shared/data")
         .join(name);
     let file = ["disp1.png", "disp2.png"]
         .iter()

@@ -8,8 +8,8 @@ mod common;
 use std::collections::HashSet;
 
 use common::*;
-use dmesh::camera::{Camera, Projection};
-use dmesh::mesh::{DepthMesh, Lod, Mesh, Segmentation};
+use dmesh_engine::camera::{Camera, Projection};
+use dmesh_engine::mesh::{DepthMesh, Lod, Mesh, Segmentation};
 use glam::{DQuat, DVec3};
 use proptest::prelude::*;
 

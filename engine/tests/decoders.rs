@@ -1,8 +1,8 @@
 //! Untrusted image bytes never panic a decoder: mutated and truncated files
 //! of every format give an error or an image, nothing else.
 
-use dmesh::camera::Camera;
-use dmesh::image::{decode_color, decode_depth, decode_mask, encode_exr, encode_pfm, DepthOptions, Limits};
+use dmesh_engine::camera::Camera;
+use dmesh_engine::image::{decode_color, decode_depth, decode_mask, encode_exr, encode_pfm, DepthOptions, Limits};
 use proptest::prelude::*;
 
 fn seeds() -> Vec<Vec<u8>> {

@@ -15,19 +15,20 @@ fn main() {
     };
     let iterations: usize = args.next().and_then(|s| s.parse().ok()).unwrap_or(20);
     let threads = match args.next().as_deref() {
-        Some("1") => dmesh::mesh::Threads::Single,
-        Some("2") => dmesh::mesh::Threads::Parallel,
-        _ => dmesh::mesh::Threads::available(),
+        Some("1") => dmesh_engine::mesh::Threads::Single,
+        Some("2") => dmesh_engine::mesh::Threads::Parallel,
+        _ => dmesh_engine::mesh::Threads::available(),
     };
     let portable = args.next().as_deref() == Some("portable");
     dmesh_engine::simd::force_portable(portable);
-    let (d, c) = dmesh::synthetic::terrain_with_boxes(w, h);
+    let (d, c) = dmesh_engine::synthetic::terrain_with_boxes(w, h);
     let mut times = Vec::new();
     let mut stages = Vec::new();
     for _ in 0..iterations.max(1) {
         let t = std::time::Instant::now();
-        let mesh =
-            std::hint::black_box(dmesh::mesh::DepthMesh::build_with(&d, &c, &Default::default(), threads).unwrap());
+        let mesh = std::hint::black_box(
+            dmesh_engine::mesh::DepthMesh::build_with(&d, &c, &Default::default(), threads).unwrap(),
+        );
         times.push(t.elapsed());
         stages.push(mesh.stats().stages);
     }
@@ -38,7 +39,7 @@ fn main() {
         times[0],
         times[times.len() / 2]
     );
-    let median = |f: fn(&dmesh::mesh::Stages) -> f64| {
+    let median = |f: fn(&dmesh_engine::mesh::Stages) -> f64| {
         let mut v: Vec<f64> = stages.iter().map(f).collect();
         v.sort_by(f64::total_cmp);
         v[v.len() / 2]

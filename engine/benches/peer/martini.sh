@@ -8,15 +8,16 @@
 # height field; dmesh's bound holds for every sample), and prints a table.
 # Times are medians of RUNS runs (default 7).
 #
-# Usage: benches/peer/martini.sh            (from the repository root)
+# Usage: engine/benches/peer/martini.sh            (from the repository root)
 set -euo pipefail
-cd "$(dirname "$0")/../.."
+cd "$(dirname "$0")/../../.."
 RUNS=${RUNS:-7}
 command -v node >/dev/null || { echo "node is required (apt-get install nodejs)" >&2; exit 1; }
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 
-cargo build --release --quiet --bin dmesh --example write_height_field
+cargo build --release --quiet --bin dmesh
+cargo build --release --quiet -p dmesh-engine --example write_height_field
 target/release/examples/write_height_field "$tmp"
 (cd "$tmp" && npm install --silent --no-audit --no-fund @mapbox/martini@0.2 >/dev/null)
 

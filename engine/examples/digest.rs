@@ -1,10 +1,10 @@
 //! Prints a digest of the per-vertex data and extracted meshes of several
 //! builds (sizes, segmentations, invalid samples), to check that a change
 //! meant to be only faster leaves every result bit for bit the same: run it
-//! before and after and compare. Usage: `cargo run --release --example digest`.
-use dmesh::mesh::{DepthMesh, Lod, Method, Segmentation};
+//! before and after and compare. Usage: `cargo run --release -p dmesh-engine --example digest`.
+use dmesh_engine::mesh::{DepthMesh, Lod, Method, Segmentation};
 use std::hash::{Hash, Hasher};
-fn digest(name: &str, d: &dmesh::image::DepthImage, c: &dmesh::camera::Camera, seg: &Segmentation) {
+fn digest(name: &str, d: &dmesh_engine::image::DepthImage, c: &dmesh_engine::camera::Camera, seg: &Segmentation) {
     let m = DepthMesh::build(d, c, seg).expect("the scene builds");
     let g = *m.grid();
     let mut h = std::collections::hash_map::DefaultHasher::new();
@@ -35,7 +35,7 @@ fn digest(name: &str, d: &dmesh::image::DepthImage, c: &dmesh::camera::Camera, s
 }
 fn main() {
     for (w, hh) in [(513, 513), (3, 7), (640, 480), (100, 37)] {
-        let (mut d, c) = dmesh::synthetic::terrain_with_boxes(w, hh);
+        let (mut d, c) = dmesh_engine::synthetic::terrain_with_boxes(w, hh);
         for seg in [
             Segmentation::default(),
             Segmentation {
@@ -62,6 +62,6 @@ fn main() {
         }
         digest(&format!("{w}x{hh} holes"), &d, &c, &Segmentation::default());
     }
-    let (d, c) = dmesh::synthetic::height_field(257);
+    let (d, c) = dmesh_engine::synthetic::height_field(257);
     digest("height field", &d, &c, &Segmentation::default());
 }

@@ -2,15 +2,15 @@
 //!
 //! Usage: `wireframe DEPTH.png COLOR.png CAMERA.json SCALE OFFSET FOCAL_BASELINE EPSILON OUT.png`
 //! (disparity PNGs, as the Middlebury scenes ship them).
-use dmesh::image::{decode_depth, DepthKind, DepthOptions, Limits};
-use dmesh::mesh::{DepthMesh, Lod, Segmentation};
+use dmesh_engine::image::{decode_depth, DepthKind, DepthOptions, Limits};
+use dmesh_engine::mesh::{DepthMesh, Lod, Segmentation};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let a: Vec<String> = std::env::args().skip(1).collect();
     if a.len() != 8 {
         return Err("usage: wireframe DEPTH COLOR CAMERA SCALE OFFSET FOCAL_BASELINE EPSILON OUT".into());
     }
-    let camera = dmesh::camera::camera_from_json(&std::fs::read_to_string(&a[2])?)?;
+    let camera = dmesh_engine::camera::camera_from_json(&std::fs::read_to_string(&a[2])?)?;
     let opts = DepthOptions {
         kind: DepthKind::Disparity,
         scale: a[3].parse()?,

@@ -3,9 +3,9 @@
 
 use std::collections::{HashMap, HashSet};
 
-use dmesh::camera::Camera;
-use dmesh::image::DepthImage;
-use dmesh::mesh::{decode_strips, DepthMesh, Mesh};
+use dmesh_engine::camera::Camera;
+use dmesh_engine::image::DepthImage;
+use dmesh_engine::mesh::{decode_strips, DepthMesh, Mesh};
 use proptest::prelude::*;
 
 /// A grid point in signed coordinates.
@@ -69,7 +69,7 @@ pub fn assert_finite(mesh: &Mesh, w: u32, h: u32) {
             v.i,
             v.j
         );
-        let n = dmesh::mesh::normals::oct_decode(v.normal);
+        let n = dmesh_engine::mesh::normals::oct_decode(v.normal);
         assert!(n.is_finite() && (n.length() - 1.0).abs() < 1e-6);
     }
     for t in &mesh.triangles {

@@ -1,4 +1,5 @@
-//! Glue shared by the `dmesh` and `dmesh-client` binaries: every failure,
+//! Glue shared by the `dmesh` and `dmesh-client` binaries (a crate of its own
+//! so that neither compiles the other's file): every failure,
 //! from bad arguments to a failed run, ends in one line on stderr and a
 //! non-zero exit code.
 

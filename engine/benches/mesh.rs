@@ -1,6 +1,6 @@
 //! Build and extraction benchmarks (criterion), plus a table of mesh sizes.
 //!
-//! `cargo bench --bench mesh` measures:
+//! `cargo bench -p dmesh-engine --bench mesh` measures:
 //! - `build/<scene>`: the hierarchy build from a depth image on one thread;
 //! - `build2t/<scene>`: the same with the normals on a second thread (what
 //!   `DepthMesh::build` does on a machine with two cores);
@@ -21,9 +21,9 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use dmesh::camera::Camera;
-use dmesh::image::DepthImage;
-use dmesh::mesh::{DepthMesh, Lod, Mesh, Segmentation, StripOrder, Threads};
+use dmesh_engine::camera::Camera;
+use dmesh_engine::image::DepthImage;
+use dmesh_engine::mesh::{DepthMesh, Lod, Mesh, Segmentation, StripOrder, Threads};
 
 fn all_scenes() -> Vec<(String, DepthImage, Camera)> {
     let mut out: Vec<(String, DepthImage, Camera)> = Vec::new();

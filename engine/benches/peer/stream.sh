@@ -4,7 +4,7 @@
 #
 # For each case (the demo novel view at tau = 1 px, five views; Middlebury
 # Art at epsilon 1, 5, 10 and 20 mm; Cones at 5 mm; the 513 x 513 height
-# field of benches/peer/martini.sh at its tolerances), the example
+# field of engine/benches/peer/martini.sh at its tolerances), the example
 # `stream_table` extracts the meshes as the server does and codes them as
 #   - protocol 6 at 8, 10 and 12 depth planes and all of them, under zstd
 #     (level 3), brotli (quality 4) and gzip (level 6): tower-http's levels;
@@ -22,10 +22,10 @@
 # Peers code positions and indices only; protocol 6's bytes include
 # everything a client needs to draw and blend (normals and rho are derived).
 #
-# Usage: benches/peer/stream.sh [DATA_DIR]     (from the repository root;
+# Usage: engine/benches/peer/stream.sh [DATA_DIR]     (from the repository root;
 #        DATA_DIR defaults to ../shared/data)
 set -euo pipefail
-cd "$(dirname "$0")/../.."
+cd "$(dirname "$0")/../../.."
 data=${1:-../shared/data}
 command -v node >/dev/null || { echo "node is required (apt-get install nodejs)" >&2; exit 1; }
 tmp=$(mktemp -d)

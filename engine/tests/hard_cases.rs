@@ -5,9 +5,9 @@
 mod common;
 
 use common::*;
-use dmesh::camera::{Camera, Projection};
-use dmesh::image::DepthImage;
-use dmesh::mesh::{DepthMesh, Lod, Method, Segmentation, StripOrder};
+use dmesh_engine::camera::{Camera, Projection};
+use dmesh_engine::image::DepthImage;
+use dmesh_engine::mesh::{DepthMesh, Lod, Method, Segmentation, StripOrder};
 use glam::{DQuat, DVec3};
 
 const W: u32 = 33;

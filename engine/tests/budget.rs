@@ -5,9 +5,9 @@
 mod common;
 
 use common::*;
-use dmesh::camera::Camera;
-use dmesh::image::DepthImage;
-use dmesh::mesh::{DepthMesh, Lod, Outlines, Segmentation, StripOrder};
+use dmesh_engine::camera::Camera;
+use dmesh_engine::image::DepthImage;
+use dmesh_engine::mesh::{DepthMesh, Lod, Outlines, Segmentation, StripOrder};
 use dmesh_proto::Lod as Chosen;
 use glam::{DQuat, DVec3};
 use proptest::prelude::*;
@@ -42,7 +42,7 @@ fn static_budgets_are_met_and_nearly_used() {
 }
 
 /// Doubled area in grid cells of a mesh's triangles.
-fn area2(mesh: &dmesh::mesh::Mesh) -> i64 {
+fn area2(mesh: &dmesh_engine::mesh::Mesh) -> i64 {
     mesh.triangles
         .iter()
         .map(|t| {
@@ -157,7 +157,7 @@ proptest! {
         let cam = camera(w, h);
         let hier = DepthMesh::build(&depth, &cam, &Segmentation::default()).unwrap();
         let projection = if ortho {
-            dmesh::camera::Projection::Orthographic { sx: 0.01, sy: 0.01, cx: 32.0, cy: 24.0 }
+            dmesh_engine::camera::Projection::Orthographic { sx: 0.01, sy: 0.01, cx: 32.0, cy: 24.0 }
         } else {
             cam.projection
         };

@@ -7,17 +7,17 @@ fn main() {
     let size: u32 = args.next().and_then(|s| s.parse().ok()).unwrap_or(513);
     let iterations: usize = args.next().and_then(|s| s.parse().ok()).unwrap_or(100);
     let order = match args.next().as_deref() {
-        Some("greedy") => dmesh::mesh::StripOrder::Greedy,
-        Some("tunnelled") => dmesh::mesh::StripOrder::Tunnelled,
-        _ => dmesh::mesh::StripOrder::Traversal,
+        Some("greedy") => dmesh_engine::mesh::StripOrder::Greedy,
+        Some("tunnelled") => dmesh_engine::mesh::StripOrder::Tunnelled,
+        _ => dmesh_engine::mesh::StripOrder::Traversal,
     };
     let outlines = match args.next().as_deref() {
-        Some("dropped") => dmesh::mesh::Outlines::Dropped,
-        _ => dmesh::mesh::Outlines::Kept,
+        Some("dropped") => dmesh_engine::mesh::Outlines::Dropped,
+        _ => dmesh_engine::mesh::Outlines::Kept,
     };
-    let (d, c) = dmesh::synthetic::terrain_with_boxes(size, size);
-    let h = dmesh::mesh::DepthMesh::build(&d, &c, &Default::default()).unwrap();
-    let view = dmesh::camera::Camera::new(
+    let (d, c) = dmesh_engine::synthetic::terrain_with_boxes(size, size);
+    let h = dmesh_engine::mesh::DepthMesh::build(&d, &c, &Default::default()).unwrap();
+    let view = dmesh_engine::camera::Camera::new(
         size,
         size,
         c.projection,
@@ -30,7 +30,7 @@ fn main() {
     for _ in 0..iterations.max(1) {
         let t = std::time::Instant::now();
         tris = std::hint::black_box(
-            h.extract_as(dmesh::mesh::Lod::Tau { tau: 1.0, view: &view }, order, outlines)
+            h.extract_as(dmesh_engine::mesh::Lod::Tau { tau: 1.0, view: &view }, order, outlines)
                 .unwrap(),
         )
         .triangles

@@ -1,20 +1,20 @@
 //! Where a `/render` answer's time goes for one 513 x 513 view at tau = 1:
 //! extraction, strip response (wire vertices, residual or exact depths,
-//! 16-bit indices) and bincode encoding. `cargo run --release --example response_cost`.
+//! 16-bit indices) and bincode encoding. `cargo run --release -p dmesh-engine --example response_cost`.
 
 use std::time::Instant;
 
-use dmesh::mesh::{DepthMesh, Lod, Segmentation};
-use dmesh::wire::{strip_response, DepthCoding};
+use dmesh_engine::mesh::{DepthMesh, Lod, Segmentation};
+use dmesh_engine::wire::{strip_response, DepthCoding};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let (depth, camera) = dmesh::synthetic::terrain_with_boxes(513, 513);
+    let (depth, camera) = dmesh_engine::synthetic::terrain_with_boxes(513, 513);
     let h = DepthMesh::build(&depth, &camera, &Segmentation::default())?;
-    let view = dmesh::camera::Camera::new(
+    let view = dmesh_engine::camera::Camera::new(
         513,
         513,
         camera.projection,
-        dmesh::sim::rig::look_at(glam::DVec3::new(0.8, 0.3, 0.0), glam::DVec3::new(0.0, 0.0, 5.0)),
+        dmesh_engine::sim::rig::look_at(glam::DVec3::new(0.8, 0.3, 0.0), glam::DVec3::new(0.0, 0.0, 5.0)),
         glam::DVec3::new(0.8, 0.3, 0.0),
     )?;
     let lod = Lod::Tau { tau: 1.0, view: &view };

@@ -6,8 +6,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
     let out = std::path::PathBuf::from(args.next().ok_or("usage: simulate OUT_DIR [SCENE.json]")?);
     let scene = match args.next() {
-        Some(p) => dmesh::sim::SceneSpec::from_json(&std::fs::read_to_string(p)?)?,
-        None => dmesh::sim::SceneSpec::demo(),
+        Some(p) => dmesh_engine::sim::SceneSpec::from_json(&std::fs::read_to_string(p)?)?,
+        None => dmesh_engine::sim::SceneSpec::demo(),
     };
     std::fs::create_dir_all(&out)?;
     for (k, v) in scene.reference_views()?.iter().enumerate() {
