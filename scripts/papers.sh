@@ -17,7 +17,7 @@ cat >"$out" <<MD
 
 Written by \`bash scripts/papers.sh\` (machine: $machine). One section per
 seed; each table says what was measured and how it differs from the paper's
-setting. Naik's comparison, on his protocol, is the README's "The thesis's
+setting. Naik's comparison, on his protocol, is docs/baselines.md, "The thesis's
 baselines" (\`docs/baselines/\`); Qu et al.'s walkthroughs are
 \`docs/walkthrough.md\`. Meshes are extracted as the service extracts
 them, outlines kept.
