@@ -11,15 +11,13 @@
 //! along rows, along columns, centres) and row, with the rows a kind's
 //! children lie on sliced once beside the row it writes. A general kernel
 //! per split vertex, `split_vertex`, states the same computation once for
-//! any vertex; the tests check the loops against it. The finest level's
-//! loops are in `finest.rs`.
+//! any vertex; the tests (`levels_tests.rs`, which holds it) check the loops
+//! against it. The finest level's loops are in `finest.rs`.
 
 use super::backproject::BackProject;
 use super::deviation::{half_rows, max_deviation, small_half_deviation, SmallHalf};
 use super::error_metric::{norm_bound, point_line_2d_sq, point_line_3d_sq};
 use super::flags::{Flags, Half};
-#[cfg(test)]
-use super::grid::cell_half;
 use super::grid::{half_of, Grid, Pt};
 use crate::camera::Camera;
 use glam::DVec3;
@@ -117,16 +115,6 @@ impl Split {
     fn h(&self) -> u32 {
         self.a.0.abs_diff(self.b.0).max(self.a.1.abs_diff(self.b.1)) / 2
     }
-}
-
-/// Calls `f` on every split vertex above level 0 in the order the pass
-/// needs them: level by level from fine to coarse, and within a level the
-/// edge midpoints (which depend on the centres of the level below) before
-/// the centres (which depend on them). The general kernel's order in the
-/// tests.
-#[cfg(test)]
-fn for_each_coarse(grid: Grid, f: impl FnMut(Split)) {
-    for_each_split(grid, 1..grid.k, f);
 }
 
 /// The split vertices of the given levels (0 is the finest) in the order
@@ -314,7 +302,7 @@ impl Levels<'_> {
     }
 
     /// The split vertices of one kind (`bisects`) on row `y` of the level of
-    /// half-size `h`: [`Self::split_vertex`]'s results, with the rows its
+    /// half-size `h`: `split_vertex`'s results (`levels_tests.rs`), with the rows its
     /// children lie on sliced once (read) beside the row it writes, and the
     /// children and their halves found by the kind's fixed geometry.
     #[inline(always)]
@@ -429,257 +417,8 @@ impl Levels<'_> {
             rad_row[xi] = round_up(radius);
         }
     }
-
-    /// Computes flags, own and saturated error and radius of the split vertex
-    /// `s`, given its halves' squared deviations (`None`: scanned here).
-    /// Children are finer and already done. This is the general kernel:
-    /// [`run_finest`]'s loops give the same results for level 0 (a
-    /// test checks), where a half's children are full-resolution triangles.
-    #[cfg(test)]
-    fn split_vertex(&mut self, flags: &mut [Flags], zmax: f32, s: Split, dev2: Option<[f32; 2]>) {
-        let Split { v, a, b, apex, bisects } = s;
-        let gw = self.grid.gw() as usize;
-        let at = |p: Pt| p.1 as usize * gw + p.0 as usize;
-        let h = s.h();
-        let vi = at(v);
-        let (za, zb, zv) = (self.z[at(a)], self.z[at(b)], self.z[vi]);
-        let pv = self.bp.point(v.0, v.1, zv);
-        let mut bits = flags[vi].cell_only();
-        let mut own = 0f64;
-        // Squared deviations arrive rounded up; the maximum of rounded-up
-        // values is the rounded-up maximum, so this is the same as adding
-        // them to `own`.
-        let mut own_dev2 = 0f32;
-        let mut err = 0f32;
-        let mut radius = 0f64;
-        let mut eq12_done = false;
-        for half in 0..2 {
-            let Some(apex) = apex[half] else {
-                bits.set_half(half, Half::ABSENT);
-                continue;
-            };
-            // The half's children: hypotenuses a-apex and apex-b, both with
-            // apex v; a unit diagonal is a full-resolution triangle of a
-            // cell (only on the finest level: h is 1).
-            let mut kids = [Half::ABSENT; 2];
-            for (k, kid) in kids.iter_mut().enumerate() {
-                let (e0, e1) = if k == 0 { (a, apex) } else { (apex, b) };
-                *kid = if h == 1 && e0.0.abs_diff(e1.0) == 1 && e0.1.abs_diff(e1.1) == 1 {
-                    let cell = (e0.0.min(e1.0), e0.1.min(e1.1));
-                    Half::leaf(flags[at(cell)].cell(cell_half(cell, v)))
-                } else {
-                    let c = ((e0.0 + e1.0) / 2, (e0.1 + e1.1) / 2);
-                    let ci = at(c);
-                    // Saturation and nesting over the DAG children.
-                    err = err.max(self.err2[ci]);
-                    let d = pv - self.bp.point(c.0, c.1, self.z[ci]);
-                    radius = radius.max(norm_bound(d) + f64::from(self.radius[ci]));
-                    flags[ci].half(half_of(c, v))
-                };
-            }
-            let [c0, c1] = kids;
-            let flagged = c0.join(c1);
-            bits.set_half(half, flagged);
-            if flagged.unflagged() {
-                own_dev2 = own_dev2.max(match dev2 {
-                    Some(d) => d[half],
-                    None => half_deviation2(self.z, gw, s, h, apex),
-                });
-                if !eq12_done {
-                    eq12_done = true;
-                    let (pa, pb) = (self.bp.point(a.0, a.1, za), self.bp.point(b.0, b.1, zb));
-                    own = own.max(eq12(bisects, pv, pa, pb));
-                }
-            } else if flagged.partial() {
-                let len = bisects.hypotenuse(h);
-                own = own.max(footprint2(self.camera, len, [za, zb, zv, self.z[at(apex)]], zmax));
-            }
-        }
-        flags[vi] = bits;
-        self.err2[vi] = err.max(round_up(own)).max(own_dev2);
-        self.radius[vi] = round_up(radius);
-    }
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use proptest::prelude::*;
-
-    /// What the pass has computed so far.
-    #[derive(Clone)]
-    struct State {
-        flags: Vec<Flags>,
-        err2: Vec<f32>,
-        radius: Vec<f32>,
-    }
-
-    /// Level 0 computed by the loops and by the general kernel, in two
-    /// stages (edge midpoints, then centres), each from the same state: the
-    /// centres of both start from the loops' edges, so a difference is the
-    /// stage's own. Returns the two results of each stage.
-    fn stages(n: u32, z: &[f32], cells: &[u8]) -> [[State; 2]; 2] {
-        let fx = Fixture::new(n, z);
-        let (grid, zmax) = (fx.grid, fx.zmax);
-        let general = |diagonal: bool| {
-            move |l: &mut Levels<'_>, flags: &mut [Flags]| {
-                for_each_split(grid, 0..1, |s| {
-                    if (s.bisects == Bisects::Diagonal) == diagonal {
-                        l.split_vertex(flags, zmax, s, None);
-                    }
-                });
-            }
-        };
-        let start = fx.start(cells);
-        let edges = [
-            fx.run(&start, &|l, flags| {
-                let mut geo = vec![0f32; grid.gw() as usize];
-                l.finest_edges::<true>(flags, zmax, &mut geo);
-                l.finest_edges::<false>(flags, zmax, &mut geo);
-            }),
-            fx.run(&start, &general(false)),
-        ];
-        let centres = [
-            fx.run(&edges[0], &|l, flags| {
-                let (mut geo, mut rad) = (vec![0f32; grid.gw() as usize], vec![0f32; grid.gw() as usize]);
-                l.finest_centres(flags, zmax, &mut geo, &mut rad)
-            }),
-            fx.run(&edges[0], &general(true)),
-        ];
-        [edges, centres]
-    }
-
-    /// The levels above the finest, from the same finest level, by the row
-    /// loops of [`Levels::run_coarse`] (scanning, and given the helper's
-    /// deviations) and by the general kernel.
-    fn coarse_three_ways(n: u32, z: &[f32], cells: &[u8]) -> [State; 3] {
-        let fx = Fixture::new(n, z);
-        let (grid, zmax) = (fx.grid, fx.zmax);
-        let finest = fx.run(&fx.start(cells), &|l, flags| run_finest(l, flags, zmax));
-        let levels: Vec<_> = (1..grid.k).map(|g| coarse_deviations(grid, z, g)).collect();
-        [
-            fx.run(&finest, &|l, flags| run_coarse(l, flags, zmax, &mut |_| None)),
-            fx.run(&finest, &|l, flags| {
-                run_coarse(l, flags, zmax, &mut |g| Some(levels[g as usize - 1].clone()))
-            }),
-            fx.run(&finest, &|l, flags| {
-                for_each_coarse(grid, |s| l.split_vertex(flags, zmax, s, None))
-            }),
-        ]
-    }
-
-    /// Leaf flags of an `n x n` grid as segmentation sets them: a cell
-    /// touching an invalid sample has both its triangles flagged, the
-    /// others take `random`.
-    fn leaf_cells(n: usize, depths: &[f32], random: &[u8]) -> Vec<u8> {
-        let z = |x: usize, y: usize| depths[y.min(n - 1) * n + x.min(n - 1)];
-        (0..n * n)
-            .map(|i| {
-                let (x, y) = (i % n, i / n);
-                let touches = [z(x, y), z(x + 1, y), z(x, y + 1), z(x + 1, y + 1)].contains(&0.0);
-                if touches {
-                    3
-                } else {
-                    random[i]
-                }
-            })
-            .collect()
-    }
-
-    /// An `n x n` grid of depths `z` seen by a perspective camera, and
-    /// passes run on copies of a state.
-    struct Fixture<'z> {
-        grid: Grid,
-        camera: Camera,
-        bp: BackProject,
-        z: &'z [f32],
-        zmax: f32,
-    }
-
-    impl<'z> Fixture<'z> {
-        fn new(n: u32, z: &'z [f32]) -> Self {
-            let grid = Grid::for_image(n, n);
-            let f = 0.8 * f64::from(n);
-            let camera = Camera::perspective(n, n, f, f, 0.5 * f64::from(n), 0.5 * f64::from(n)).unwrap();
-            let bp = BackProject::new(&camera, grid.gw(), grid.gh());
-            let zmax = z.iter().copied().fold(0f32, f32::max);
-            Self {
-                grid,
-                camera,
-                bp,
-                z,
-                zmax,
-            }
-        }
-
-        /// The leaf flags `cells`, nothing computed yet.
-        fn start(&self, cells: &[u8]) -> State {
-            State {
-                flags: cells.iter().copied().map(Flags::of_cell).collect(),
-                err2: vec![0f32; self.grid.len()],
-                radius: vec![0f32; self.grid.len()],
-            }
-        }
-
-        /// `pass` run on a copy of `from`.
-        fn run(&self, from: &State, pass: &dyn Fn(&mut Levels<'_>, &mut [Flags])) -> State {
-            let mut st = from.clone();
-            let mut levels = Levels {
-                grid: self.grid,
-                camera: &self.camera,
-                bp: &self.bp,
-                z: self.z,
-                err2: &mut st.err2,
-                radius: &mut st.radius,
-            };
-            pass(&mut levels, &mut st.flags);
-            st
-        }
-    }
-
-    proptest! {
-        #![proptest_config(ProptestConfig::with_cases(64))]
-
-        /// The row loops of the levels above the finest compute exactly what
-        /// the general kernel does, with or without the helper's deviations.
-        #[test]
-        fn the_coarse_row_loops_match_the_general_kernel(
-            depths in proptest::collection::vec(prop_oneof![1 => Just(0.0f32), 9 => 0.5f32..4.0], 33 * 33),
-            cells in proptest::collection::vec(prop_oneof![6 => Just(0u8), 1 => 0u8..4], 33 * 33),
-        ) {
-            prop_assume!(Grid::for_image(33, 33).len() == depths.len());
-            let cells = leaf_cells(33, &depths, &cells);
-            let [rows, given, general] = coarse_three_ways(33, &depths, &cells);
-            prop_assert_eq!(&rows.flags, &general.flags);
-            prop_assert_eq!(&rows.radius, &general.radius);
-            prop_assert_eq!(&rows.err2, &general.err2);
-            prop_assert_eq!(&given.err2, &general.err2);
-            prop_assert_eq!(&given.flags, &general.flags);
-        }
-
-        /// The tight loops of the finest level compute what the general
-        /// kernel does: the same flags and radii, errors never below it and
-        /// within one f32 rounding where no half is partly segmented (the
-        /// general kernel scans the deviation, the loops take the detail).
-        #[test]
-        fn the_finest_loops_match_the_general_kernel(
-            depths in proptest::collection::vec(prop_oneof![Just(0.0f32), 0.5f32..4.0], 17 * 17),
-            cells in proptest::collection::vec(0u8..4, 17 * 17),
-        ) {
-            prop_assume!(Grid::for_image(17, 17).len() == depths.len());
-            let cells = leaf_cells(17, &depths, &cells);
-            for [fast, general] in stages(17, &depths, &cells) {
-                prop_assert_eq!(&fast.flags, &general.flags);
-                prop_assert_eq!(&fast.radius, &general.radius);
-                for (i, (f, g)) in fast.err2.iter().zip(&general.err2).enumerate() {
-                    // Never below the general kernel (the guarantee), and the
-                    // same up to one rounding unless a half is partly
-                    // segmented: the loops then take the deeper apex for both.
-                    let partial = (0..2).any(|h| fast.flags[i].half(h).partial());
-                    prop_assert!(*f >= g * (1.0 - 1e-6), "vertex {}: fast {} below general {}", i, f, g);
-                    prop_assert!(partial || (f - g) <= 1e-6 * f, "vertex {}: fast {} general {}", i, f, g);
-                }
-            }
-        }
-    }
-}
+#[path = "levels_tests.rs"]
+mod tests;
