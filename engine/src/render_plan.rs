@@ -20,16 +20,43 @@ pub const MAX_VIEWS: usize = 5;
 /// DMesh's selection limit between view directions, degrees, unless asked otherwise.
 pub const MAX_ANGLE_DEG: f64 = 135.0;
 
-/// What a request asks for: a level of detail, the requesting camera it is
-/// meant for, and the depth coding. Checked on construction.
+/// A level of detail with the camera it is meant for, so that `tau`
+/// without a camera, or `epsilon` with one, cannot be stated.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Detail {
+    /// Object-space tolerance in metres; static, for no camera.
+    Epsilon(f64),
+    /// Image-space tolerance in pixels of the requesting camera.
+    Tau {
+        /// Pixels.
+        tau: f64,
+        /// The requesting camera.
+        camera: Camera,
+    },
+    /// At most this many triangles, view-dependent when a camera is given.
+    MaxTriangles {
+        /// Triangles.
+        max: u32,
+        /// The requesting camera, if any.
+        camera: Option<Camera>,
+    },
+    /// At most this many milliseconds of extraction (aimed at, not proven),
+    /// view-dependent when a camera is given.
+    BudgetMs {
+        /// Milliseconds, finite and > 0.
+        ms: f64,
+        /// The requesting camera, if any.
+        camera: Option<Camera>,
+    },
+}
+
+/// What a request asks for: a level of detail with the requesting camera
+/// it is meant for, and the depth coding. Only [`Ask::new`] makes one, and
+/// it checks the combination, so every `Ask` is one the engine can answer.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ask {
-    /// The level of detail; a budget is shared by [`Self::share`].
-    pub lod: WireLod,
-    /// The requesting camera: with `tau` always, with a budget optionally.
-    pub camera: Option<Camera>,
-    /// Residual bit-depth of the depths, `None` for exact `f32`.
-    pub bits: Option<u8>,
+    detail: Detail,
+    bits: Option<u8>,
 }
 
 impl Ask {
@@ -39,32 +66,70 @@ impl Ask {
         if let Some(b) = bits.filter(|&b| b > dmesh_proto::residual::MAX_BITS) {
             return Err(Error::invalid(format!("bits is {b}; it must be 0..=16")));
         }
-        match (lod, camera) {
+        let detail = match (lod, camera) {
             (WireLod::Epsilon(_), Some(_)) => {
                 return Err(Error::invalid(
                     "camera is not used with epsilon; give tau or a budget, or drop camera",
                 ))
             }
+            (WireLod::Epsilon(e), None) => Detail::Epsilon(e),
+            (WireLod::Tau(tau), Some(camera)) => Detail::Tau { tau, camera },
             (WireLod::Tau(_), None) => return Err(Error::invalid("tau needs the requesting camera (camera)")),
+            (WireLod::MaxTriangles(max), camera) => Detail::MaxTriangles { max, camera },
             (WireLod::BudgetMs(ms), _) if !(ms.is_finite() && ms > 0.0) => {
                 return Err(Error::invalid(format!(
                     "budget_ms is {ms}; it must be a finite number of milliseconds > 0"
                 )))
             }
-            _ => {}
+            (WireLod::BudgetMs(ms), camera) => Detail::BudgetMs { ms, camera },
+        };
+        Ok(Self { detail, bits })
+    }
+
+    /// The level of detail with its camera.
+    pub fn detail(&self) -> Detail {
+        self.detail
+    }
+
+    /// The level of detail as the wire states it.
+    pub fn wire_lod(&self) -> WireLod {
+        match self.detail {
+            Detail::Epsilon(e) => WireLod::Epsilon(e),
+            Detail::Tau { tau, .. } => WireLod::Tau(tau),
+            Detail::MaxTriangles { max, .. } => WireLod::MaxTriangles(max),
+            Detail::BudgetMs { ms, .. } => WireLod::BudgetMs(ms),
         }
-        Ok(Self { lod, camera, bits })
+    }
+
+    /// The requesting camera, if the request has one.
+    pub fn camera(&self) -> Option<&Camera> {
+        match &self.detail {
+            Detail::Epsilon(_) => None,
+            Detail::Tau { camera, .. } => Some(camera),
+            Detail::MaxTriangles { camera, .. } | Detail::BudgetMs { camera, .. } => camera.as_ref(),
+        }
+    }
+
+    /// Residual bit-depth of the depths, `None` for exact `f32`.
+    pub fn bits(&self) -> Option<u8> {
+        self.bits
     }
 
     /// The request one view of weight `weight` gets: budgets are shared out
     /// by weight (triangles rounded down), tolerances are not.
     pub fn share(&self, weight: f64) -> Self {
-        let lod = match self.lod {
-            WireLod::MaxTriangles(m) => WireLod::MaxTriangles((f64::from(m) * weight).floor() as u32),
-            WireLod::BudgetMs(ms) => WireLod::BudgetMs(ms * weight),
+        let detail = match self.detail {
+            Detail::MaxTriangles { max, camera } => Detail::MaxTriangles {
+                max: (f64::from(max) * weight).floor() as u32,
+                camera,
+            },
+            Detail::BudgetMs { ms, camera } => Detail::BudgetMs {
+                ms: ms * weight,
+                camera,
+            },
             other => other,
         };
-        Self { lod, ..*self }
+        Self { detail, ..*self }
     }
 
     /// The level of detail `hierarchy` extracts. A time budget becomes a
@@ -72,28 +137,32 @@ impl Ask {
     /// extraction rate); a triangle budget stays one, for the hierarchy to
     /// resolve. Also returns the triangles a time budget allowed.
     pub fn lod(&self, hierarchy: &DepthMesh, triangles_for_ms: impl FnOnce(f64) -> f64) -> (Lod<'_>, Option<u64>) {
-        match self.lod {
-            WireLod::Epsilon(e) => (Lod::Epsilon(e), None),
-            WireLod::Tau(tau) => match &self.camera {
-                Some(view) => (Lod::Tau { tau, view }, None),
-                // Not reached: `new` refuses tau without a camera.
-                None => (Lod::Epsilon(0.0), None),
-            },
-            WireLod::MaxTriangles(m) => (
-                Lod::Triangles {
-                    max: u64::from(m),
-                    view: self.camera.as_ref(),
+        match &self.detail {
+            Detail::Epsilon(e) => (Lod::Epsilon(*e), None),
+            Detail::Tau { tau, camera } => (
+                Lod::Tau {
+                    tau: *tau,
+                    view: camera,
                 },
                 None,
             ),
-            WireLod::BudgetMs(ms) => {
+            Detail::MaxTriangles { max, camera } => (
+                Lod::Triangles {
+                    max: *max,
+                    view: camera.as_ref(),
+                },
+                None,
+            ),
+            Detail::BudgetMs { ms, camera } => {
                 // A time budget needs no proof, so it never asks for less
                 // than the coarsest mesh.
-                let allowed = (triangles_for_ms(ms).max(0.0) as u64).max(hierarchy.coarsest_triangles());
+                let allowed = (triangles_for_ms(*ms).max(0.0) as u64)
+                    .max(hierarchy.coarsest_triangles())
+                    .min(u64::from(u32::MAX));
                 (
                     Lod::Triangles {
-                        max: allowed,
-                        view: self.camera.as_ref(),
+                        max: allowed as u32,
+                        view: camera.as_ref(),
                     },
                     Some(allowed),
                 )
@@ -104,9 +173,9 @@ impl Ask {
     /// The ETag suffix of a cacheable answer (static: no requesting camera).
     pub fn cache_key(&self) -> Option<String> {
         let bits = self.bits.map_or(String::new(), |b| format!("-b{b}"));
-        match (self.lod, self.camera) {
-            (WireLod::Epsilon(e), _) => Some(format!("{:016x}{bits}", e.to_bits())),
-            (WireLod::MaxTriangles(m), None) => Some(format!("t{m}{bits}")),
+        match self.detail {
+            Detail::Epsilon(e) => Some(format!("{:016x}{bits}", e.to_bits())),
+            Detail::MaxTriangles { max, camera: None } => Some(format!("t{max}{bits}")),
             _ => None,
         }
     }
@@ -182,7 +251,7 @@ pub fn extract(
 ) -> Result<Extracted> {
     let (mesh, allowed) = extract_mesh(hierarchy, ask, triangles_for_ms)?;
     let coding = DepthCoding {
-        bits: ask.bits,
+        bits: ask.bits(),
         root_side: hierarchy.grid().side(),
         raw_grid,
     };
@@ -231,10 +300,11 @@ mod tests {
         assert!(Ask::new(WireLod::BudgetMs(0.0), None, None).is_err());
         assert!(Ask::new(WireLod::Epsilon(0.01), None, Some(17)).is_err());
         let a = Ask::new(WireLod::MaxTriangles(1001), Some(c), Some(8)).unwrap();
-        assert_eq!(a.share(0.5).lod, WireLod::MaxTriangles(500));
-        assert_eq!(a.share(0.5).bits, Some(8));
+        assert_eq!(a.share(0.5).wire_lod(), WireLod::MaxTriangles(500));
+        assert_eq!(a.share(0.5).bits(), Some(8));
+        assert_eq!(a.share(0.5).camera(), Some(&c));
         let t = Ask::new(WireLod::Tau(2.0), Some(c), None).unwrap();
-        assert_eq!(t.share(0.25).lod, WireLod::Tau(2.0));
+        assert_eq!(t.share(0.25).detail(), Detail::Tau { tau: 2.0, camera: c });
         assert!(t.cache_key().is_none() && a.cache_key().is_none());
         assert!(Ask::new(WireLod::MaxTriangles(9), None, None)
             .unwrap()

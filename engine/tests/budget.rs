@@ -14,7 +14,12 @@ use proptest::prelude::*;
 
 /// The budget resolved by the extraction itself; the tolerance it states.
 fn extract_budgeted(h: &DepthMesh, max: u64, view: Option<&Camera>) -> (Chosen, usize) {
-    let mesh = h.extract(Lod::Triangles { max, view }).unwrap();
+    let mesh = h
+        .extract(Lod::Triangles {
+            max: u32::try_from(max).unwrap(),
+            view,
+        })
+        .unwrap();
     assert_conforming(&mesh);
     assert!(
         view.is_some() || matches!(mesh.lod, Chosen::Epsilon(_)),
@@ -74,7 +79,12 @@ fn a_budget_with_room_keeps_the_outlines_and_a_tight_one_still_fits() {
     // Room for twice the outline's coarsest mesh: every unsegmented cell is
     // covered, and the budget is met.
     for max in [2 * outline, 3 * outline, 20 * outline] {
-        let mesh = hier.extract(Lod::Triangles { max, view: None }).unwrap();
+        let mesh = hier
+            .extract(Lod::Triangles {
+                max: u32::try_from(max).unwrap(),
+                view: None,
+            })
+            .unwrap();
         assert!(
             mesh.triangles.len() as u64 <= max,
             "max {max}: {}",
@@ -87,7 +97,12 @@ fn a_budget_with_room_keeps_the_outlines_and_a_tight_one_still_fits() {
     // down to the coarsest mesh; the outline erodes, as DMesh Sec. 5.3's does.
     let mut areas = Vec::new();
     for max in [outline, outline / 2, hier.coarsest_triangles()] {
-        let mesh = hier.extract(Lod::Triangles { max, view: None }).unwrap();
+        let mesh = hier
+            .extract(Lod::Triangles {
+                max: u32::try_from(max).unwrap(),
+                view: None,
+            })
+            .unwrap();
         assert!(
             mesh.triangles.len() as u64 <= max,
             "max {max}: {}",

@@ -61,7 +61,7 @@ proptest! {
         let lod = match kind {
             0 => Lod::Epsilon(tol),
             1 => Lod::Tau { tau: tol * 40.0, view: &novel },
-            _ => Lod::Triangles { max: hier.coarsest_triangles() + (tol * 4000.0) as u64, view: None },
+            _ => Lod::Triangles { max: u32::try_from(hier.coarsest_triangles() + (tol * 4000.0) as u64).unwrap(), view: None },
         };
         let mesh = hier.extract(lod).unwrap();
         let raw = lattice.then_some(RawGrid { scale: 0.001, offset: 0.0 });

@@ -129,7 +129,10 @@ fn check(name: &str, depth: &DepthImage, cam: &Camera) {
             for max in [h.coarsest_triangles(), 100, 10_000] {
                 let max = max.max(h.coarsest_triangles());
                 let m = h
-                    .extract(Lod::Triangles { max, view: Some(&view) })
+                    .extract(Lod::Triangles {
+                        max: u32::try_from(max).unwrap(),
+                        view: Some(&view),
+                    })
                     .unwrap_or_else(|e| panic!("{name}: budget {max}: {e}"));
                 assert!(m.triangles.len() as u64 <= max, "{name}: budget {max}");
                 assert_finite(&m, W, H);

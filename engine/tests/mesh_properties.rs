@@ -448,7 +448,7 @@ proptest! {
         }
         // A budget that the coarsest mesh meets is met.
         let coarsest = hier.coarsest_triangles();
-        let mesh = hier.extract(Lod::Triangles { max: coarsest, view: None }).unwrap();
+        let mesh = hier.extract(Lod::Triangles { max: u32::try_from(coarsest).unwrap(), view: None }).unwrap();
         prop_assert!(mesh.triangles.len() as u64 <= coarsest);
         assert_covers_image(&mesh, w, h);
     }

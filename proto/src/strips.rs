@@ -31,6 +31,29 @@ pub enum Lod {
     BudgetMs(f64),
 }
 
+impl Lod {
+    /// The one level of detail a flat form names (a query string, a command
+    /// line, the viewer's address): exactly one of the four may be given.
+    /// The one place that rule is stated; the error says it.
+    pub fn exactly_one(
+        epsilon: Option<f64>,
+        tau: Option<f64>,
+        max_triangles: Option<u32>,
+        budget_ms: Option<f64>,
+    ) -> Result<Self, &'static str> {
+        let given = [
+            epsilon.map(Self::Epsilon),
+            tau.map(Self::Tau),
+            max_triangles.map(Self::MaxTriangles),
+            budget_ms.map(Self::BudgetMs),
+        ];
+        match given.iter().flatten().collect::<Vec<_>>()[..] {
+            [lod] => Ok(*lod),
+            _ => Err("give exactly one of epsilon (metres), tau (pixels, with camera), max_triangles or budget_ms"),
+        }
+    }
+}
+
 impl Default for Lod {
     /// Full resolution.
     fn default() -> Self {
@@ -194,6 +217,18 @@ pub struct Reach {
 mod tests {
     use super::*;
     use crate::camera::{Pose, Projection};
+
+    #[test]
+    fn a_flat_form_names_exactly_one_level_of_detail() {
+        assert_eq!(Lod::exactly_one(Some(0.01), None, None, None), Ok(Lod::Epsilon(0.01)));
+        assert_eq!(Lod::exactly_one(None, Some(1.0), None, None), Ok(Lod::Tau(1.0)));
+        assert_eq!(Lod::exactly_one(None, None, Some(7), None), Ok(Lod::MaxTriangles(7)));
+        assert_eq!(Lod::exactly_one(None, None, None, Some(2.0)), Ok(Lod::BudgetMs(2.0)));
+        let none = Lod::exactly_one(None, None, None, None).unwrap_err();
+        assert!(none.contains("exactly one"), "{none}");
+        assert!(Lod::exactly_one(Some(0.01), Some(1.0), None, None).is_err());
+        assert!(Lod::exactly_one(None, Some(1.0), Some(5), Some(1.0)).is_err());
+    }
 
     pub(crate) fn sample() -> StripResponse {
         StripResponse {

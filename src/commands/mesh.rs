@@ -8,7 +8,8 @@ use clap::{ArgGroup, ValueEnum};
 use dmesh_engine::camera::{camera_from_json, Camera};
 use dmesh_engine::image::{decode_view, ColorImage, DecodedView, DepthKind, DepthOptions, Limits, ViewFiles};
 use dmesh_engine::mesh::segmentation;
-use dmesh_engine::mesh::{DepthMesh, Lod, Mesh, Method, Outlines, Segmentation, StripOrder, Threads};
+use dmesh_engine::mesh::{DepthMesh, Mesh, Method, Outlines, Segmentation, StripOrder, Threads};
+use dmesh_engine::render_plan::Ask;
 
 #[derive(Clone, Copy, ValueEnum)]
 enum KindArg {
@@ -76,7 +77,7 @@ pub struct MeshArgs {
     /// At most this many triangles: the finest tolerance that provably meets
     /// it (view-dependent with --view, else static) is chosen and printed.
     #[arg(long)]
-    max_triangles: Option<u64>,
+    max_triangles: Option<u32>,
     /// Rubber-sheet test.
     #[arg(long, value_enum, default_value = "orthogonality")]
     segment: SegmentArg,
@@ -189,15 +190,13 @@ pub fn run(a: &MeshArgs) -> Result<()> {
     };
     let hierarchy = DepthMesh::build_with(&depth, &camera, &seg, threads)?;
     let view = a.view.as_deref().map(|p| read_camera(p, "view camera")).transpose()?;
-    let lod = match (a.epsilon, a.tau, a.max_triangles, &view) {
-        (Some(e), None, None, _) => Lod::Epsilon(e),
-        (None, Some(t), None, Some(v)) => Lod::Tau { tau: t, view: v },
-        (None, None, Some(m), v) => Lod::Triangles {
-            max: m,
-            view: v.as_ref(),
-        },
-        _ => bail!("give one of --epsilon E, --tau T with --view VIEWCAM.json, or --max-triangles N"),
-    };
+    // The request as the server states it (one level of detail, with its
+    // camera), so the command meshes what a strip request would.
+    let wire = dmesh_proto::Lod::exactly_one(a.epsilon, a.tau, a.max_triangles, None).map_err(anyhow::Error::msg)?;
+    // --view is for tau and budgets; with --epsilon it is not used.
+    let view = view.filter(|_| a.epsilon.is_none());
+    let ask = Ask::new(wire, view, None)?;
+    let (lod, _) = ask.lod(&hierarchy, |_| 0.0);
     let order = match a.strips {
         StripsArg::Traversal => StripOrder::Traversal,
         StripsArg::Greedy => StripOrder::Greedy,

@@ -70,3 +70,16 @@ impl From<axum::extract::multipart::MultipartError> for AppError {
         }
     }
 }
+
+/// A JSON body the extractor refused: 415 without the JSON content type,
+/// 413 past the body limit, 400 otherwise, each with the extractor's reason.
+pub fn json_rejection(e: axum::extract::rejection::JsonRejection) -> AppError {
+    use axum::extract::rejection::JsonRejection;
+    match e {
+        JsonRejection::MissingJsonContentType(_) => AppError::UnsupportedMedia("body must be application/json".into()),
+        other if other.status() == StatusCode::PAYLOAD_TOO_LARGE => {
+            AppError::TooLarge(format!("body: {}", other.body_text()))
+        }
+        other => AppError::BadRequest(format!("body: {}", other.body_text())),
+    }
+}

@@ -11,6 +11,7 @@
 //! (decoding, building, extracting) runs on the blocking pool, never on the
 //! async workers.
 
+pub mod conditional;
 pub mod error;
 pub mod negotiate;
 pub mod strips;

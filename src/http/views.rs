@@ -6,49 +6,17 @@ use axum::body::Bytes;
 use axum::extract::{Multipart, Path, State};
 use axum::http::{header, HeaderMap, StatusCode};
 use axum::response::{IntoResponse, Response};
-use dmesh_proto::{SceneList, ViewList, ViewSummary, PROTOCOL_VERSION};
+use dmesh_proto::{SceneList, ViewList, PROTOCOL_VERSION};
 
 use crate::store::{validate_id, SegmentMethod, SegmentationSpec};
 use dmesh_engine::image::DepthOptions;
 
+use super::conditional::{none_match, not_modified};
 use super::negotiate::encode;
 use crate::service::ingest::{ingest, Upload};
+use crate::service::views::{load, summary};
 use crate::service::AppError;
-use crate::service::{AppState, Loaded};
-
-/// `/v1/scenes/{scene}/views/{view}/color`.
-pub fn color_url(scene: &str, view: &str) -> String {
-    format!("/v1/scenes/{scene}/views/{view}/color")
-}
-
-pub(crate) fn summary(scene: &str, view: &str, l: &Loaded) -> ViewSummary {
-    let stats = l.hierarchy.stats();
-    ViewSummary {
-        version: PROTOCOL_VERSION,
-        scene: scene.into(),
-        view: view.into(),
-        camera: (&l.camera).into(),
-        grid_vertices: stats.grid_vertices as u64,
-        segmented_triangles: stats.segmented_triangles as u64,
-        valid_samples: l.valid_samples,
-        build_ms: stats.build_ms,
-        color_url: color_url(scene, view),
-        center_depth: center_depth(l),
-    }
-}
-
-/// Depth of the sample nearest the principal point, if valid.
-fn center_depth(l: &Loaded) -> Option<f64> {
-    use dmesh_engine::camera::Projection;
-    let (cx, cy) = match l.camera.projection {
-        Projection::Perspective { cx, cy, .. } | Projection::Orthographic { cx, cy, .. } => (cx, cy),
-    };
-    let clamp = |v: f64, n: u32| v.round().clamp(0.0, f64::from(n - 1)) as u32;
-    let z = l
-        .hierarchy
-        .depth((clamp(cx, l.camera.width), clamp(cy, l.camera.height)));
-    (z > 0.0).then_some(f64::from(z))
-}
+use crate::service::AppState;
 
 fn number(name: &str, text: &str) -> Result<f64, AppError> {
     text.trim()
@@ -203,14 +171,6 @@ pub async fn list_views(
     )
 }
 
-/// Loads a view off the async workers.
-pub async fn load(state: &Arc<AppState>, scene: &str, view: &str) -> Result<Arc<Loaded>, AppError> {
-    validate_id("scene", scene)?;
-    validate_id("view", view)?;
-    let (st, sc, vw) = (state.clone(), scene.to_string(), view.to_string());
-    tokio::task::spawn_blocking(move || st.load(&sc, &vw)).await?
-}
-
 /// `GET /v1/scenes/{scene}/views/{view}`.
 pub async fn get_view(
     State(state): State<Arc<AppState>>,
@@ -229,12 +189,8 @@ pub async fn get_color(
 ) -> Result<Response, AppError> {
     let loaded = load(&state, &scene, &view).await?;
     let etag = loaded.etag.clone();
-    if headers
-        .get(header::IF_NONE_MATCH)
-        .and_then(|v| v.to_str().ok())
-        .is_some_and(|v| v.split(',').any(|t| t.trim() == etag))
-    {
-        return Ok((StatusCode::NOT_MODIFIED, [(header::ETAG, etag)]).into_response());
+    if none_match(&headers, &etag) {
+        return Ok(not_modified(etag));
     }
     Ok((
         [

@@ -13,6 +13,8 @@ use axum::response::{IntoResponse, Response};
 use axum::routing::get;
 use axum::Router;
 
+use super::conditional::none_match;
+
 /// Path under `/`, media type, bytes.
 const FILES: &[(&str, &str, &[u8])] = &[
     (
@@ -103,11 +105,7 @@ fn serve(index: usize, headers: &HeaderMap) -> Response {
         (header::CACHE_CONTROL, HeaderValue::from_static("no-cache")),
         (header::X_CONTENT_TYPE_OPTIONS, HeaderValue::from_static("nosniff")),
     ];
-    let matches = headers
-        .get(header::IF_NONE_MATCH)
-        .and_then(|v| v.to_str().ok())
-        .is_some_and(|v| v.split(',').any(|t| t.trim() == etag || t.trim() == "*"));
-    if matches {
+    if none_match(headers, etag) || none_match(headers, "*") {
         return (StatusCode::NOT_MODIFIED, common).into_response();
     }
     (

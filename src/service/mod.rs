@@ -7,6 +7,9 @@
 //!
 //! - [`state`]: the store, the cache, revalidation, changes;
 //! - [`ingest`]: decode, mask, check, build and store one view;
+//! - [`render`]: strip and render requests answered (selection, loading,
+//!   budget shares, extraction, encoding, timings);
+//! - [`views`]: a view loaded, its summary and colour URL;
 //! - [`metrics`]: Prometheus counters and the extraction-rate estimate;
 //! - [`stream_tag`]: the self-describing ETags of compact responses;
 //! - [`error`]: the one error type.
@@ -14,8 +17,10 @@
 pub mod error;
 pub mod ingest;
 pub mod metrics;
+pub mod render;
 pub mod state;
 pub mod stream_tag;
+pub mod views;
 
 pub use error::AppError;
 pub use state::{AppState, Loaded, Settings, DEFAULT_REVALIDATE};

@@ -34,21 +34,21 @@ impl StreamTag {
     /// The tag of the answer to `ask` from the view stored as `view_etag`;
     /// `None` for a time budget.
     pub fn new(view_etag: &str, ask: &Ask) -> Option<Self> {
-        let lod = match ask.lod {
+        let lod = match ask.wire_lod() {
             WireLod::Epsilon(e) => format!("e{:x}", e.to_bits()),
             WireLod::Tau(t) => format!("t{:x}", t.to_bits()),
             WireLod::MaxTriangles(n) => format!("n{n}"),
             WireLod::BudgetMs(_) => return None,
         };
-        let camera = ask.camera.map_or(String::new(), |c| {
-            let wire: dmesh_proto::Camera = (&c).into();
+        let camera = ask.camera().map_or(String::new(), |c| {
+            let wire: dmesh_proto::Camera = c.into();
             let bytes = dmesh_proto::to_bincode(&wire).unwrap_or_default();
             format!("c{:016x}", fnv1a(&bytes))
         });
         Some(Self {
             view: view_etag.trim_matches('"').to_string(),
             mesh: format!("{lod}{camera}"),
-            planes: ask.bits,
+            planes: ask.bits(),
         })
     }
 

@@ -30,18 +30,22 @@ pub struct DetailArgs {
 }
 
 impl DetailArgs {
-    pub fn detail(&self) -> Detail {
+    /// The level of detail asked for (`Lod::exactly_one`), tau 1 when none.
+    pub fn detail(&self) -> anyhow::Result<Detail> {
         use dmesh_proto::Lod;
-        // clap refuses two of them; with none, tau 1 pixel.
-        let lod = (self.epsilon.map(Lod::Epsilon))
-            .or(self.max_triangles.map(Lod::MaxTriangles))
-            .or(self.budget_ms.map(Lod::BudgetMs))
-            .unwrap_or(Lod::Tau(self.tau.unwrap_or(1.0)));
-        Detail {
+        // With none, tau 1 pixel; two are refused (clap refuses them first).
+        let none =
+            self.epsilon.is_none() && self.tau.is_none() && self.max_triangles.is_none() && self.budget_ms.is_none();
+        let lod = if none {
+            Lod::Tau(1.0)
+        } else {
+            Lod::exactly_one(self.epsilon, self.tau, self.max_triangles, self.budget_ms).map_err(anyhow::Error::msg)?
+        };
+        Ok(Detail {
             lod,
             bits: self.bits,
             max_views: self.max_views,
             wire: self.wire,
-        }
+        })
     }
 }

@@ -50,7 +50,7 @@ pub fn run(args: LoadtestArgs, rt: &tokio::runtime::Runtime) -> Result<()> {
         allow_remote,
         json,
     } = args;
-    let detail = detail.detail();
+    let detail = detail.detail()?;
     dmesh_client::loadtest::check_target(&server, allow_remote)?;
     let stop = match (requests, duration) {
         (Some(n), _) => dmesh_client::loadtest::Stop::Requests(n),

@@ -76,7 +76,7 @@ pub fn run(args: RenderArgs, rt: &tokio::runtime::Runtime) -> Result<()> {
         fill_gaps,
         ..Default::default()
     };
-    let b = rt.block_on(render(&server, &scene, &camera, detail.detail(), &options, &cache))?;
+    let b = rt.block_on(render(&server, &scene, &camera, detail.detail()?, &options, &cache))?;
     std::fs::write(&out, png(b.width, b.height, &b.rgb)?).with_context(|| format!("cannot write {}", out.display()))?;
     if let Some(p) = depth_out {
         std::fs::write(&p, dmesh_engine::image::encode_pfm(b.width, b.height, &b.depth))?;

@@ -188,7 +188,7 @@ pub fn sweep(case: &Case, options: &Options) -> anyhow::Result<Vec<Row>> {
             let budget = Ask::new(WireLod::MaxTriangles(setting as u32), None, None)?;
             let attainable = |sel: &Vec<dmesh_engine::scene::Weighted>| {
                 sel.iter().all(|w| {
-                    matches!(budget.share(w.weight).lod,
+                    matches!(budget.share(w.weight).wire_lod(),
                         WireLod::MaxTriangles(m) if u64::from(m) >= hierarchies[w.index].coarsest_triangles())
                 })
             };

@@ -122,7 +122,7 @@ impl Mesher for Rqt {
 impl Rqt {
     /// The mesh through the triangle budget of `max` triangles, for the
     /// reference camera.
-    pub fn budgeted(&self, depth: &DepthImage, camera: &Camera, max: u64) -> Result<TriMesh> {
+    pub fn budgeted(&self, depth: &DepthImage, camera: &Camera, max: u32) -> Result<TriMesh> {
         let hierarchy = self.hierarchy(depth, camera)?;
         self.mesh_of(
             &hierarchy,

@@ -295,6 +295,7 @@ impl DepthMesh {
         let start = Instant::now();
         let finest = match (outlines, lod) {
             (_, Lod::Triangles { max, view }) => {
+                let max = u64::from(max);
                 // Resolved to `Epsilon` or `Tau` with the refinement it counted.
                 let (lod, finest) = match outlines {
                     Outlines::Dropped => (self.lod_for_triangles(max, view)?, None),

@@ -22,8 +22,8 @@ pub enum Lod<'a> {
     /// hierarchy resolves it to the finest `Epsilon` or `Tau` whose mesh
     /// provably fits ([`crate::mesh::DepthMesh::lod_for_triangles`]).
     Triangles {
-        /// Most triangles.
-        max: u64,
+        /// Most triangles (`u32`, as on the wire).
+        max: u32,
         /// The requesting camera, if any.
         view: Option<&'a Camera>,
     },

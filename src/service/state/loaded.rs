@@ -1,0 +1,99 @@
+//! A view ready to serve: its hierarchy, the colour image, and the strong
+//! ETag that names its content and store version.
+
+use std::hash::{Hash, Hasher};
+
+use crate::store::{StoredView, Version};
+use dmesh_engine::camera::Camera;
+use dmesh_engine::image::{sniff, DepthImage, Format};
+use dmesh_engine::mesh::DepthMesh;
+
+use super::super::error::AppError;
+
+/// A view ready to serve: its hierarchy and what responses need.
+#[derive(Debug)]
+pub struct Loaded {
+    /// The hierarchy.
+    pub hierarchy: DepthMesh,
+    /// The reference camera.
+    pub camera: Camera,
+    /// The colour image as uploaded.
+    pub color: Vec<u8>,
+    /// `image/png` or `image/jpeg`.
+    pub color_type: &'static str,
+    /// The store's version of the view this was built from.
+    pub version: Version,
+    /// Strong validator of the stored view (depth, camera, segmentation,
+    /// colour) and its version.
+    pub etag: String,
+    /// Hash of the stored content.
+    pub(super) content: u64,
+    /// Valid depth samples.
+    pub valid_samples: u64,
+    /// The integer grid of the uploaded depth, for lossless residual coding.
+    pub raw_grid: Option<dmesh_proto::RawGrid>,
+    /// When this frame became visible, for a live frame (`PUT ...?live=true`)
+    /// this process received; `None` otherwise.
+    pub live_since: Option<std::time::SystemTime>,
+}
+
+impl Loaded {
+    /// Milliseconds since this live frame became visible (`None`: not a
+    /// live frame of this process).
+    pub fn live_age_ms(&self) -> Option<f64> {
+        let since = self.live_since?;
+        Some(since.elapsed().map_or(0.0, |d| d.as_secs_f64() * 1e3))
+    }
+}
+
+impl Loaded {
+    /// Bytes this entry keeps in memory, at most: its size must not change
+    /// while it is cached (the hierarchy computes its outlines on first
+    /// use), so the hierarchy's bound is charged.
+    pub fn bytes(&self) -> usize {
+        self.hierarchy.heap_bytes_bound() + self.color.len()
+    }
+
+    /// Builds from a stored view at `version`.
+    pub fn from_stored(v: &StoredView, version: Version) -> Result<Self, AppError> {
+        let camera = Camera::try_from(&v.camera)?;
+        let depth = DepthImage::from_z(camera.width, camera.height, v.z.clone())?;
+        let hierarchy = DepthMesh::build(&depth, &camera, &v.segmentation.to_engine())?;
+        // Uploads are checked to be PNG or JPEG by their magic bytes.
+        let color_type = match sniff(&v.color) {
+            Some(Format::Png) => "image/png",
+            _ => "image/jpeg",
+        };
+        let mut h = std::collections::hash_map::DefaultHasher::new();
+        for z in &v.z {
+            z.to_bits().hash(&mut h);
+        }
+        v.color.hash(&mut h);
+        serde_json::to_string(&v.camera).unwrap_or_default().hash(&mut h);
+        serde_json::to_string(&v.segmentation).unwrap_or_default().hash(&mut h);
+        serde_json::to_string(&v.raw_grid).unwrap_or_default().hash(&mut h);
+        Ok(Self {
+            version: Version::new(),
+            content: h.finish(),
+            valid_samples: depth.valid_count() as u64,
+            raw_grid: v.raw_grid,
+            live_since: None,
+            hierarchy,
+            camera,
+            color: v.color.clone(),
+            color_type,
+            etag: String::new(),
+        }
+        .at_version(version))
+    }
+
+    /// The same view as stored at `version`: its ETag names both the
+    /// content and the version.
+    pub fn at_version(mut self, version: Version) -> Self {
+        let mut h = std::collections::hash_map::DefaultHasher::new();
+        version.hash(&mut h);
+        self.etag = format!("\"{:016x}.{:08x}\"", self.content, h.finish() as u32);
+        self.version = version;
+        self
+    }
+}
