@@ -12,7 +12,8 @@ mod server_support;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
-use dmesh::store::{FileStore, SegmentationSpec, StoreError, StoredView, ViewStore};
+use dmesh::store::{FileStore, StoreError, StoredView, ViewStore};
+use dmesh_engine::mesh::SegmentationSpec;
 use server_support::s3::{Kind, S3Server};
 
 /// A view whose depth, colour and camera all carry `seed`, so a mix of two
@@ -34,7 +35,7 @@ fn view(seed: u32) -> StoredView {
         segmentation: SegmentationSpec::default(),
         z: vec![1.0 + seed as f32; n],
         raw_grid: None,
-        color: seed.to_le_bytes().repeat(1000),
+        color: seed.to_le_bytes().repeat(1000).into(),
     }
 }
 

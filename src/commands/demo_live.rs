@@ -14,7 +14,8 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result};
 use dmesh::http::AppState;
 use dmesh::service::Loaded;
-use dmesh::store::{SegmentationSpec, StoredView};
+use dmesh::store::StoredView;
+use dmesh_engine::mesh::SegmentationSpec;
 
 /// The live scene's id.
 pub const SCENE: &str = "demo-live";
@@ -93,7 +94,7 @@ impl Frames {
                 segmentation: SegmentationSpec::default(),
                 z: view.depth.z,
                 raw_grid: None,
-                color,
+                color: color.into(),
             });
         }
         let stored = &self.rendered[i];

@@ -69,7 +69,8 @@ pub struct ServeArgs {
 
 /// Stores the simulated demo scene's reference views as scene `demo`, unless present.
 fn ingest_demo(store: &dyn dmesh::store::ViewStore) -> Result<()> {
-    use dmesh::store::{SegmentationSpec, StoredView};
+    use dmesh::store::StoredView;
+    use dmesh_engine::mesh::SegmentationSpec;
     let scene = dmesh_engine::sim::SceneSpec::demo();
     let existing = store.views("demo")?.unwrap_or_default();
     let views = scene.reference_views()?;
@@ -87,7 +88,7 @@ fn ingest_demo(store: &dyn dmesh::store::ViewStore) -> Result<()> {
             segmentation: SegmentationSpec::default(),
             z: v.depth.z.clone(),
             raw_grid: None,
-            color,
+            color: color.into(),
         };
         store.put("demo", &name, &stored)?;
     }

@@ -8,8 +8,9 @@ use axum::http::{header, HeaderMap, StatusCode};
 use axum::response::{IntoResponse, Response};
 use dmesh_proto::{SceneList, ViewList, PROTOCOL_VERSION};
 
-use crate::store::{validate_id, SegmentMethod, SegmentationSpec};
+use crate::store::validate_id;
 use dmesh_engine::image::DepthOptions;
+use dmesh_engine::mesh::{SegmentMethod, SegmentationSpec};
 
 use super::conditional::{none_match, not_modified};
 use super::negotiate::encode;
@@ -114,13 +115,11 @@ pub async fn put_view(
             .ok_or_else(|| AppError::BadRequest("field camera (JSON) is missing".into()))?,
         depth: u
             .depth
-            .ok_or_else(|| AppError::BadRequest("field depth (EXR, PNG, PFM or PGM) is missing".into()))?
-            .to_vec(),
+            .ok_or_else(|| AppError::BadRequest("field depth (EXR, PNG, PFM or PGM) is missing".into()))?,
         color: u
             .color
-            .ok_or_else(|| AppError::BadRequest("field color (PNG or JPEG) is missing".into()))?
-            .to_vec(),
-        mask: u.mask.map(|m| m.to_vec()),
+            .ok_or_else(|| AppError::BadRequest("field color (PNG or JPEG) is missing".into()))?,
+        mask: u.mask,
         options: u.options,
         segmentation: u.segmentation,
     };

@@ -2,13 +2,18 @@
 //! against the depth's size: `dmesh_engine::image::decode_view`, which
 //! `dmesh mesh` uses too), built, and stored with its hierarchy cached. A
 //! view that cannot be meshed is not kept; a failed store leaves the old
-//! view (DESIGN.md, "Store").
+//! view (DESIGN.md, "Store"). Nothing is copied or converted twice: the
+//! images stay the buffers the upload arrived in, the decoded depth is
+//! built and then moved into the stored view, and the camera is parsed once.
 
 use std::sync::Arc;
 
-use crate::store::{SegmentationSpec, StoredView};
+use bytes::Bytes;
+
+use crate::store::StoredView;
 use dmesh_engine::camera::{camera_from_json, Camera};
 use dmesh_engine::image::{decode_view, DepthKind, DepthOptions, ViewFiles};
+use dmesh_engine::mesh::{DepthMesh, SegmentationSpec};
 
 use super::error::AppError;
 use super::state::{AppState, Loaded};
@@ -19,11 +24,11 @@ pub struct Upload {
     /// Camera JSON.
     pub camera: String,
     /// Depth image bytes (EXR, PNG, PFM or PGM).
-    pub depth: Vec<u8>,
-    /// Colour image bytes (PNG or JPEG).
-    pub color: Vec<u8>,
+    pub depth: Bytes,
+    /// Colour image bytes (PNG or JPEG), kept as they came.
+    pub color: Bytes,
     /// Mask bytes, if any.
-    pub mask: Option<Vec<u8>>,
+    pub mask: Option<Bytes>,
     /// How to read the depth.
     pub options: DepthOptions,
     /// How to segment.
@@ -34,8 +39,9 @@ pub struct Upload {
 /// call off the async workers); a `live` frame is made durable later
 /// ([`AppState::persist_live`]). Returns the cached view.
 pub fn ingest(state: &AppState, scene: &str, view: &str, upload: Upload, live: bool) -> Result<Arc<Loaded>, AppError> {
+    // Every threshold, the unused ones too (the build checks the one used
+    // again, which costs nothing).
     upload.segmentation.validate()?;
-    upload.segmentation.to_engine().validate()?;
     let camera: Camera = camera_from_json(&upload.camera)?;
     let files = ViewFiles {
         depth: &upload.depth,
@@ -43,6 +49,9 @@ pub fn ingest(state: &AppState, scene: &str, view: &str, upload: Upload, live: b
         color: Some(&upload.color),
     };
     let depth = decode_view(files, &upload.options, &camera, &state.settings.limits)?.depth;
+    // Build before storing: a view that cannot be meshed is not kept.
+    let hierarchy = DepthMesh::build(&depth, &camera, &upload.segmentation.to_engine())?;
+    let valid_samples = depth.valid_count() as u64;
     let stored = StoredView {
         camera: (&camera).into(),
         segmentation: upload.segmentation,
@@ -54,7 +63,6 @@ pub fn ingest(state: &AppState, scene: &str, view: &str, upload: Upload, live: b
         }),
         color: upload.color,
     };
-    // Build before storing: a view that cannot be meshed is not kept.
-    let loaded = Loaded::from_stored(&stored, String::new())?;
+    let loaded = Loaded::from_built(hierarchy, camera, valid_samples, &stored, String::new());
     state.store_view(scene, view, &stored, loaded, live)
 }

@@ -8,7 +8,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{SegmentationSpec, StoreError, StoredView};
+use super::{StoreError, StoredView};
+use dmesh_engine::mesh::SegmentationSpec;
 
 /// The first four bytes of every `.dmv`.
 pub const MAGIC: &[u8; 4] = b"DMV1";
@@ -115,7 +116,7 @@ pub fn decode(name: &str, bytes: &[u8]) -> Result<StoredView, StoreError> {
         .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
         .collect();
     let n = r.len().ok_or_else(truncated)?;
-    let color = r.take(n).ok_or_else(truncated)?.to_vec();
+    let color = bytes::Bytes::copy_from_slice(r.take(n).ok_or_else(truncated)?);
     if r.at != bytes.len() {
         return Err(damaged(name, "trailing bytes"));
     }

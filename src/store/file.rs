@@ -246,8 +246,8 @@ impl ViewStore for FileStore {
 
 #[cfg(test)]
 mod tests {
-    use super::super::SegmentationSpec;
     use super::*;
+    use dmesh_engine::mesh::SegmentationSpec;
 
     fn view(seed: f32) -> StoredView {
         StoredView {
@@ -268,7 +268,7 @@ mod tests {
                 scale: 0.001,
                 offset: 0.5,
             }),
-            color: vec![1, 2, 3],
+            color: vec![1, 2, 3].into(),
         }
     }
 

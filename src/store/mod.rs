@@ -19,87 +19,7 @@ pub use file::FileStore;
 pub use ids::validate_id;
 pub use object::ObjectViewStore;
 
-use serde::{Deserialize, Serialize};
-
-/// Segmentation settings as stored and sent.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SegmentationSpec {
-    /// `orthogonality`, `disparity`, `connectedness` or `none`.
-    pub method: SegmentMethod,
-    /// Orthogonality angle in degrees.
-    pub omega: f64,
-    /// Disparity threshold.
-    pub sigma: f64,
-    /// Connectedness threshold.
-    pub kappa: f64,
-    /// Depth-range gate.
-    pub lambda: f64,
-}
-
-/// The rubber-sheet test of a view.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum SegmentMethod {
-    /// DMesh Eq. 10.
-    Orthogonality,
-    /// DMesh Eq. 9.
-    Disparity,
-    /// DMesh Eq. 6.
-    Connectedness,
-    /// Invalid samples only.
-    None,
-}
-
-use dmesh_engine::mesh::segmentation;
-
-impl Default for SegmentationSpec {
-    fn default() -> Self {
-        Self {
-            method: SegmentMethod::Orthogonality,
-            omega: segmentation::OMEGA_DEG,
-            sigma: segmentation::SIGMA,
-            kappa: segmentation::KAPPA,
-            lambda: segmentation::LAMBDA,
-        }
-    }
-}
-
-impl SegmentationSpec {
-    /// Checks every threshold, the unused ones too (an upload that sends
-    /// `omega=200` with `segment=none` is as wrong as one that uses it).
-    pub fn validate(&self) -> dmesh_engine::Result<()> {
-        use dmesh_engine::mesh::Method;
-        let all = [
-            Method::Orthogonality { omega_deg: self.omega },
-            Method::Disparity { sigma: self.sigma },
-            Method::Connectedness { kappa: self.kappa },
-        ];
-        for method in all {
-            dmesh_engine::mesh::Segmentation {
-                method,
-                lambda: self.lambda,
-            }
-            .validate()?;
-        }
-        Ok(())
-    }
-
-    /// The engine's form.
-    pub fn to_engine(&self) -> dmesh_engine::mesh::Segmentation {
-        use dmesh_engine::mesh::Method;
-        let method = match self.method {
-            SegmentMethod::Orthogonality => Method::Orthogonality { omega_deg: self.omega },
-            SegmentMethod::Disparity => Method::Disparity { sigma: self.sigma },
-            SegmentMethod::Connectedness => Method::Connectedness { kappa: self.kappa },
-            SegmentMethod::None => Method::None,
-        };
-        dmesh_engine::mesh::Segmentation {
-            method,
-            lambda: self.lambda,
-        }
-    }
-}
+use dmesh_engine::mesh::SegmentationSpec;
 
 /// Everything stored for one view.
 #[derive(Clone, Debug, PartialEq)]
@@ -114,8 +34,9 @@ pub struct StoredView {
     /// `z` (not range or disparity): residual coding uses it to stay lossless
     /// on integer input.
     pub raw_grid: Option<dmesh_proto::RawGrid>,
-    /// The colour image as uploaded (PNG or JPEG bytes).
-    pub color: Vec<u8>,
+    /// The colour image as uploaded (PNG or JPEG bytes), shared with the
+    /// upload and the cache rather than copied.
+    pub color: bytes::Bytes,
 }
 
 /// Store failures: bad ids, or the storage itself.
@@ -209,38 +130,5 @@ pub trait ViewStore: Send + Sync {
     /// [`ViewStore::version`] before serving it.
     fn shared(&self) -> bool {
         false
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn every_threshold_is_checked_whatever_the_method() {
-        assert!(SegmentationSpec::default().validate().is_ok());
-        for bad in [
-            SegmentationSpec {
-                method: SegmentMethod::None,
-                omega: 200.0,
-                ..Default::default()
-            },
-            SegmentationSpec {
-                method: SegmentMethod::Orthogonality,
-                sigma: -1.0,
-                ..Default::default()
-            },
-            SegmentationSpec {
-                method: SegmentMethod::Disparity,
-                kappa: f64::NAN,
-                ..Default::default()
-            },
-            SegmentationSpec {
-                lambda: -0.5,
-                ..Default::default()
-            },
-        ] {
-            assert!(bad.validate().is_err(), "{bad:?}");
-        }
     }
 }

@@ -40,6 +40,7 @@ pub mod normals;
 mod outline;
 pub mod reach;
 pub mod segmentation;
+pub mod segmentation_spec;
 mod select;
 pub mod strips;
 
@@ -49,4 +50,5 @@ pub use hierarchy::{BuildStats, DepthMesh, Stages, Threads};
 pub use lod::Lod;
 pub use reach::{Reach, MAX_CULLED};
 pub use segmentation::{Method, Segmentation};
+pub use segmentation_spec::{SegmentMethod, SegmentationSpec};
 pub use strips::{decode_strips, StripOrder, RESTART};

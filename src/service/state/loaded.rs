@@ -17,8 +17,8 @@ pub struct Loaded {
     pub hierarchy: DepthMesh,
     /// The reference camera.
     pub camera: Camera,
-    /// The colour image as uploaded.
-    pub color: Vec<u8>,
+    /// The colour image as uploaded, shared with the stored view.
+    pub color: bytes::Bytes,
     /// `image/png` or `image/jpeg`.
     pub color_type: &'static str,
     /// The store's version of the view this was built from.
@@ -54,11 +54,31 @@ impl Loaded {
         self.hierarchy.heap_bytes_bound() + self.color.len()
     }
 
-    /// Builds from a stored view at `version`.
+    /// Builds from a stored view at `version` (a store read, or a frame
+    /// kept for replay).
     pub fn from_stored(v: &StoredView, version: Version) -> Result<Self, AppError> {
         let camera = Camera::try_from(&v.camera)?;
         let depth = DepthImage::from_z(camera.width, camera.height, v.z.clone())?;
         let hierarchy = DepthMesh::build(&depth, &camera, &v.segmentation.to_engine())?;
+        Ok(Self::from_built(
+            hierarchy,
+            camera,
+            depth.valid_count() as u64,
+            v,
+            version,
+        ))
+    }
+
+    /// The view `v` (what the store keeps of it: hashed for the ETag, its
+    /// colour shared, not copied) with its `hierarchy`, built for `camera`
+    /// from `valid_samples` valid samples, at `version`.
+    pub fn from_built(
+        hierarchy: DepthMesh,
+        camera: Camera,
+        valid_samples: u64,
+        v: &StoredView,
+        version: Version,
+    ) -> Self {
         // Uploads are checked to be PNG or JPEG by their magic bytes.
         let color_type = match sniff(&v.color) {
             Some(Format::Png) => "image/png",
@@ -68,14 +88,14 @@ impl Loaded {
         for z in &v.z {
             z.to_bits().hash(&mut h);
         }
-        v.color.hash(&mut h);
+        v.color[..].hash(&mut h);
         serde_json::to_string(&v.camera).unwrap_or_default().hash(&mut h);
         serde_json::to_string(&v.segmentation).unwrap_or_default().hash(&mut h);
         serde_json::to_string(&v.raw_grid).unwrap_or_default().hash(&mut h);
-        Ok(Self {
+        Self {
             version: Version::new(),
             content: h.finish(),
-            valid_samples: depth.valid_count() as u64,
+            valid_samples,
             raw_grid: v.raw_grid,
             live_since: None,
             hierarchy,
@@ -84,7 +104,7 @@ impl Loaded {
             color_type,
             etag: String::new(),
         }
-        .at_version(version))
+        .at_version(version)
     }
 
     /// The same view as stored at `version`: its ETag names both the
