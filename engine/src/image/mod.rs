@@ -216,6 +216,19 @@ pub enum Format {
     Jpeg,
 }
 
+impl Format {
+    /// Its media type, for a `Content-Type` header.
+    pub fn media_type(self) -> &'static str {
+        match self {
+            Self::Png => "image/png",
+            Self::Exr => "image/x-exr",
+            Self::Pfm => "image/x-portable-floatmap",
+            Self::Pgm => "image/x-portable-graymap",
+            Self::Jpeg => "image/jpeg",
+        }
+    }
+}
+
 /// Recognises the container from its magic bytes.
 pub fn sniff(bytes: &[u8]) -> Option<Format> {
     if bytes.starts_with(b"\x89PNG\r\n\x1a\n") {

@@ -19,7 +19,8 @@ pub struct Loaded {
     pub camera: Camera,
     /// The colour image as uploaded, shared with the stored view.
     pub color: bytes::Bytes,
-    /// `image/png` or `image/jpeg`.
+    /// The colour's media type, from its magic bytes (`image/png` or
+    /// `image/jpeg` for anything uploaded).
     pub color_type: &'static str,
     /// The store's version of the view this was built from.
     pub version: Version,
@@ -79,11 +80,9 @@ impl Loaded {
         v: &StoredView,
         version: Version,
     ) -> Self {
-        // Uploads are checked to be PNG or JPEG by their magic bytes.
-        let color_type = match sniff(&v.color) {
-            Some(Format::Png) => "image/png",
-            _ => "image/jpeg",
-        };
+        // Uploads are checked to be PNG or JPEG by their magic bytes; what a
+        // store holds is named by its own, never assumed.
+        let color_type = sniff(&v.color).map_or("application/octet-stream", Format::media_type);
         let mut h = std::collections::hash_map::DefaultHasher::new();
         for z in &v.z {
             z.to_bits().hash(&mut h);
@@ -115,5 +114,45 @@ impl Loaded {
         self.etag = format!("\"{:016x}.{:08x}\"", self.content, h.finish() as u32);
         self.version = version;
         self
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use dmesh_engine::mesh::SegmentationSpec;
+
+    fn stored(color: &[u8]) -> StoredView {
+        StoredView {
+            camera: dmesh_proto::Camera {
+                width: 2,
+                height: 2,
+                projection: dmesh_proto::Projection::Perspective {
+                    fx: 2.0,
+                    fy: 2.0,
+                    cx: 0.5,
+                    cy: 0.5,
+                },
+                pose: dmesh_proto::Pose::default(),
+            },
+            segmentation: SegmentationSpec::default(),
+            z: vec![1.0, 1.0, 1.0, 1.0],
+            raw_grid: None,
+            color: color.to_vec().into(),
+        }
+    }
+
+    #[test]
+    fn the_colour_is_named_by_its_own_bytes_never_assumed() {
+        let cases: [(&[u8], &str); 4] = [
+            (b"\x89PNG\r\n\x1a\nrest", "image/png"),
+            (&[0xff, 0xd8, 0xff, 0xe0], "image/jpeg"),
+            (b"GIF89a", "application/octet-stream"),
+            (b"", "application/octet-stream"),
+        ];
+        for (bytes, want) in cases {
+            let loaded = Loaded::from_stored(&stored(bytes), "1".into()).unwrap();
+            assert_eq!(loaded.color_type, want, "{bytes:?}");
+        }
     }
 }
