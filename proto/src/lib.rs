@@ -11,6 +11,7 @@
 //! - [`view`]: the summary of a stored reference view;
 //! - [`render`]: a novel-view request and its per-view answer;
 //! - [`error`]: the one error body;
+//! - [`diamond`]: the hierarchy's geometry, which edge each grid vertex bisects;
 //! - [`compact`]: protocol 6, the compact mesh stream (`application/vnd.dmesh.mesh`).
 //!
 //! These types check shape only; the engine validates values. Binary bodies
@@ -20,6 +21,7 @@
 
 pub mod camera;
 pub mod compact;
+pub mod diamond;
 pub mod error;
 pub mod render;
 pub mod residual;

@@ -111,32 +111,14 @@ pub enum ResidualError {
 }
 
 /// The endpoints of the edge that vertex `(i, j)` bisects in a grid of root
-/// quads of side `root_side` (a power of two), or `None` for a root corner.
-///
-/// With `t` the largest power of two dividing both coordinates (at most
-/// `root_side / 2`), and `h = t`: if `i / h` and `j / h` are both odd the
-/// vertex is a square's centre and bisects the diagonal through the corner
-/// whose coordinates are both odd multiples of `2h`; otherwise it is the
-/// midpoint of the edge of length `2h` along the axis of its odd coordinate.
-pub fn parent_edge((i, j): (u32, u32), root_side: u32) -> Option<((u32, u32), (u32, u32))> {
-    let s = root_side.max(2);
-    if i % s == 0 && j % s == 0 {
-        return None;
-    }
-    let cap = s.trailing_zeros();
-    let tz = |c: u32| if c == 0 { cap } else { c.trailing_zeros().min(cap) };
-    let (tx, ty) = (tz(i), tz(j));
-    let h = 1u32 << tx.min(ty);
-    Some(match tx.cmp(&ty) {
-        std::cmp::Ordering::Equal => {
-            // Of c - h and c + h, the odd multiple of 2h.
-            let odd = |c: u32| if ((c - h) / (2 * h)) % 2 == 1 { c - h } else { c + h };
-            let (px, py) = (odd(i), odd(j));
-            ((px, py), (2 * i - px, 2 * j - py))
-        }
-        std::cmp::Ordering::Less => ((i - h, j), (i + h, j)),
-        std::cmp::Ordering::Greater => ((i, j - h), (i, j + h)),
-    })
+/// quads of side `root_side` (a power of two; below 2 it is taken as 2), or
+/// `None` for a root corner: the hypotenuse of its diamond
+/// ([`crate::diamond`]), whose ends always lie on the grid.
+pub fn parent_edge(v: (u32, u32), root_side: u32) -> Option<((u32, u32), (u32, u32))> {
+    let d = crate::diamond::diamond(v, root_side.max(2))?;
+    // A hypotenuse's ends are grid vertices: never negative.
+    let p = |(x, y): (i64, i64)| (x as u32, y as u32);
+    Some((p(d.a), p(d.b)))
 }
 
 /// For each vertex, the indices of its parent edge's endpoints when both

@@ -21,27 +21,9 @@
 //! legs of both halves. The finest triangles (two per unit cell) have no split
 //! vertex; a cell's diagonal runs through its corner with both coordinates odd.
 
-/// A grid vertex `(x, y)`: column and row.
-pub type Pt = (u32, u32);
-
-/// The kind of a grid vertex in the hierarchy.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Kind {
-    /// A corner of a root quad: in every mesh.
-    Root,
-    /// Centre of a square of side `2 * h` (bisects a diagonal).
-    Centre {
-        /// Half the square's side.
-        h: u32,
-    },
-    /// Midpoint of an axis-aligned edge of length `2 * h`.
-    Edge {
-        /// Half the edge's length.
-        h: u32,
-        /// True when the edge is horizontal (runs along x).
-        horizontal: bool,
-    },
-}
+// The geometry of one diamond is the wire's (`dmesh_proto::diamond`), stated
+// once for the engine and for clients that decode without it.
+pub use dmesh_proto::diamond::{Diamond, Kind, Pt};
 
 /// Layout of the padded grid over a `width x height` image.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -131,77 +113,24 @@ impl Grid {
     }
 
     /// Classifies a vertex.
-    pub fn kind(&self, (x, y): Pt) -> Kind {
-        let s = self.side();
-        if x % s == 0 && y % s == 0 {
-            return Kind::Root;
-        }
-        // Zero is a multiple of every power of two: cap at k.
-        let tz = |c: u32| {
-            if c == 0 {
-                self.k
-            } else {
-                c.trailing_zeros().min(self.k)
-            }
-        };
-        let (tx, ty) = (tz(x), tz(y));
-        let g = tx.min(ty);
-        let h = 1 << g;
-        if tx == ty {
-            Kind::Centre { h }
-        } else {
-            Kind::Edge { h, horizontal: tx < ty }
-        }
+    #[inline]
+    pub fn kind(&self, p: Pt) -> Kind {
+        dmesh_proto::diamond::kind(p, self.side())
     }
 
     /// Coarse-to-fine level: 0 for root corners, then centres and edge
     /// midpoints alternate from the root side down to the unit cells.
+    #[inline]
     pub fn level(&self, p: Pt) -> u32 {
-        match self.kind(p) {
-            Kind::Root => 0,
-            Kind::Centre { h } => 2 * (self.k - 1 - h.trailing_zeros()) + 1,
-            Kind::Edge { h, .. } => 2 * (self.k - 1 - h.trailing_zeros()) + 2,
-        }
+        dmesh_proto::diamond::level(p, self.side())
     }
 
     /// The hypotenuse endpoints `(a, b)` and the apexes of halves 0 and 1 of
     /// the diamond split by `v` (an apex outside the grid means that half does
     /// not exist). `None` for root corners.
+    #[inline]
     pub fn diamond(&self, v: Pt) -> Option<Diamond> {
-        let (x, y) = (i64::from(v.0), i64::from(v.1));
-        let d = match self.kind(v) {
-            Kind::Root => return None,
-            Kind::Edge { h, horizontal: true } => {
-                let h = i64::from(h);
-                Diamond {
-                    a: (x - h, y),
-                    b: (x + h, y),
-                    apex: [(x, y - h), (x, y + h)],
-                }
-            }
-            Kind::Edge { h, horizontal: false } => {
-                let h = i64::from(h);
-                Diamond {
-                    a: (x, y - h),
-                    b: (x, y + h),
-                    apex: [(x - h, y), (x + h, y)],
-                }
-            }
-            Kind::Centre { h } => {
-                let h = i64::from(h);
-                let (px, py) = (odd_corner(x, h), odd_corner(y, h));
-                let (qx, qy) = (2 * x - px, 2 * y - py);
-                // Apexes are the other two corners; half 0 has the smaller x.
-                let (c1, c2) = ((px, qy), (qx, py));
-                let apex = if c1.0 < c2.0 { [c1, c2] } else { [c2, c1] };
-                Diamond {
-                    a: (px, py),
-                    b: (qx, qy),
-                    apex,
-                }
-            }
-        };
-        Some(d)
+        dmesh_proto::diamond::diamond(v, self.side())
     }
 
     /// The unit cell with min corner `c`: its diagonal endpoints and the apexes
@@ -219,27 +148,6 @@ impl Grid {
             apex,
         }
     }
-}
-
-/// Of the two corners `c - h` and `c + h`, the one that is an odd multiple of `2h`.
-fn odd_corner(c: i64, h: i64) -> i64 {
-    if ((c - h) / (2 * h)) % 2 == 1 {
-        c - h
-    } else {
-        c + h
-    }
-}
-
-/// A diamond: hypotenuse `a-b` and the apexes of its two halves, in signed
-/// coordinates so that halves outside the grid can be represented.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Diamond {
-    /// One hypotenuse endpoint.
-    pub a: (i64, i64),
-    /// The other hypotenuse endpoint.
-    pub b: (i64, i64),
-    /// Apexes of halves 0 and 1.
-    pub apex: [(i64, i64); 2],
 }
 
 /// Which half of the diamond split by `m` has apex `apex`.

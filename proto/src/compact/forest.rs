@@ -15,12 +15,10 @@
 //! and the next step is marked when the walk splits that vertex.) The encoder and the decoder run this
 //! same walk, so whatever it does not ask for costs no bits.
 //!
-//! The geometry is the engine's (`engine/src/mesh/grid.rs`), restated here
-//! because a client decodes without the engine; a test in the engine checks
-//! the two agree vertex by vertex.
+//! The geometry of a diamond is [`crate::diamond`]'s, which the engine's grid
+//! calls too.
 
-/// A grid vertex `(x, y)`.
-pub type Pt = (u32, u32);
+pub use crate::diamond::{Diamond, Pt};
 
 /// Largest number of grid vertices a stream may describe (a 16,384 x 4,096
 /// image), so a decoder's work and memory are bounded by its header.
@@ -35,19 +33,6 @@ pub struct Forest {
     pub m: u32,
     /// Root quads down.
     pub n: u32,
-}
-
-/// The hypotenuse `a-b` a split vertex bisects and the apexes of the two
-/// triangles that share it (signed: an apex off the grid means that half
-/// does not exist).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Diamond {
-    /// One hypotenuse endpoint.
-    pub a: (i64, i64),
-    /// The other.
-    pub b: (i64, i64),
-    /// Apexes of halves 0 and 1 (half 0 has the smaller x, then y).
-    pub apex: [(i64, i64); 2],
 }
 
 /// What a triangle of the walk is.
@@ -173,28 +158,10 @@ impl Forest {
         self.side.trailing_zeros()
     }
 
-    /// Half the diamond size `h` of a split vertex and whether it is a centre
-    /// (both coordinates odd multiples of `h`) or, if not, whether its edge
-    /// runs along x; `None` for root corners.
-    fn kind(&self, (x, y): Pt) -> Option<(u32, bool, bool)> {
-        let s = self.side;
-        if x % s == 0 && y % s == 0 {
-            return None;
-        }
-        let k = self.k();
-        let tz = |c: u32| if c == 0 { k } else { c.trailing_zeros().min(k) };
-        let (tx, ty) = (tz(x), tz(y));
-        Some((1 << tx.min(ty), tx == ty, tx < ty))
-    }
-
     /// Coarse-to-fine level: 0 for root corners, then centres and edge
     /// midpoints alternate from the root side down (as the engine's grid).
     pub fn level(&self, p: Pt) -> u32 {
-        match self.kind(p) {
-            None => 0,
-            Some((h, true, _)) => 2 * (self.k() - 1 - h.trailing_zeros()) + 1,
-            Some((h, false, _)) => 2 * (self.k() - 1 - h.trailing_zeros()) + 2,
-        }
+        crate::diamond::level(p, self.side)
     }
 
     /// Number of levels, root corners included.
@@ -203,35 +170,9 @@ impl Forest {
     }
 
     /// The diamond split by `v`, `None` for root corners.
+    #[inline]
     pub fn diamond(&self, v: Pt) -> Option<Diamond> {
-        let (h, centre, horizontal) = self.kind(v)?;
-        let (x, y, h) = (i64::from(v.0), i64::from(v.1), i64::from(h));
-        Some(if centre {
-            // Of c - h and c + h, the odd multiple of 2h (h a power of two,
-            // c >= h): a shift, not a division.
-            let shift = h.trailing_zeros() + 1;
-            let odd = |c: i64| if ((c - h) >> shift) & 1 == 1 { c - h } else { c + h };
-            let (px, py) = (odd(x), odd(y));
-            let (qx, qy) = (2 * x - px, 2 * y - py);
-            let (c1, c2) = ((px, qy), (qx, py));
-            Diamond {
-                a: (px, py),
-                b: (qx, qy),
-                apex: if c1.0 < c2.0 { [c1, c2] } else { [c2, c1] },
-            }
-        } else if horizontal {
-            Diamond {
-                a: (x - h, y),
-                b: (x + h, y),
-                apex: [(x, y - h), (x, y + h)],
-            }
-        } else {
-            Diamond {
-                a: (x, y - h),
-                b: (x, y + h),
-                apex: [(x - h, y), (x + h, y)],
-            }
-        })
+        crate::diamond::diamond(v, self.side)
     }
 
     fn contains(&self, (x, y): (i64, i64)) -> bool {
