@@ -63,6 +63,26 @@ const FILES: &[(&str, &str, &[u8])] = &[
         include_bytes!("../../clients/web/src/renderer.js"),
     ),
     (
+        "net.js",
+        "text/javascript; charset=utf-8",
+        include_bytes!("../../clients/web/src/net.js"),
+    ),
+    (
+        "panel.js",
+        "text/javascript; charset=utf-8",
+        include_bytes!("../../clients/web/src/panel.js"),
+    ),
+    (
+        "rounds.js",
+        "text/javascript; charset=utf-8",
+        include_bytes!("../../clients/web/src/rounds.js"),
+    ),
+    (
+        "url.js",
+        "text/javascript; charset=utf-8",
+        include_bytes!("../../clients/web/src/url.js"),
+    ),
+    (
         "walkthrough.js",
         "text/javascript; charset=utf-8",
         include_bytes!("../../clients/web/src/walkthrough.js"),
