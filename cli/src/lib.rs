@@ -30,6 +30,23 @@ pub fn parse<T: clap::Parser>() -> Result<T, ExitCode> {
     }
 }
 
+/// A parser of the values `names` names (an engine enum's table of names,
+/// as `DepthKind::NAMES`): the engine knows nothing of clap, and the
+/// binaries write no second enum of the same values. `--help` lists the
+/// names.
+pub fn one_of<T: Copy + Send + Sync + 'static>(
+    names: &'static [(&'static str, T)],
+) -> impl clap::builder::TypedValueParser<Value = T> {
+    use clap::builder::TypedValueParser as _;
+    clap::builder::PossibleValuesParser::new(names.iter().map(|(name, _)| *name)).try_map(move |given: String| {
+        names
+            .iter()
+            .find(|(name, _)| *name == given)
+            .map(|&(_, value)| value)
+            .ok_or_else(|| format!("{given:?} is not one of the names"))
+    })
+}
+
 /// The exit code of a run; on failure, the error's context chain on one line.
 pub fn finish(result: anyhow::Result<()>) -> ExitCode {
     match result {

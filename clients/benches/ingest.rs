@@ -108,7 +108,7 @@ fn measure(width: u32, height: u32, mode: Mode, seconds: f64, fps: f64, clients:
         let mut t: Vec<f64> = (0..5)
             .map(|_| {
                 let s = Instant::now();
-                let _ = std::hint::black_box(dmesh_engine::mesh::DepthMesh::build(
+                let _ = std::hint::black_box(dmesh_engine::mesh::Hierarchy::build(
                     &depth,
                     &camera,
                     &Default::default(),

@@ -24,7 +24,7 @@ use std::time::{Duration, Instant};
 use dmesh_client::http::Server;
 use dmesh_client::loadtest::{run, Detail, Report, Stop};
 use dmesh_engine::camera::Camera;
-use dmesh_engine::mesh::{DepthMesh, Lod, Segmentation};
+use dmesh_engine::mesh::{Hierarchy, Lod, Segmentation};
 use glam::DVec3;
 
 /// Cameras on a circle of eyes 20 degrees off the reference axis, looking at
@@ -47,7 +47,7 @@ fn orbit(reference: &Camera, depth: &dmesh_engine::image::DepthImage, count: usi
         .collect()
 }
 
-fn engine_rate(h: &Arc<DepthMesh>, cams: &Arc<Vec<Camera>>, seconds: f64) -> (f64, f64) {
+fn engine_rate(h: &Arc<Hierarchy>, cams: &Arc<Vec<Camera>>, seconds: f64) -> (f64, f64) {
     let stop = Arc::new(AtomicBool::new(false));
     let done = Arc::new(AtomicU64::new(0));
     let triangles = Arc::new(AtomicU64::new(0));
@@ -106,7 +106,7 @@ fn main() -> anyhow::Result<()> {
         vec![64, 256]
     };
     let (depth, camera) = dmesh_engine::synthetic::terrain_with_boxes(513, 513);
-    let hierarchy = Arc::new(DepthMesh::build(&depth, &camera, &Segmentation::default())?);
+    let hierarchy = Arc::new(Hierarchy::build(&depth, &camera, &Segmentation::default())?);
     let cams = Arc::new(orbit(&camera, &depth, 32)?);
 
     let (engine_rps, triangles) = engine_rate(&hierarchy, &cams, seconds);

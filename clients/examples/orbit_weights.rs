@@ -19,7 +19,7 @@ use dmesh_client::blend::{blend, BlendOptions, Blended, Texture, ViewInput};
 use dmesh_client::report::plot::Chart;
 use dmesh_engine::camera::Camera;
 use dmesh_engine::image::DepthImage;
-use dmesh_engine::mesh::DepthMesh;
+use dmesh_engine::mesh::Hierarchy;
 use dmesh_engine::render_plan::{self, Ask};
 use dmesh_engine::scene::{select_views, SelectionRule};
 use dmesh_engine::sim::rig::Rig;
@@ -106,7 +106,7 @@ fn main() -> anyhow::Result<()> {
     for (k, cam) in views.iter().enumerate() {
         let v = render_view(&spec, cam, true, k as u64)?;
         let depth = DepthImage::from_z(cam.width, cam.height, v.depth.z.clone())?;
-        let h = DepthMesh::build(&depth, cam, &Default::default())?;
+        let h = Hierarchy::build(&depth, cam, &Default::default())?;
         let ask = Ask::new(dmesh_proto::Lod::Epsilon(0.002), None, None)?;
         responses.push(render_plan::extract(&h, None, "demo", "v", &ask, |ms| ms)?.response);
         textures.push(Texture {

@@ -22,7 +22,7 @@ use std::time::Instant;
 
 use dmesh_engine::camera::Camera;
 use dmesh_engine::image::DepthImage;
-use dmesh_engine::mesh::{DepthMesh, Lod, Mesh, Method, Segmentation, Threads};
+use dmesh_engine::mesh::{Hierarchy, Lod, Mesh, Method, Segmentation, Threads};
 use dmesh_engine::scene::{select_views, SelectionRule};
 use dmesh_engine::sim::rig::Rig;
 use dmesh_engine::sim::{render_view, SceneSpec};
@@ -49,7 +49,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 /// The mesh of `h` at `lod` and its median extraction time over 5 runs.
-fn timed(h: &DepthMesh, lod: Lod<'_>) -> anyhow::Result<(Mesh, f64)> {
+fn timed(h: &Hierarchy, lod: Lod<'_>) -> anyhow::Result<(Mesh, f64)> {
     let mut times = Vec::new();
     let mut last = None;
     for _ in 0..runs() {
@@ -79,7 +79,7 @@ fn main() -> anyhow::Result<()> {
     for (k, cam) in views.iter().enumerate() {
         let v = render_view(&spec, cam, true, k as u64)?;
         let depth = DepthImage::from_z(cam.width, cam.height, v.depth.z)?;
-        let h = DepthMesh::build(&depth, cam, &Default::default())?;
+        let h = Hierarchy::build(&depth, cam, &Default::default())?;
         for y in (0..cam.height).step_by(4) {
             for x in (0..cam.width).step_by(4) {
                 if h.depth((x, y)) > 0.0 {
@@ -142,7 +142,7 @@ fn main() -> anyhow::Result<()> {
     for (name, depth, cam, scale) in &cases {
         let mut runs: Vec<(f64, dmesh_engine::mesh::Stages, f64)> = (0..runs())
             .map(|_| {
-                let h = DepthMesh::build_with(depth, cam, &Default::default(), dmesh_engine::mesh::Threads::Single)?;
+                let h = Hierarchy::build_with(depth, cam, &Default::default(), dmesh_engine::mesh::Threads::Single)?;
                 let s = h.stats();
                 let m = h.extract(Lod::Epsilon(0.005 * scale))?;
                 anyhow::Ok((s.build_ms, s.stages, m.extract_ms))
@@ -188,14 +188,14 @@ fn main() -> anyhow::Result<()> {
     println!("Triangles per strip of one reference's mesh, static (epsilon as a fraction of a typical depth: 4 m for the demo, the report's depth scale for Art) and view-dependent (tau, the reference's own camera).\n");
     println!("| scene | tolerance | triangles | strips | triangles per strip |");
     println!("|---|---|---|---|---|");
-    let mut scenes: Vec<(String, DepthMesh, f64)> = Vec::new();
+    let mut scenes: Vec<(String, Hierarchy, f64)> = Vec::new();
     let demo_view = &meshes[4];
     scenes.push(("demo v04".into(), demo_view.clone(), 4.0));
     match dmesh_client::report::cases::middlebury(&data, "art") {
         Ok(_) if quick() => {}
         Ok(case) => {
             let r = &case.references[0];
-            let h = DepthMesh::build(&r.depth, &r.camera, &Default::default())?;
+            let h = Hierarchy::build(&r.depth, &r.camera, &Default::default())?;
             scenes.push(("art (left view)".into(), h, case.depth_scale));
         }
         Err(e) => println!("<!-- art left out: {e} -->"),
@@ -271,7 +271,7 @@ fn segmentation_methods(data: &std::path::Path) -> anyhow::Result<()> {
                 let (mut times, mut flag_times) = (Vec::new(), Vec::new());
                 let mut last = None;
                 for _ in 0..runs() {
-                    let h = DepthMesh::build_with(&r.depth, &r.camera, &seg, Threads::Single)?;
+                    let h = Hierarchy::build_with(&r.depth, &r.camera, &seg, Threads::Single)?;
                     times.push(h.stats().build_ms);
                     flag_times.push(h.stats().stages.flags_ms);
                     last = Some(h);

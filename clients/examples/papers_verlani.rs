@@ -30,7 +30,7 @@ use dmesh_client::report::cases::{self, Case};
 use dmesh_client::report::plot::Chart;
 use dmesh_engine::camera::Camera;
 use dmesh_engine::image::DepthImage;
-use dmesh_engine::mesh::{DepthMesh, Lod, Mesh};
+use dmesh_engine::mesh::{Hierarchy, Lod, Mesh};
 use dmesh_engine::render_plan;
 use dmesh_engine::scene::Weighted;
 use dmesh_engine::wire_compact::{mesh_stream, strip_response};
@@ -89,7 +89,7 @@ fn zipped_depth(z: &[f32], bits: u32) -> usize {
 /// The scene, its hierarchies and each novel view's selection.
 struct Scene {
     case: Case,
-    hierarchies: Vec<DepthMesh>,
+    hierarchies: Vec<Hierarchy>,
     selections: Vec<Vec<Weighted>>,
 }
 
@@ -98,7 +98,7 @@ impl Scene {
         let hierarchies = case
             .references
             .iter()
-            .map(|r| DepthMesh::build(&r.depth, &r.camera, &Default::default()))
+            .map(|r| Hierarchy::build(&r.depth, &r.camera, &Default::default()))
             .collect::<Result<Vec<_>, _>>()?;
         let cameras: Vec<Camera> = case.references.iter().map(|r| r.camera).collect();
         let selections = case
@@ -123,7 +123,7 @@ enum Detail {
     Tau(f64),
 }
 
-fn extract(h: &DepthMesh, detail: Detail, novel: &Camera) -> Result<Mesh> {
+fn extract(h: &Hierarchy, detail: Detail, novel: &Camera) -> Result<Mesh> {
     Ok(match detail {
         Detail::Exact => h.extract(Lod::Epsilon(0.0))?,
         Detail::Tau(tau) => h.extract(Lod::Tau { tau, view: novel })?,
@@ -133,7 +133,7 @@ fn extract(h: &DepthMesh, detail: Detail, novel: &Camera) -> Result<Mesh> {
 /// One novel view through the compact stream: the zipped bytes of its
 /// selected views' streams and what the client decodes from them.
 fn streamed(
-    h: &DepthMesh,
+    h: &Hierarchy,
     camera: &Camera,
     mesh: &Mesh,
     planes: Option<u8>,
@@ -320,7 +320,7 @@ fn table1(scene: &Scene) -> Result<()> {
         let mut jpeg_bytes = Vec::new();
         for r in refs {
             let (d, n) = jpeg_depth(&r.depth, quality)?;
-            decoded.push(DepthMesh::build(&d, &r.camera, &Default::default())?);
+            decoded.push(Hierarchy::build(&d, &r.camera, &Default::default())?);
             jpeg_bytes.push(n);
         }
         let mut jpeg_rows = Vec::new();
@@ -420,7 +420,7 @@ fn fig5(plot: &std::path::Path) -> Result<()> {
         let mut views = Vec::new();
         for (k, cam) in refs.iter().enumerate() {
             let v = render_view(&spec, cam, true, k as u64)?;
-            let h = DepthMesh::build(&v.depth, cam, &Default::default())?;
+            let h = Hierarchy::build(&v.depth, cam, &Default::default())?;
             let texture = Texture {
                 width: v.color.width,
                 height: v.color.height,

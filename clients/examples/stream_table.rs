@@ -18,7 +18,7 @@ use anyhow::{Context, Result};
 use dmesh_client::report::cases::{middlebury, simulated};
 use dmesh_engine::camera::Camera;
 use dmesh_engine::image::DepthImage;
-use dmesh_engine::mesh::{DepthMesh, Mesh, Segmentation};
+use dmesh_engine::mesh::{Hierarchy, Mesh, Segmentation};
 use dmesh_engine::render_plan::{self, Ask};
 use dmesh_engine::wire::{strip_response, DepthCoding};
 use dmesh_engine::wire_compact::{mesh_stream, render_response};
@@ -30,7 +30,7 @@ struct Part {
     name: String,
     camera: Camera,
     depth: DepthImage,
-    hierarchy: DepthMesh,
+    hierarchy: Hierarchy,
     raw_grid: Option<RawGrid>,
     mesh: Mesh,
     weight: f64,
@@ -96,7 +96,7 @@ fn part(
     ask: &Ask,
     weight: f64,
 ) -> Result<Part> {
-    let hierarchy = DepthMesh::build(&depth, &camera, &Segmentation::default())?;
+    let hierarchy = Hierarchy::build(&depth, &camera, &Segmentation::default())?;
     let (mesh, _) = render_plan::extract_mesh(&hierarchy, ask, |ms| ms * 1e4)?;
     Ok(Part {
         name: name.to_string(),

@@ -71,7 +71,7 @@ fn quick_report_sweeps_and_writes_tables_and_curves() {
 /// sends, and no bit-depth is worse than `bits = 0`'s interpolation.
 #[test]
 fn each_residual_bit_at_least_halves_the_error_on_every_report_scene() {
-    use dmesh_engine::mesh::{DepthMesh, Lod, Segmentation};
+    use dmesh_engine::mesh::{Hierarchy, Lod, Segmentation};
     use dmesh_proto::ResidualDepths;
     let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data");
     assert!(data.is_dir(), "the report's data must be at {}", data.display());
@@ -85,7 +85,7 @@ fn each_residual_bit_at_least_halves_the_error_on_every_report_scene() {
     for case in &cases {
         let novel = &case.novels[0].camera;
         for (k, r) in case.references.iter().enumerate() {
-            let h = DepthMesh::build(&r.depth, &r.camera, &Segmentation::default()).unwrap();
+            let h = Hierarchy::build(&r.depth, &r.camera, &Segmentation::default()).unwrap();
             let mesh = h.extract(Lod::Tau { tau: 1.0, view: novel }).unwrap();
             let ij: Vec<(u16, u16)> = mesh.vertices.iter().map(|v| (v.i, v.j)).collect();
             let z: Vec<f32> = mesh.vertices.iter().map(|v| v.depth).collect();

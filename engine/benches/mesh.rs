@@ -3,7 +3,7 @@
 //! `cargo bench -p dmesh-engine --bench mesh` measures:
 //! - `build/<scene>`: the hierarchy build from a depth image on one thread;
 //! - `build2t/<scene>`: the same with the normals on a second thread (what
-//!   `DepthMesh::build` does on a machine with two cores);
+//!   `Hierarchy::build` does on a machine with two cores);
 //! - `static/<scene>`: extraction at a static epsilon (0.5 % of the median depth);
 //! - `tau1/<scene>`: view-dependent extraction at tau = 1 px from a camera
 //!   10 % of the depth to the side of the reference and turned towards it;
@@ -23,7 +23,7 @@ use std::time::Duration;
 use criterion::{criterion_group, criterion_main, Criterion};
 use dmesh_engine::camera::Camera;
 use dmesh_engine::image::DepthImage;
-use dmesh_engine::mesh::{DepthMesh, Lod, Mesh, Segmentation, StripOrder, Threads};
+use dmesh_engine::mesh::{Hierarchy, Lod, Mesh, Segmentation, StripOrder, Threads};
 
 fn all_scenes() -> Vec<(String, DepthImage, Camera)> {
     let mut out: Vec<(String, DepthImage, Camera)> = Vec::new();
@@ -58,7 +58,7 @@ fn side_view(c: &Camera, depth: f64) -> Camera {
     .unwrap()
 }
 
-fn row(name: &str, what: &str, h: &DepthMesh, lod: Lod<'_>) {
+fn row(name: &str, what: &str, h: &Hierarchy, lod: Lod<'_>) {
     let m = h.extract(lod).unwrap();
     let g = h.extract_with(lod, StripOrder::Greedy).unwrap();
     let mut runs: Vec<Mesh> = (0..3)
@@ -86,7 +86,7 @@ fn bench(c: &mut Criterion) {
         "scene", "extraction", "triangles", "vertices", "idx/tri", "greedy", "tunnelled", "strips", "tun. ms"
     );
     for (name, depth, cam) in &scenes {
-        let h = DepthMesh::build(depth, cam, &Segmentation::default()).unwrap();
+        let h = Hierarchy::build(depth, cam, &Segmentation::default()).unwrap();
         let eps = 0.005 * median_depth(depth);
         let view = side_view(cam, median_depth(depth));
         row(name, &format!("eps={eps:.4}"), &h, Lod::Epsilon(eps));
@@ -100,12 +100,12 @@ fn bench(c: &mut Criterion) {
     for (name, depth, cam) in &scenes {
         let seg = Segmentation::default();
         g.bench_function(format!("build/{name}"), |b| {
-            b.iter(|| DepthMesh::build_with(black_box(depth), cam, &seg, Threads::Single).unwrap())
+            b.iter(|| Hierarchy::build_with(black_box(depth), cam, &seg, Threads::Single).unwrap())
         });
         g.bench_function(format!("build2t/{name}"), |b| {
-            b.iter(|| DepthMesh::build_with(black_box(depth), cam, &seg, Threads::Parallel).unwrap())
+            b.iter(|| Hierarchy::build_with(black_box(depth), cam, &seg, Threads::Parallel).unwrap())
         });
-        let h = DepthMesh::build(depth, cam, &seg).unwrap();
+        let h = Hierarchy::build(depth, cam, &seg).unwrap();
         let eps = 0.005 * median_depth(depth);
         let view = side_view(cam, median_depth(depth));
         g.bench_function(format!("static/{name}"), |b| {

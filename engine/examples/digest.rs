@@ -2,10 +2,10 @@
 //! builds (sizes, segmentations, invalid samples), to check that a change
 //! meant to be only faster leaves every result bit for bit the same: run it
 //! before and after and compare. Usage: `cargo run --release -p dmesh-engine --example digest`.
-use dmesh_engine::mesh::{DepthMesh, Lod, Method, Segmentation};
+use dmesh_engine::mesh::{Hierarchy, Lod, Method, Segmentation};
 use std::hash::{Hash, Hasher};
 fn digest(name: &str, d: &dmesh_engine::image::DepthImage, c: &dmesh_engine::camera::Camera, seg: &Segmentation) {
-    let m = DepthMesh::build(d, c, seg).expect("the scene builds");
+    let m = Hierarchy::build(d, c, seg).expect("the scene builds");
     let g = *m.grid();
     let mut h = std::collections::hash_map::DefaultHasher::new();
     for y in 0..g.gh() {

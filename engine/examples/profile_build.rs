@@ -1,7 +1,7 @@
 //! Builds the synthetic scene repeatedly and prints the minimum and median
 //! time and the median of each stage, for profiling. Usage:
 //! `profile_build [SIZE | WxH] [ITERATIONS] [THREADS] [portable]` (threads
-//! 1 or 2, default as `DepthMesh::build`; `portable`: without the AVX2 code
+//! 1 or 2, default as `Hierarchy::build`; `portable`: without the AVX2 code
 //! even where the CPU has it, to measure what it brings).
 fn main() {
     let mut args = std::env::args().skip(1);
@@ -27,7 +27,7 @@ fn main() {
     for _ in 0..iterations.max(1) {
         let t = std::time::Instant::now();
         let mesh = std::hint::black_box(
-            dmesh_engine::mesh::DepthMesh::build_with(&d, &c, &Default::default(), threads).unwrap(),
+            dmesh_engine::mesh::Hierarchy::build_with(&d, &c, &Default::default(), threads).unwrap(),
         );
         times.push(t.elapsed());
         stages.push(mesh.stats().stages);

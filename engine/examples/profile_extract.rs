@@ -6,17 +6,19 @@ fn main() {
     let mut args = std::env::args().skip(1);
     let size: u32 = args.next().and_then(|s| s.parse().ok()).unwrap_or(513);
     let iterations: usize = args.next().and_then(|s| s.parse().ok()).unwrap_or(100);
-    let order = match args.next().as_deref() {
-        Some("greedy") => dmesh_engine::mesh::StripOrder::Greedy,
-        Some("tunnelled") => dmesh_engine::mesh::StripOrder::Tunnelled,
-        _ => dmesh_engine::mesh::StripOrder::Traversal,
-    };
+    let order = args.next().map_or(Default::default(), |given| {
+        let names = dmesh_engine::mesh::StripOrder::NAMES;
+        names
+            .iter()
+            .find(|(name, _)| *name == given)
+            .map_or(Default::default(), |&(_, order)| order)
+    });
     let outlines = match args.next().as_deref() {
         Some("dropped") => dmesh_engine::mesh::Outlines::Dropped,
         _ => dmesh_engine::mesh::Outlines::Kept,
     };
     let (d, c) = dmesh_engine::synthetic::terrain_with_boxes(size, size);
-    let h = dmesh_engine::mesh::DepthMesh::build(&d, &c, &Default::default()).unwrap();
+    let h = dmesh_engine::mesh::Hierarchy::build(&d, &c, &Default::default()).unwrap();
     let view = dmesh_engine::camera::Camera::new(
         size,
         size,

@@ -4,12 +4,12 @@
 
 use std::time::Instant;
 
-use dmesh_engine::mesh::{DepthMesh, Lod, Segmentation};
+use dmesh_engine::mesh::{Hierarchy, Lod, Segmentation};
 use dmesh_engine::wire::{strip_response, DepthCoding};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (depth, camera) = dmesh_engine::synthetic::terrain_with_boxes(513, 513);
-    let h = DepthMesh::build(&depth, &camera, &Segmentation::default())?;
+    let h = Hierarchy::build(&depth, &camera, &Segmentation::default())?;
     let view = dmesh_engine::camera::Camera::new(
         513,
         513,

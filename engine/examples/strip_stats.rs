@@ -9,7 +9,7 @@
 //! stripifier needs (triangles with one neighbour end a strip, those with
 //! none are one) and the extraction time. Usage:
 //! `cargo run --release -p dmesh-engine --example strip_stats`.
-use dmesh_engine::mesh::{DepthMesh, Lod, Mesh, StripOrder, RESTART};
+use dmesh_engine::mesh::{Hierarchy, Lod, Mesh, StripOrder, RESTART};
 
 /// Indices per triangle no stripification of `m` can go below.
 fn bound(m: &Mesh) -> f64 {
@@ -25,7 +25,7 @@ fn bound(m: &Mesh) -> f64 {
 
 fn main() {
     let (d, c) = dmesh_engine::synthetic::terrain_with_boxes(513, 513);
-    let h = DepthMesh::build(&d, &c, &Default::default()).expect("the demo scene builds");
+    let h = Hierarchy::build(&d, &c, &Default::default()).expect("the demo scene builds");
     let view = dmesh_engine::camera::Camera::new(
         513,
         513,

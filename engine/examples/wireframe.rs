@@ -3,7 +3,7 @@
 //! Usage: `wireframe DEPTH.png COLOR.png CAMERA.json SCALE OFFSET FOCAL_BASELINE EPSILON OUT.png`
 //! (disparity PNGs, as the Middlebury scenes ship them).
 use dmesh_engine::image::{decode_depth, DepthKind, DepthOptions, Limits};
-use dmesh_engine::mesh::{DepthMesh, Lod, Segmentation};
+use dmesh_engine::mesh::{Hierarchy, Lod, Segmentation};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let a: Vec<String> = std::env::args().skip(1).collect();
@@ -20,7 +20,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let depth = decode_depth(&std::fs::read(&a[0])?, &opts, &camera, &Limits::default())?;
     let mut img = image::open(&a[1])?.to_rgb8();
-    let mesh = DepthMesh::build(&depth, &camera, &Segmentation::default())?.extract(Lod::Epsilon(a[6].parse()?))?;
+    let mesh = Hierarchy::build(&depth, &camera, &Segmentation::default())?.extract(Lod::Epsilon(a[6].parse()?))?;
     for t in &mesh.triangles {
         for k in 0..3 {
             let (p, q) = (mesh.vertices[t[k] as usize], mesh.vertices[t[(k + 1) % 3] as usize]);

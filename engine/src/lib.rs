@@ -19,10 +19,10 @@
 //! - [`wire_compact`]: extracted meshes as protocol 6, the compact stream, and back.
 //!
 //! ```
-//! use dmesh_engine::{camera::Camera, image::DepthImage, mesh::{DepthMesh, Lod, Segmentation}};
+//! use dmesh_engine::{camera::Camera, image::DepthImage, mesh::{Hierarchy, Lod, Segmentation}};
 //! let camera = Camera::perspective(64, 48, 60.0, 60.0, 31.5, 23.5)?;
 //! let depth = DepthImage::from_z(64, 48, vec![2.0; 64 * 48])?;
-//! let hierarchy = DepthMesh::build(&depth, &camera, &Segmentation::default())?;
+//! let hierarchy = Hierarchy::build(&depth, &camera, &Segmentation::default())?;
 //! let mesh = hierarchy.extract(Lod::Epsilon(0.001))?;
 //! assert!(mesh.triangles.len() >= 2);
 //! # Ok::<(), dmesh_engine::Error>(())

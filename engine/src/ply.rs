@@ -52,13 +52,13 @@ pub fn encode_ply(mesh: &Mesh, camera: &Camera, color: Option<&ColorImage>) -> V
 mod tests {
     use super::*;
     use crate::image::DepthImage;
-    use crate::mesh::{DepthMesh, Lod, Segmentation};
+    use crate::mesh::{Hierarchy, Lod, Segmentation};
 
     #[test]
     fn header_counts_match_the_body() {
         let cam = Camera::perspective(4, 3, 4.0, 4.0, 1.5, 1.0).unwrap();
         let depth = DepthImage::from_z(4, 3, vec![1.0; 12]).unwrap();
-        let mesh = DepthMesh::build(&depth, &cam, &Segmentation::default())
+        let mesh = Hierarchy::build(&depth, &cam, &Segmentation::default())
             .unwrap()
             .extract(Lod::Epsilon(0.0))
             .unwrap();

@@ -11,7 +11,7 @@ use dmesh_proto::{Lod as WireLod, RawGrid, StripResponse};
 
 use crate::camera::Camera;
 use crate::error::{Error, Result};
-use crate::mesh::{DepthMesh, Lod};
+use crate::mesh::{Hierarchy, Lod};
 use crate::scene::{select_views, SelectionRule, Weighted};
 use crate::wire::{strip_response, DepthCoding};
 
@@ -136,7 +136,7 @@ impl Ask {
     /// triangle budget through `triangles_for_ms` (the caller's measured
     /// extraction rate); a triangle budget stays one, for the hierarchy to
     /// resolve. Also returns the triangles a time budget allowed.
-    pub fn lod(&self, hierarchy: &DepthMesh, triangles_for_ms: impl FnOnce(f64) -> f64) -> (Lod<'_>, Option<u64>) {
+    pub fn lod(&self, hierarchy: &Hierarchy, triangles_for_ms: impl FnOnce(f64) -> f64) -> (Lod<'_>, Option<u64>) {
         match &self.detail {
             Detail::Epsilon(e) => (Lod::Epsilon(*e), None),
             Detail::Tau { tau, camera } => (
@@ -242,7 +242,7 @@ pub struct Extracted {
 /// Extracts `hierarchy` (the view `scene/view`, stored at `raw_grid`) for
 /// `ask` and encodes it; `triangles_for_ms` as in [`Ask::lod`].
 pub fn extract(
-    hierarchy: &DepthMesh,
+    hierarchy: &Hierarchy,
     raw_grid: Option<RawGrid>,
     scene: &str,
     view: &str,
@@ -263,7 +263,7 @@ pub fn extract(
 /// Extracts `hierarchy` for `ask` (`triangles_for_ms` as in [`Ask::lod`]),
 /// with what a time budget allowed.
 pub fn extract_mesh(
-    hierarchy: &DepthMesh,
+    hierarchy: &Hierarchy,
     ask: &Ask,
     triangles_for_ms: impl FnOnce(f64) -> f64,
 ) -> Result<(crate::mesh::Mesh, Option<u64>)> {

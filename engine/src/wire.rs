@@ -132,7 +132,7 @@ pub fn strip_response(
 pub(crate) mod tests {
     use super::*;
     use crate::image::DepthImage;
-    use crate::mesh::{decode_strips, DepthMesh, Lod, Segmentation};
+    use crate::mesh::{decode_strips, Hierarchy, Lod, Segmentation};
 
     #[test]
     fn the_wire_strips_draw_the_mesh_triangles() {
@@ -141,7 +141,7 @@ pub(crate) mod tests {
             .map(|i| 2.0 + ((i % 33) as f32 * 0.3).sin() * 0.2)
             .collect();
         let depth = DepthImage::from_z(33, 17, z).unwrap();
-        let mesh = DepthMesh::build(&depth, &cam, &Segmentation::default())
+        let mesh = Hierarchy::build(&depth, &cam, &Segmentation::default())
             .unwrap()
             .extract(Lod::Epsilon(0.001))
             .unwrap();
@@ -183,7 +183,7 @@ pub(crate) mod tests {
     #[test]
     fn residual_depths_of_a_real_mesh_decode_within_their_bound() {
         let (cam, depth) = stepped();
-        let h = DepthMesh::build(&depth, &cam, &Segmentation::default()).unwrap();
+        let h = Hierarchy::build(&depth, &cam, &Segmentation::default()).unwrap();
         let mesh = h.extract(Lod::Epsilon(0.0005)).unwrap();
         for bits in [0, 1, 4, 8, 12, 16] {
             let coding = DepthCoding {

@@ -210,12 +210,12 @@ pub fn render_response(r: &RenderStream, novel: &Camera) -> Result<RenderRespons
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::{DepthMesh, Lod, Segmentation};
+    use crate::mesh::{Hierarchy, Lod, Segmentation};
 
     #[test]
     fn a_compact_mesh_decodes_to_the_extracted_one() {
         let (cam, depth) = crate::wire::tests::stepped();
-        let h = DepthMesh::build(&depth, &cam, &Segmentation::default()).unwrap();
+        let h = Hierarchy::build(&depth, &cam, &Segmentation::default()).unwrap();
         let novel = Camera::perspective(65, 40, 60.0, 60.0, 32.0, 20.0).unwrap();
         for lod in [
             Lod::Epsilon(0.0005),

@@ -7,13 +7,13 @@ mod common;
 use common::*;
 use dmesh_engine::camera::Camera;
 use dmesh_engine::image::DepthImage;
-use dmesh_engine::mesh::{DepthMesh, Lod, Outlines, Segmentation, StripOrder};
+use dmesh_engine::mesh::{Hierarchy, Lod, Outlines, Segmentation, StripOrder};
 use dmesh_proto::Lod as Chosen;
 use glam::{DQuat, DVec3};
 use proptest::prelude::*;
 
 /// The budget resolved by the extraction itself; the tolerance it states.
-fn extract_budgeted(h: &DepthMesh, max: u64, view: Option<&Camera>) -> (Chosen, usize) {
+fn extract_budgeted(h: &Hierarchy, max: u64, view: Option<&Camera>) -> (Chosen, usize) {
     let mesh = h
         .extract(Lod::Triangles {
             max: u32::try_from(max).unwrap(),
@@ -32,7 +32,7 @@ fn extract_budgeted(h: &DepthMesh, max: u64, view: Option<&Camera>) -> (Chosen, 
 #[test]
 fn static_budgets_are_met_and_nearly_used() {
     let depth = waves(129, 97);
-    let h = DepthMesh::build(&depth, &camera(129, 97), &Segmentation::default()).unwrap();
+    let h = Hierarchy::build(&depth, &camera(129, 97), &Segmentation::default()).unwrap();
     let full = h.extract(Lod::Epsilon(0.0)).unwrap().triangles.len() as u64;
     for max in [24, 100, 1000, 5000, 20_000, full, 10 * full] {
         let (chosen, got) = extract_budgeted(&h, max, None);
@@ -69,7 +69,7 @@ fn a_budget_with_room_keeps_the_outlines_and_a_tight_one_still_fits() {
         }
     });
     let cam = camera(w, h);
-    let hier = DepthMesh::build(&depth, &cam, &Segmentation::default()).unwrap();
+    let hier = Hierarchy::build(&depth, &cam, &Segmentation::default()).unwrap();
     let unsegmented: i64 = (0..w - 1)
         .flat_map(|x| (0..h - 1).map(move |y| (x, y)))
         .map(|c| (0..2).filter(|&half| !hier.cell_segmented(c, half)).count() as i64)
@@ -127,7 +127,7 @@ fn a_budget_with_room_keeps_the_outlines_and_a_tight_one_still_fits() {
 #[test]
 fn a_budget_below_the_coarsest_mesh_is_an_error() {
     let depth = waves(65, 65);
-    let h = DepthMesh::build(&depth, &camera(65, 65), &Segmentation::default()).unwrap();
+    let h = Hierarchy::build(&depth, &camera(65, 65), &Segmentation::default()).unwrap();
     let err = h.lod_for_triangles(1, None).unwrap_err().to_string();
     assert!(err.contains("max_triangles is 1"), "{err}");
 }
@@ -136,7 +136,7 @@ fn a_budget_below_the_coarsest_mesh_is_an_error() {
 fn view_dependent_budgets_choose_tau_from_afar_and_epsilon_from_inside() {
     let depth = waves(129, 129);
     let cam = camera(129, 129);
-    let h = DepthMesh::build(&depth, &cam, &Segmentation::default()).unwrap();
+    let h = Hierarchy::build(&depth, &cam, &Segmentation::default()).unwrap();
     let far = Camera::new(128, 128, cam.projection, DQuat::IDENTITY, DVec3::new(0.2, 0.1, -3.0)).unwrap();
     let (chosen, got) = extract_budgeted(&h, 4000, Some(&far));
     assert!(matches!(chosen, Chosen::Tau(t) if t > 0.0), "{chosen:?}");
@@ -170,7 +170,7 @@ proptest! {
     ) {
         let depth = DepthImage::from_z(w, h, z).unwrap();
         let cam = camera(w, h);
-        let hier = DepthMesh::build(&depth, &cam, &Segmentation::default()).unwrap();
+        let hier = Hierarchy::build(&depth, &cam, &Segmentation::default()).unwrap();
         let projection = if ortho {
             dmesh_engine::camera::Projection::Orthographic { sx: 0.01, sy: 0.01, cx: 32.0, cy: 24.0 }
         } else {

@@ -6,7 +6,7 @@
 
 use dmesh_engine::camera::Camera;
 use dmesh_engine::image::DepthImage;
-use dmesh_engine::mesh::{decode_strips, DepthMesh, Lod, Segmentation};
+use dmesh_engine::mesh::{decode_strips, Hierarchy, Lod, Segmentation};
 use dmesh_engine::wire_compact::{held as held_of, mesh_change, mesh_stream, strip_response};
 use dmesh_proto::{Depths, RawGrid};
 use proptest::prelude::*;
@@ -55,7 +55,7 @@ proptest! {
     ) {
         let d = depth(w, h, seed, lattice);
         let cam = camera(w, h, ortho);
-        let hier = DepthMesh::build(&d, &cam, &Segmentation::default()).unwrap();
+        let hier = Hierarchy::build(&d, &cam, &Segmentation::default()).unwrap();
         let mut novel = cam;
         novel.translation.x += 0.1;
         let lod = match kind {
@@ -101,7 +101,7 @@ proptest! {
     ) {
         let d = depth(w, h, seed, lattice);
         let cam = camera(w, h, ortho);
-        let hier = DepthMesh::build(&d, &cam, &Segmentation::default()).unwrap();
+        let hier = Hierarchy::build(&d, &cam, &Segmentation::default()).unwrap();
         let (mut before, mut after) = (cam, cam);
         before.translation.x += 0.1;
         after.translation.x += 0.1 + shift;
@@ -132,7 +132,7 @@ fn a_large_full_resolution_mesh_round_trips() {
     let (w, h) = (641, 481);
     let d = depth(w, h, 5, true);
     let cam = camera(w, h, false);
-    let hier = DepthMesh::build(&d, &cam, &Segmentation::default()).unwrap();
+    let hier = Hierarchy::build(&d, &cam, &Segmentation::default()).unwrap();
     let mesh = hier.extract(Lod::Epsilon(0.0)).unwrap();
     assert!(mesh.triangles.len() > 500_000);
     let raw = Some(RawGrid {

@@ -7,7 +7,7 @@ mod common;
 use common::*;
 use dmesh_engine::camera::{Camera, Projection};
 use dmesh_engine::image::DepthImage;
-use dmesh_engine::mesh::{DepthMesh, Lod, Method, Segmentation, StripOrder};
+use dmesh_engine::mesh::{Hierarchy, Lod, Method, Segmentation, StripOrder};
 use glam::{DQuat, DVec3};
 
 const W: u32 = 33;
@@ -85,7 +85,7 @@ fn check(name: &str, depth: &DepthImage, cam: &Camera) {
             lambda: 0.0,
         },
     ] {
-        let h = DepthMesh::build(depth, cam, &seg).unwrap_or_else(|e| panic!("{name}: build failed: {e}"));
+        let h = Hierarchy::build(depth, cam, &seg).unwrap_or_else(|e| panic!("{name}: build failed: {e}"));
         let g = *h.grid();
         for y in 0..g.gh() {
             for x in 0..g.gw() {
@@ -186,7 +186,7 @@ fn constant_depth() {
 fn a_single_valid_sample_and_none_at_all() {
     let one = depth_from(W, H, |x, y| if (x, y) == (5, 5) { 2.0 } else { 0.0 });
     check("single", &one, &perspective());
-    let h = DepthMesh::build(&one, &perspective(), &Segmentation::default()).unwrap();
+    let h = Hierarchy::build(&one, &perspective(), &Segmentation::default()).unwrap();
     assert!(h.extract(Lod::Epsilon(0.0)).unwrap().triangles.is_empty());
     let none = DepthImage::from_z(W, H, vec![f32::NAN; (W * H) as usize]).unwrap();
     check("all invalid", &none, &perspective());

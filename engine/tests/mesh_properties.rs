@@ -7,11 +7,11 @@ mod common;
 use common::*;
 use dmesh_engine::camera::Camera;
 use dmesh_engine::image::DepthImage;
-use dmesh_engine::mesh::{DepthMesh, Lod, Method, Outlines, Segmentation, StripOrder, Threads};
+use dmesh_engine::mesh::{Hierarchy, Lod, Method, Outlines, Segmentation, StripOrder, Threads};
 use proptest::prelude::*;
 
 fn check_all(depth: &DepthImage, cam: &Camera, seg: &Segmentation, eps: f64) {
-    let h = DepthMesh::build(depth, cam, seg).unwrap();
+    let h = Hierarchy::build(depth, cam, seg).unwrap();
     let mesh = h.extract(Lod::Epsilon(eps)).unwrap();
     assert_finite(&mesh, depth.width, depth.height);
     assert_conforming(&mesh);
@@ -28,7 +28,7 @@ fn check_all(depth: &DepthImage, cam: &Camera, seg: &Segmentation, eps: f64) {
 fn smooth_surface_at_several_tolerances() {
     let depth = waves(65, 49);
     let cam = camera(65, 49);
-    let h = DepthMesh::build(&depth, &cam, &Segmentation::default()).unwrap();
+    let h = Hierarchy::build(&depth, &cam, &Segmentation::default()).unwrap();
     assert_monotone(&h);
     let mut last = usize::MAX;
     for eps in [0.0, 1e-4, 1e-3, 1e-2, 0.1, 1.0] {
@@ -62,7 +62,7 @@ fn odd_sizes_work() {
         let depth = waves(w, h);
         let cam = camera(w, h);
         let eps = if w * h > 100_000 { 0.01 } else { 0.001 };
-        let hier = DepthMesh::build(&depth, &cam, &Segmentation::default()).unwrap();
+        let hier = Hierarchy::build(&depth, &cam, &Segmentation::default()).unwrap();
         let mesh = hier.extract(Lod::Epsilon(eps)).unwrap();
         assert!(!mesh.triangles.is_empty(), "{w}x{h} gave no triangles");
         assert_finite(&mesh, w, h);
@@ -87,7 +87,7 @@ fn tau_zero_is_full_resolution_minus_segmented_triangles() {
         }
     });
     let cam = camera(w, h);
-    let hier = DepthMesh::build(&depth, &cam, &Segmentation::default()).unwrap();
+    let hier = Hierarchy::build(&depth, &cam, &Segmentation::default()).unwrap();
     for lod in [Lod::Tau { tau: 0.0, view: &cam }, Lod::Epsilon(0.0)] {
         let mesh = hier.extract(lod).unwrap();
         let mut want = 0;
@@ -116,7 +116,7 @@ fn step_edge_has_no_rubber_sheet_with_orthogonality_at_5_degrees() {
         method: Method::Orthogonality { omega_deg: 5.0 },
         lambda: 0.02,
     };
-    let hier = DepthMesh::build(&depth, &cam, &seg).unwrap();
+    let hier = Hierarchy::build(&depth, &cam, &seg).unwrap();
     let view = Camera::new(
         w,
         h,
@@ -160,7 +160,7 @@ fn every_segmentation_method_cuts_the_step() {
         Method::Disparity { sigma: 0.1 },
         Method::Connectedness { kappa: 1.0 },
     ] {
-        let hier = DepthMesh::build(&depth, &cam, &Segmentation { method, lambda: 0.02 }).unwrap();
+        let hier = Hierarchy::build(&depth, &cam, &Segmentation { method, lambda: 0.02 }).unwrap();
         let segmented = hier.stats().segmented_triangles;
         assert!(
             segmented >= 2 * (h as usize - 1),
@@ -171,7 +171,7 @@ fn every_segmentation_method_cuts_the_step() {
             "{method:?} segmented {segmented}: too many"
         );
     }
-    let none = DepthMesh::build(
+    let none = Hierarchy::build(
         &depth,
         &cam,
         &Segmentation {
@@ -189,7 +189,7 @@ fn lambda_gate_keeps_small_relief() {
     let (w, h) = (32, 32);
     let depth = depth_from(w, h, |x, y| if (x / 4 + y / 4) % 2 == 0 { 2.0 } else { 2.001 });
     let cam = camera(w, h);
-    let gated = DepthMesh::build(
+    let gated = Hierarchy::build(
         &depth,
         &cam,
         &Segmentation {
@@ -199,7 +199,7 @@ fn lambda_gate_keeps_small_relief() {
     )
     .unwrap();
     assert_eq!(gated.stats().segmented_triangles, 0);
-    let ungated = DepthMesh::build(
+    let ungated = Hierarchy::build(
         &depth,
         &cam,
         &Segmentation {
@@ -216,7 +216,7 @@ fn view_dependent_meshes_are_conforming_and_coarsen_with_distance() {
     let (w, h) = (129, 97);
     let depth = waves(w, h);
     let cam = camera(w, h);
-    let hier = DepthMesh::build(&depth, &cam, &Segmentation::default()).unwrap();
+    let hier = Hierarchy::build(&depth, &cam, &Segmentation::default()).unwrap();
     let near = cam;
     let far = Camera::new(
         w,
@@ -253,7 +253,7 @@ fn view_dependent_meshes_are_conforming_and_coarsen_with_distance() {
 #[test]
 fn hierarchy_stays_within_24_bytes_per_grid_vertex() {
     let depth = waves(513, 513);
-    let hier = DepthMesh::build(&depth, &camera(513, 513), &Segmentation::default()).unwrap();
+    let hier = Hierarchy::build(&depth, &camera(513, 513), &Segmentation::default()).unwrap();
     let s = hier.stats();
     assert!(
         s.heap_bytes <= 24 * s.grid_vertices,
@@ -272,7 +272,7 @@ fn hierarchy_stays_within_24_bytes_per_grid_vertex() {
 type VertexAnswer = (u32, u32, u32, bool, bool);
 
 /// Everything a hierarchy answers, as comparable values.
-fn answers(h: &DepthMesh) -> (Vec<VertexAnswer>, dmesh_engine::mesh::Mesh) {
+fn answers(h: &Hierarchy) -> (Vec<VertexAnswer>, dmesh_engine::mesh::Mesh) {
     let g = *h.grid();
     let per_vertex = (0..g.gh())
         .flat_map(|y| (0..g.gw()).map(move |x| (x, y)))
@@ -310,8 +310,8 @@ fn one_thread_and_two_build_the_same_hierarchy() {
             method,
             ..Segmentation::default()
         };
-        let one = DepthMesh::build_with(&depth, &camera(w, h), &seg, Threads::Single).unwrap();
-        let two = DepthMesh::build_with(&depth, &camera(w, h), &seg, Threads::Parallel).unwrap();
+        let one = Hierarchy::build_with(&depth, &camera(w, h), &seg, Threads::Single).unwrap();
+        let two = Hierarchy::build_with(&depth, &camera(w, h), &seg, Threads::Parallel).unwrap();
         let (a, b) = (answers(&one), answers(&two));
         assert!(
             a.1.vertices.iter().any(|v| v.rho > 0),
@@ -336,7 +336,7 @@ proptest! {
         let depth = DepthImage::from_z(w, h, z).unwrap();
         let seg = Segmentation { method: Method::Orthogonality { omega_deg: omega }, lambda: 0.01 };
         check_all(&depth, &camera(w, h), &seg, eps);
-        let hier = DepthMesh::build(&depth, &camera(w, h), &seg).unwrap();
+        let hier = Hierarchy::build(&depth, &camera(w, h), &seg).unwrap();
         assert_monotone(&hier);
     }
 
@@ -345,8 +345,8 @@ proptest! {
         let depth = DepthImage::from_z(w, h, z).unwrap();
         let method = kappa.map_or(Method::Orthogonality { omega_deg: 5.0 }, |kappa| Method::Connectedness { kappa });
         let seg = Segmentation { method, lambda: 0.01 };
-        let one = DepthMesh::build_with(&depth, &camera(w, h), &seg, Threads::Single).unwrap();
-        let two = DepthMesh::build_with(&depth, &camera(w, h), &seg, Threads::Parallel).unwrap();
+        let one = Hierarchy::build_with(&depth, &camera(w, h), &seg, Threads::Single).unwrap();
+        let two = Hierarchy::build_with(&depth, &camera(w, h), &seg, Threads::Parallel).unwrap();
         let (a, b) = (answers(&one), answers(&two));
         prop_assert!(a.0 == b.0, "per-vertex data differ");
         prop_assert!(a.1.vertices == b.1.vertices && a.1.triangles == b.1.triangles && a.1.strips == b.1.strips);
@@ -361,7 +361,7 @@ proptest! {
     ) {
         let depth = DepthImage::from_z(w, h, z).unwrap();
         let cam = camera(w, h);
-        let hier = DepthMesh::build(&depth, &cam, &Segmentation::default()).unwrap();
+        let hier = Hierarchy::build(&depth, &cam, &Segmentation::default()).unwrap();
         let view = Camera::new(64, 48, cam.projection, glam::DQuat::from_rotation_y(yaw), glam::DVec3::new(eye.0, eye.1, eye.2)).unwrap();
         let mesh = hier.extract(Lod::Tau { tau, view: &view }).unwrap();
         assert_finite(&mesh, w, h);
@@ -388,7 +388,7 @@ proptest! {
     ) {
         let depth = DepthImage::from_z(w, h, z).unwrap();
         let cam = camera(w, h);
-        let hier = DepthMesh::build(&depth, &cam, &Segmentation::default()).unwrap();
+        let hier = Hierarchy::build(&depth, &cam, &Segmentation::default()).unwrap();
         let mesh = hier.extract(Lod::Epsilon(eps)).unwrap();
         assert_finite(&mesh, w, h);
         assert_conforming(&mesh);
@@ -438,7 +438,7 @@ proptest! {
         let depth = depth_from(w, h, |x, y| 2.0 + relief * ((x as f32 * 0.37).sin() + (y as f32 * 0.23).cos()));
         let cam = if ortho { Camera::orthographic(w, h, 0.01, 0.01, 0.0, 0.0).unwrap() } else { camera(w, h) };
         let seg = Segmentation { method: Method::None, lambda: 0.01 };
-        let hier = DepthMesh::build(&depth, &cam, &seg).unwrap();
+        let hier = Hierarchy::build(&depth, &cam, &seg).unwrap();
         assert_monotone(&hier);
         for lod in [Lod::Epsilon(eps), Lod::Tau { tau, view: &cam }] {
             let mesh = hier.extract(lod).unwrap();
@@ -463,7 +463,7 @@ fn an_orthographic_height_field_keeps_its_border_at_coarse_tolerances() {
         10.0 + ((x as f32 / 17.0).sin() * (y as f32 / 13.0).cos()) * 3.0
     });
     let cam = Camera::orthographic(w, h, 1.0, 1.0, 0.0, 0.0).unwrap();
-    let hier = DepthMesh::build(
+    let hier = Hierarchy::build(
         &depth,
         &cam,
         &Segmentation {

@@ -9,7 +9,7 @@ use std::collections::HashSet;
 
 use common::*;
 use dmesh_engine::camera::{Camera, Projection};
-use dmesh_engine::mesh::{DepthMesh, Lod, Mesh, Segmentation};
+use dmesh_engine::mesh::{Hierarchy, Lod, Mesh, Segmentation};
 use glam::{DQuat, DVec3};
 use proptest::prelude::*;
 
@@ -81,7 +81,7 @@ proptest! {
     ) {
         let (w, h) = (65, 49);
         let depth = waves(w, h);
-        let hier = DepthMesh::build(&depth, &camera(w, h), &Segmentation::default()).unwrap();
+        let hier = Hierarchy::build(&depth, &camera(w, h), &Segmentation::default()).unwrap();
         let cam = view(DVec3::new(eye.0, eye.1, eye.2), yaw, pitch);
         let mesh = hier.extract(Lod::Tau { tau, view: &cam }).unwrap();
         prop_assert!(mesh.reach.as_ref().unwrap().covers(&cam), "a mesh covers its own camera");
@@ -107,7 +107,7 @@ proptest! {
     ) {
         let (w, h) = (65, 49);
         let depth = waves(w, h);
-        let hier = DepthMesh::build(&depth, &camera(w, h), &Segmentation::default()).unwrap();
+        let hier = Hierarchy::build(&depth, &camera(w, h), &Segmentation::default()).unwrap();
         let first = view(DVec3::new(eye.0, eye.1, eye.2), yaw, 0.0);
         let held = hier.extract(Lod::Tau { tau, view: &first }).unwrap();
         let reach = held.reach.clone().unwrap();
@@ -134,7 +134,7 @@ proptest! {
 #[test]
 fn a_static_mesh_has_no_reach_and_a_view_dependent_one_states_its_camera() {
     let (w, h) = (129, 97);
-    let hier = DepthMesh::build(&waves(w, h), &camera(w, h), &Segmentation::default()).unwrap();
+    let hier = Hierarchy::build(&waves(w, h), &camera(w, h), &Segmentation::default()).unwrap();
     assert!(hier.extract(Lod::Epsilon(0.01)).unwrap().reach.is_none());
     let cam = view(DVec3::new(0.0, 0.0, -1.0), 0.5, 0.0);
     let mesh = hier.extract(Lod::Tau { tau: 1.0, view: &cam }).unwrap();

@@ -6,11 +6,11 @@
 
 use dmesh_engine::camera::Camera;
 use dmesh_engine::image::DepthImage;
-use dmesh_engine::mesh::{DepthMesh, Lod, Method, Segmentation, Threads};
+use dmesh_engine::mesh::{Hierarchy, Lod, Method, Segmentation, Threads};
 
 /// Everything a build produces that users rely on, as bits.
 fn fingerprint(depth: &DepthImage, camera: &Camera, seg: &Segmentation, threads: Threads) -> Vec<u64> {
-    let m = DepthMesh::build_with(depth, camera, seg, threads).unwrap();
+    let m = Hierarchy::build_with(depth, camera, seg, threads).unwrap();
     let g = *m.grid();
     let mut out = Vec::new();
     for y in 0..g.gh() {

@@ -5,14 +5,14 @@ use std::path::Path;
 
 use anyhow::{bail, Result};
 use dmesh_engine::camera::Camera;
-use dmesh_engine::mesh::{DepthMesh, Lod, Mesh, Segmentation, StripOrder};
+use dmesh_engine::mesh::{Hierarchy, Lod, Mesh, Segmentation, StripOrder};
 
 pub fn run(size: u32, ply: Option<&Path>) -> Result<()> {
     if !(2..=8193).contains(&size) {
         bail!("demo size is {size}; it must be between 2 and 8193");
     }
     let (depth, camera) = dmesh_engine::synthetic::terrain_with_boxes(size, size);
-    let hierarchy = DepthMesh::build(&depth, &camera, &Segmentation::default())?;
+    let hierarchy = Hierarchy::build(&depth, &camera, &Segmentation::default())?;
     let stats = hierarchy.stats();
     println!(
         "synthetic terrain with boxes, {size}x{size}: {} grid vertices, {} bytes, {} segmented triangles, built in {:.2} ms",

@@ -4,36 +4,12 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, bail, Context, Result};
-use clap::{ArgGroup, ValueEnum};
+use clap::ArgGroup;
 use dmesh_engine::camera::{camera_from_json, Camera};
 use dmesh_engine::image::{decode_view, ColorImage, DecodedView, DepthKind, DepthOptions, Limits, ViewFiles};
 use dmesh_engine::mesh::segmentation;
-use dmesh_engine::mesh::{DepthMesh, Mesh, Method, Outlines, Segmentation, StripOrder, Threads};
+use dmesh_engine::mesh::{Hierarchy, Mesh, Outlines, SegmentMethod, SegmentationSpec, StripOrder, Threads};
 use dmesh_engine::render_plan::Ask;
-
-#[derive(Clone, Copy, ValueEnum)]
-enum KindArg {
-    Z,
-    Range,
-    Disparity,
-    #[value(alias = "inverse_depth")]
-    Inverse,
-}
-
-#[derive(Clone, Copy, ValueEnum)]
-enum StripsArg {
-    Traversal,
-    Greedy,
-    Tunnelled,
-}
-
-#[derive(Clone, Copy, ValueEnum)]
-enum SegmentArg {
-    Orthogonality,
-    Disparity,
-    Connectedness,
-    None,
-}
 
 #[derive(clap::Args)]
 #[command(group(ArgGroup::new("lod").required(true).args(["epsilon", "tau", "max_triangles"])))]
@@ -42,8 +18,8 @@ pub struct MeshArgs {
     #[arg(long)]
     depth: PathBuf,
     /// What the depth samples measure.
-    #[arg(long, value_enum, default_value = "z")]
-    depth_kind: KindArg,
+    #[arg(long, value_parser = dmesh_cli::one_of(&DepthKind::NAMES), default_value = "z")]
+    depth_kind: DepthKind,
     /// Multiplies every raw sample.
     #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     scale: f64,
@@ -79,8 +55,8 @@ pub struct MeshArgs {
     #[arg(long)]
     max_triangles: Option<u32>,
     /// Rubber-sheet test.
-    #[arg(long, value_enum, default_value = "orthogonality")]
-    segment: SegmentArg,
+    #[arg(long, value_parser = dmesh_cli::one_of(&SegmentMethod::NAMES), default_value = "orthogonality")]
+    segment: SegmentMethod,
     /// Orthogonality angle in degrees.
     #[arg(long, default_value_t = segmentation::OMEGA_DEG, allow_negative_numbers = true)]
     omega: f64,
@@ -95,8 +71,8 @@ pub struct MeshArgs {
     lambda: f64,
     /// Strip order: the traversal's (fastest), greedy (fewer indices) or
     /// tunnelled (fewest indices, slowest).
-    #[arg(long, value_enum, default_value = "traversal")]
-    strips: StripsArg,
+    #[arg(long, value_parser = dmesh_cli::one_of(&StripOrder::NAMES), default_value = "traversal")]
+    strips: StripOrder,
     /// Drop whole a coarse triangle that a discontinuity crosses, as DMesh
     /// Sec. 5.3 does, instead of refining it down to the segmented cells
     /// (fewer triangles; the foreground's outline erodes by up to the
@@ -151,12 +127,7 @@ pub fn run(a: &MeshArgs) -> Result<()> {
         max_pixels: a.max_pixels,
     };
     let options = DepthOptions {
-        kind: match a.depth_kind {
-            KindArg::Z => DepthKind::Z,
-            KindArg::Range => DepthKind::Range,
-            KindArg::Disparity => DepthKind::Disparity,
-            KindArg::Inverse => DepthKind::InverseDepth,
-        },
+        kind: a.depth_kind,
         scale: a.scale,
         offset: a.offset,
         focal_baseline: a.focal_baseline,
@@ -174,21 +145,20 @@ pub fn run(a: &MeshArgs) -> Result<()> {
     };
     let DecodedView { depth, color } =
         decode_view(files, &options, &camera, &limits).with_context(|| format!("view {}", a.depth.display()))?;
-    let seg = Segmentation {
-        method: match a.segment {
-            SegmentArg::Orthogonality => Method::Orthogonality { omega_deg: a.omega },
-            SegmentArg::Disparity => Method::Disparity { sigma: a.sigma },
-            SegmentArg::Connectedness => Method::Connectedness { kappa: a.kappa },
-            SegmentArg::None => Method::None,
-        },
+    let seg = SegmentationSpec {
+        method: a.segment,
+        omega: a.omega,
+        sigma: a.sigma,
+        kappa: a.kappa,
         lambda: a.lambda,
-    };
+    }
+    .to_engine();
     let threads = if a.threads == 1 {
         Threads::Single
     } else {
         Threads::available()
     };
-    let hierarchy = DepthMesh::build_with(&depth, &camera, &seg, threads)?;
+    let hierarchy = Hierarchy::build_with(&depth, &camera, &seg, threads)?;
     let view = a.view.as_deref().map(|p| read_camera(p, "view camera")).transpose()?;
     // The request as the server states it (one level of detail, with its
     // camera), so the command meshes what a strip request would.
@@ -197,11 +167,7 @@ pub fn run(a: &MeshArgs) -> Result<()> {
     let view = view.filter(|_| a.epsilon.is_none());
     let ask = Ask::new(wire, view, None)?;
     let (lod, _) = ask.lod(&hierarchy, |_| 0.0);
-    let order = match a.strips {
-        StripsArg::Traversal => StripOrder::Traversal,
-        StripsArg::Greedy => StripOrder::Greedy,
-        StripsArg::Tunnelled => StripOrder::Tunnelled,
-    };
+    let order = a.strips;
     let outlines = if a.drop_outlines {
         Outlines::Dropped
     } else {

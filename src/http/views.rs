@@ -10,7 +10,7 @@ use dmesh_proto::{SceneList, ViewList, PROTOCOL_VERSION};
 
 use crate::store::validate_id;
 use dmesh_engine::image::DepthOptions;
-use dmesh_engine::mesh::{SegmentMethod, SegmentationSpec};
+use dmesh_engine::mesh::SegmentationSpec;
 
 use super::conditional::{none_match, not_modified};
 use super::negotiate::encode;
@@ -58,17 +58,10 @@ async fn read_upload(mut multipart: Multipart) -> Result<Fields, AppError> {
             "focal_baseline" => u.options.focal_baseline = Some(number(&name, &text()?)?),
             "channel" => u.options.channel = Some(text()?),
             "segment" => {
-                u.segmentation.method = match text()?.trim() {
-                    "orthogonality" => SegmentMethod::Orthogonality,
-                    "disparity" => SegmentMethod::Disparity,
-                    "connectedness" => SegmentMethod::Connectedness,
-                    "none" => SegmentMethod::None,
-                    other => {
-                        return Err(AppError::BadRequest(format!(
-                            "field segment is {other:?}; use orthogonality, disparity, connectedness or none"
-                        )))
-                    }
-                }
+                u.segmentation.method = text()?
+                    .trim()
+                    .parse()
+                    .map_err(|e| AppError::BadRequest(format!("field segment: {e}")))?
             }
             "omega" => u.segmentation.omega = number(&name, &text()?)?,
             "sigma" => u.segmentation.sigma = number(&name, &text()?)?,

@@ -13,7 +13,7 @@ use bytes::Bytes;
 use crate::store::StoredView;
 use dmesh_engine::camera::{camera_from_json, Camera};
 use dmesh_engine::image::{decode_view, DepthKind, DepthOptions, ViewFiles};
-use dmesh_engine::mesh::{DepthMesh, SegmentationSpec};
+use dmesh_engine::mesh::{Hierarchy, SegmentationSpec};
 
 use super::error::AppError;
 use super::state::{AppState, Loaded};
@@ -50,7 +50,7 @@ pub fn ingest(state: &AppState, scene: &str, view: &str, upload: Upload, live: b
     };
     let depth = decode_view(files, &upload.options, &camera, &state.settings.limits)?.depth;
     // Build before storing: a view that cannot be meshed is not kept.
-    let hierarchy = DepthMesh::build(&depth, &camera, &upload.segmentation.to_engine())?;
+    let hierarchy = Hierarchy::build(&depth, &camera, &upload.segmentation.to_engine())?;
     let valid_samples = depth.valid_count() as u64;
     let stored = StoredView {
         camera: (&camera).into(),

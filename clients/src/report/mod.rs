@@ -22,7 +22,7 @@ pub mod plot;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use dmesh_engine::mesh::{DepthMesh, Segmentation};
+use dmesh_engine::mesh::{Hierarchy, Segmentation};
 use dmesh_engine::render_plan::{self, Ask};
 use dmesh_proto::Lod as WireLod;
 use serde::Serialize;
@@ -139,13 +139,13 @@ pub fn cases(options: &Options) -> anyhow::Result<Vec<Case>> {
 pub fn sweep(case: &Case, options: &Options) -> anyhow::Result<Vec<Row>> {
     let repeats = options.repeats.max(1);
     let mut build_ms = Vec::new();
-    let hierarchies: Vec<DepthMesh> = case
+    let hierarchies: Vec<Hierarchy> = case
         .references
         .iter()
         .map(|r| {
             let mut best = None;
             for _ in 0..repeats {
-                let h = DepthMesh::build(&r.depth, &r.camera, &Segmentation::default())?;
+                let h = Hierarchy::build(&r.depth, &r.camera, &Segmentation::default())?;
                 build_ms.push(h.stats().build_ms);
                 best = Some(h);
             }

@@ -25,7 +25,7 @@ use super::{Knob, Mesher, TriMesh};
 use crate::camera::Camera;
 use crate::error::Result;
 use crate::image::DepthImage;
-use crate::mesh::{DepthMesh, Lod, Outlines, Segmentation, StripOrder, Threads};
+use crate::mesh::{Hierarchy, Lod, Outlines, Segmentation, StripOrder, Threads};
 
 /// The restricted quadtree at an image-space tolerance (or, as its
 /// fallback, an object-space one).
@@ -135,14 +135,14 @@ impl Rqt {
 
     /// The hierarchy, built on one thread: the part of [`Mesher::mesh`]
     /// done once per depth image.
-    pub fn hierarchy(&self, depth: &DepthImage, camera: &Camera) -> Result<DepthMesh> {
-        DepthMesh::build_with(depth, camera, &self.segmentation, Threads::Single)
+    pub fn hierarchy(&self, depth: &DepthImage, camera: &Camera) -> Result<Hierarchy> {
+        Hierarchy::build_with(depth, camera, &self.segmentation, Threads::Single)
     }
 
     /// The mesh at knob setting `knob` (`tau` reference pixels, or
     /// `epsilon` metres) from a built hierarchy: the part of
     /// [`Mesher::mesh`] done per level of detail.
-    pub fn extract(&self, hierarchy: &DepthMesh, camera: &Camera, knob: f64) -> Result<TriMesh> {
+    pub fn extract(&self, hierarchy: &Hierarchy, camera: &Camera, knob: f64) -> Result<TriMesh> {
         let lod = if self.object_space {
             Lod::Epsilon(knob)
         } else {
@@ -154,7 +154,7 @@ impl Rqt {
         self.mesh_of(hierarchy, lod)
     }
 
-    fn mesh_of(&self, hierarchy: &DepthMesh, lod: Lod<'_>) -> Result<TriMesh> {
+    fn mesh_of(&self, hierarchy: &Hierarchy, lod: Lod<'_>) -> Result<TriMesh> {
         let mesh = hierarchy.extract_as(lod, StripOrder::Traversal, self.outlines)?;
         Ok(TriMesh {
             vertices: mesh

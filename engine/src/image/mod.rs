@@ -71,19 +71,31 @@ pub enum DepthKind {
     InverseDepth,
 }
 
+impl DepthKind {
+    /// Its names, as the upload form and `dmesh mesh --depth-kind` take
+    /// them (`inverse` is short for `inverse_depth`).
+    pub const NAMES: [(&'static str, Self); 5] = [
+        ("z", Self::Z),
+        ("range", Self::Range),
+        ("disparity", Self::Disparity),
+        ("inverse_depth", Self::InverseDepth),
+        ("inverse", Self::InverseDepth),
+    ];
+}
+
 impl std::str::FromStr for DepthKind {
     type Err = Error;
 
     fn from_str(s: &str) -> Result<Self> {
-        match s {
-            "z" => Ok(Self::Z),
-            "range" => Ok(Self::Range),
-            "disparity" => Ok(Self::Disparity),
-            "inverse" | "inverse_depth" => Ok(Self::InverseDepth),
-            other => Err(Error::invalid(format!(
-                "depth kind {other:?} is unknown; use z, range, disparity or inverse_depth"
-            ))),
-        }
+        Self::NAMES
+            .iter()
+            .find(|(name, _)| *name == s)
+            .map(|&(_, kind)| kind)
+            .ok_or_else(|| {
+                Error::invalid(format!(
+                    "depth kind {s:?} is unknown; use z, range, disparity or inverse_depth"
+                ))
+            })
     }
 }
 

@@ -30,7 +30,7 @@ use glam::DVec3;
 
 use super::error_metric::norm_bound;
 use super::grid::{cell_half, half_of, Pt};
-use super::hierarchy::DepthMesh;
+use super::hierarchy::Hierarchy;
 use super::lod::Lod;
 use super::outline::bit;
 use super::reach::{merge_spheres, Reach, MAX_CULLED};
@@ -118,7 +118,7 @@ pub enum Outlines {
 }
 
 struct Walk<'a, S> {
-    mesh: &'a DepthMesh,
+    mesh: &'a Hierarchy,
     sel: &'a S,
     /// Vertices split whatever `sel` says (one bit per grid vertex; empty
     /// for none): the outlines' (`outline.rs`).
@@ -262,7 +262,7 @@ fn split_sphere(radius: f32, pm: DVec3, corners: [DVec3; 3]) -> f64 {
 /// neighbours are merged while the merged one stays within it.
 pub(crate) const NEAR_CULLED: f64 = 0.25;
 
-/// Per-thread buffers of [`DepthMesh::extract_with`].
+/// Per-thread buffers of [`Hierarchy::extract_with`].
 struct Scratch {
     tris: Vec<[u32; 3]>,
     slot: Vec<u32>,
@@ -272,7 +272,7 @@ struct Scratch {
 /// tested against the frustum (their parent straddled it).
 const CULL_MIN_SPAN: u32 = 8;
 
-impl DepthMesh {
+impl Hierarchy {
     /// Extracts the mesh at level of detail `lod`, strips in traversal
     /// order, keeping outlines ([`Outlines::Kept`]): the mesh the service
     /// serves.

@@ -55,10 +55,10 @@ use crate::error::{Error, Result};
 use crate::image::DepthImage;
 
 /// The multiresolution hierarchy of one reference view. 16 bytes per grid
-/// vertex (see [`DepthMesh::heap_bytes`]); immutable once built, so many
+/// vertex (see [`Hierarchy::heap_bytes`]); immutable once built, so many
 /// extractions may read it at once.
 #[derive(Clone, Debug)]
-pub struct DepthMesh {
+pub struct Hierarchy {
     pub(crate) grid: Grid,
     pub(crate) camera: Camera,
     pub(crate) bp: BackProject,
@@ -292,7 +292,7 @@ pub struct BuildStats {
     pub stages: Stages,
 }
 
-impl DepthMesh {
+impl Hierarchy {
     /// Builds the hierarchy of `depth` seen by `camera` (same size),
     /// segmented with `seg`, on two threads where the machine has them
     /// ([`Threads::available`]).

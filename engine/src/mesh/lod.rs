@@ -20,7 +20,7 @@ pub enum Lod<'a> {
     },
     /// At most `max` triangles, view-dependent for `view` or static: the
     /// hierarchy resolves it to the finest `Epsilon` or `Tau` whose mesh
-    /// provably fits ([`crate::mesh::DepthMesh::lod_for_triangles`]).
+    /// provably fits ([`crate::mesh::Hierarchy::lod_for_triangles`]).
     Triangles {
         /// Most triangles (`u32`, as on the wire).
         max: u32,

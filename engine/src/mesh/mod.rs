@@ -46,7 +46,7 @@ pub mod strips;
 
 pub use extract::{Mesh, MeshVertex, Outlines};
 pub use grid::Grid;
-pub use hierarchy::{BuildStats, DepthMesh, Stages, Threads};
+pub use hierarchy::{BuildStats, Hierarchy, Stages, Threads};
 pub use lod::Lod;
 pub use reach::{Reach, MAX_CULLED};
 pub use segmentation::{Method, Segmentation};

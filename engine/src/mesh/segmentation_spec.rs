@@ -21,7 +21,9 @@ pub struct SegmentationSpec {
     pub lambda: f64,
 }
 
-/// The rubber-sheet test of a view.
+/// The rubber-sheet test of a view, by name: what is stored, sent and
+/// typed. The build runs a [`super::segmentation::Method`], which carries the
+/// test's threshold ([`SegmentationSpec::to_engine`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum SegmentMethod {
@@ -33,6 +35,33 @@ pub enum SegmentMethod {
     Connectedness,
     /// Invalid samples only.
     None,
+}
+
+impl SegmentMethod {
+    /// Its names, as the upload form's `segment` field and `dmesh mesh
+    /// --segment` take them (and as JSON writes them).
+    pub const NAMES: [(&'static str, Self); 4] = [
+        ("orthogonality", Self::Orthogonality),
+        ("disparity", Self::Disparity),
+        ("connectedness", Self::Connectedness),
+        ("none", Self::None),
+    ];
+}
+
+impl std::str::FromStr for SegmentMethod {
+    type Err = crate::Error;
+
+    fn from_str(s: &str) -> crate::Result<Self> {
+        Self::NAMES
+            .iter()
+            .find(|(name, _)| *name == s)
+            .map(|&(_, m)| m)
+            .ok_or_else(|| {
+                crate::Error::invalid(format!(
+                    "segmentation method {s:?} is unknown; use orthogonality, disparity, connectedness or none"
+                ))
+            })
+    }
 }
 
 impl Default for SegmentationSpec {
@@ -113,5 +142,18 @@ mod tests {
         ] {
             assert!(bad.validate().is_err(), "{bad:?}");
         }
+    }
+
+    #[test]
+    fn a_method_has_one_name_typed_stored_and_sent() {
+        for (name, method) in SegmentMethod::NAMES {
+            assert_eq!(name.parse::<SegmentMethod>().unwrap(), method);
+            assert_eq!(serde_json::to_string(&method).unwrap(), format!("\"{name}\""));
+        }
+        let unknown = "sideways".parse::<SegmentMethod>().unwrap_err().to_string();
+        assert!(
+            unknown.contains("orthogonality, disparity, connectedness or none"),
+            "{unknown}"
+        );
     }
 }

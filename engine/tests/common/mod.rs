@@ -5,7 +5,7 @@ use std::collections::{HashMap, HashSet};
 
 use dmesh_engine::camera::Camera;
 use dmesh_engine::image::DepthImage;
-use dmesh_engine::mesh::{decode_strips, DepthMesh, Mesh};
+use dmesh_engine::mesh::{decode_strips, Hierarchy, Mesh};
 use proptest::prelude::*;
 
 /// A grid point in signed coordinates.
@@ -202,7 +202,7 @@ pub fn assert_epsilon_bound(mesh: &Mesh, depth: &DepthImage, eps: f64) {
 
 /// Saturation and nesting: every vertex's error is at least each child's,
 /// and its sphere contains each child's.
-pub fn assert_monotone(h: &DepthMesh) {
+pub fn assert_monotone(h: &Hierarchy) {
     let g = *h.grid();
     for y in 0..g.gh() {
         for x in 0..g.gw() {

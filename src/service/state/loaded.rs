@@ -6,7 +6,7 @@ use std::hash::{Hash, Hasher};
 use crate::store::{StoredView, Version};
 use dmesh_engine::camera::Camera;
 use dmesh_engine::image::{sniff, DepthImage, Format};
-use dmesh_engine::mesh::DepthMesh;
+use dmesh_engine::mesh::Hierarchy;
 
 use super::super::error::AppError;
 
@@ -14,7 +14,7 @@ use super::super::error::AppError;
 #[derive(Debug)]
 pub struct Loaded {
     /// The hierarchy.
-    pub hierarchy: DepthMesh,
+    pub hierarchy: Hierarchy,
     /// The reference camera.
     pub camera: Camera,
     /// The colour image as uploaded, shared with the stored view.
@@ -60,7 +60,7 @@ impl Loaded {
     pub fn from_stored(v: &StoredView, version: Version) -> Result<Self, AppError> {
         let camera = Camera::try_from(&v.camera)?;
         let depth = DepthImage::from_z(camera.width, camera.height, v.z.clone())?;
-        let hierarchy = DepthMesh::build(&depth, &camera, &v.segmentation.to_engine())?;
+        let hierarchy = Hierarchy::build(&depth, &camera, &v.segmentation.to_engine())?;
         Ok(Self::from_built(
             hierarchy,
             camera,
@@ -74,7 +74,7 @@ impl Loaded {
     /// colour shared, not copied) with its `hierarchy`, built for `camera`
     /// from `valid_samples` valid samples, at `version`.
     pub fn from_built(
-        hierarchy: DepthMesh,
+        hierarchy: Hierarchy,
         camera: Camera,
         valid_samples: u64,
         v: &StoredView,

@@ -51,6 +51,15 @@ pub enum StripOrder {
     Tunnelled,
 }
 
+impl StripOrder {
+    /// Its names, as `dmesh mesh --strips` takes them.
+    pub const NAMES: [(&'static str, Self); 3] = [
+        ("traversal", Self::Traversal),
+        ("greedy", Self::Greedy),
+        ("tunnelled", Self::Tunnelled),
+    ];
+}
+
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
