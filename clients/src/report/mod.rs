@@ -16,6 +16,7 @@
 //! it.
 
 pub mod baselines;
+mod baselines_table;
 pub mod cases;
 pub mod plot;
 

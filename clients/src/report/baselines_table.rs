@@ -1,0 +1,181 @@
+//! The baselines comparison written out: its Markdown tables, its rows as
+//! JSON and the thesis's two plots per scene (Naik Sec. 6.2, Figs. 6.x:
+//! PSNR and meshing time against reduction rate). The comparison itself is
+//! [`super::baselines`].
+
+use std::path::Path;
+
+use anyhow::Context;
+
+use super::baselines::{Row, DIBR, FULL, MET};
+use super::plot;
+
+fn scenes(rows: &[Row]) -> Vec<&str> {
+    let mut out: Vec<&str> = Vec::new();
+    for r in rows {
+        if !out.contains(&r.scene.as_str()) {
+            out.push(&r.scene);
+        }
+    }
+    out
+}
+
+fn meshers(rows: &[Row]) -> Vec<&str> {
+    let mut out: Vec<&str> = Vec::new();
+    // The full mesh and per-pixel DIBR have no rate: they are the tables'
+    // references, not curves.
+    for r in rows.iter().filter(|r| r.mesher != FULL && r.mesher != DIBR) {
+        if !out.contains(&r.mesher.as_str()) {
+            out.push(&r.mesher);
+        }
+    }
+    out
+}
+
+/// The Markdown tables: one per scene, then the goals (the RQT against the
+/// plane-fit quadtree's PSNR and against QEM's time).
+pub fn markdown(rows: &[Row]) -> String {
+    use std::fmt::Write;
+    let mut out = String::new();
+    for scene in scenes(rows) {
+        let _ = writeln!(out, "### {scene}\n");
+        let _ = writeln!(
+            out,
+            "| rate asked | mesher | knob | triangles | rate met | ms | ms per further rate | PSNR dB, own mask | coverage | PSNR dB, common mask | disparity MSE px^2, common mask | the same against the full mesh | bad pixels, common mask |"
+        );
+        let _ = writeln!(out, "|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+        let of_scene: Vec<&Row> = rows.iter().filter(|r| r.scene == scene).collect();
+        let mut rates: Vec<f64> = of_scene.iter().map(|r| r.rate).collect();
+        rates.sort_by(f64::total_cmp);
+        rates.dedup();
+        for rate in rates {
+            for r in of_scene.iter().filter(|r| r.rate == rate) {
+                let again = r.per_level_ms.unwrap_or(r.ms);
+                let _ = writeln!(
+                    out,
+                    "| {} | {} | {} {:.3e} | {} | {:.1} | {:.1} | {:.1} | {:.2} | {:.3} | {:.2} | {:.3} | {:.3} | {:.4} |",
+                    r.rate,
+                    r.mesher,
+                    r.knob_name,
+                    r.knob,
+                    r.triangles,
+                    r.achieved_rate,
+                    r.ms,
+                    again,
+                    r.psnr,
+                    r.coverage,
+                    r.psnr_common,
+                    r.disparity_mse_common,
+                    r.disparity_mse_full_common,
+                    r.bad_pixels_common
+                );
+            }
+        }
+        let _ = writeln!(out);
+    }
+    let find = |scene: &str, mesher: &str, rate: f64| {
+        rows.iter()
+            .find(|r| r.scene == scene && r.mesher == mesher && r.rate == rate)
+    };
+    let _ = writeln!(out, "### The RQT against the plane-fit quadtree and QEM\n");
+    let _ = writeln!(
+        out,
+        "| scene | rate | RQT | common mask | RQT PSNR - quadtree_plane PSNR, common mask, dB | the same, own masks | RQT coverage - quadtree_plane coverage | QEM ms / RQT ms | QEM ms / RQT extraction ms | QEM triangles / RQT triangles |"
+    );
+    let _ = writeln!(out, "|---|---|---|---|---|---|---|---|---|---|");
+    for scene in scenes(rows) {
+        let mut rates: Vec<f64> = rows
+            .iter()
+            .filter(|r| r.scene == scene && r.mesher != FULL)
+            .map(|r| r.rate)
+            .collect();
+        rates.sort_by(f64::total_cmp);
+        rates.dedup();
+        for rate in rates {
+            for variant in ["rqt", "rqt_dropping"] {
+                let Some(rqt) = find(scene, variant, rate) else {
+                    continue;
+                };
+                let (plane, own, cover) =
+                    find(scene, "quadtree_plane", rate).map_or((f64::NAN, f64::NAN, f64::NAN), |p| {
+                        (
+                            rqt.psnr_common - p.psnr_common,
+                            rqt.psnr - p.psnr,
+                            rqt.coverage - p.coverage,
+                        )
+                    });
+                let extract = rqt.per_level_ms.unwrap_or(rqt.ms).max(1e-9);
+                let (speed, speed_again, tris) = find(scene, "qem", rate).map_or((f64::NAN, f64::NAN, f64::NAN), |q| {
+                    (
+                        q.ms / rqt.ms.max(1e-9),
+                        q.ms / extract,
+                        q.triangles as f64 / rqt.triangles.max(1) as f64,
+                    )
+                });
+                let _ = writeln!(
+                    out,
+                    "| {scene} | {rate} | {variant} | {:.3} | {plane:+.2} | {own:+.2} | {cover:+.3} | {speed:.1} | {speed_again:.0} | {tris:.2} |",
+                    rqt.common_mask
+                );
+            }
+        }
+    }
+    out
+}
+
+/// The rows of a comparison written by [`write`] (`baselines.json` in `out`).
+pub fn read(out: &Path) -> anyhow::Result<Vec<Row>> {
+    let path = out.join("baselines.json");
+    let text = std::fs::read_to_string(&path)
+        .with_context(|| format!("cannot read {}: run report --baselines first", path.display()))?;
+    serde_json::from_str(&text).with_context(|| format!("{} is not a comparison's rows", path.display()))
+}
+
+/// Writes `baselines.md`, `baselines.json` and per scene the thesis's two
+/// plots, `psnr-<scene>` (PSNR against reduction rate) and `time-<scene>`
+/// (meshing time against reduction rate), SVG and PNG, into `out`. The
+/// plots show the rows that met their rate within [`MET`].
+pub fn write(rows: &[Row], out: &Path) -> anyhow::Result<()> {
+    std::fs::create_dir_all(out)?;
+    std::fs::write(out.join("baselines.md"), markdown(rows))?;
+    std::fs::write(out.join("baselines.json"), serde_json::to_string_pretty(rows)?)?;
+    for scene in scenes(rows) {
+        let series = |y: fn(&Row) -> f64| -> Vec<(String, Vec<(f64, f64)>)> {
+            meshers(rows)
+                .into_iter()
+                .map(|m| {
+                    // A rate the mesher could not reach (its row says
+                    // where it stopped) is not a point of its curve.
+                    let pts = rows
+                        .iter()
+                        .filter(|r| r.scene == scene && r.mesher == m)
+                        .filter(|r| (r.achieved_rate / r.rate - 1.0).abs() <= MET)
+                        .map(|r| (r.achieved_rate, y(r)))
+                        .collect();
+                    (m.to_string(), pts)
+                })
+                .collect()
+        };
+        plot::Chart {
+            title: &format!("{scene}: PSNR of the warped view against reduction rate"),
+            x_label: "reduction rate (full-resolution triangles / triangles)",
+            y_label: "PSNR dB (pixels every mesher covers)",
+            linear_x: true,
+            log_y: false,
+            legend: plotters::prelude::SeriesLabelPosition::LowerLeft,
+            series: series(|r| r.psnr_common),
+        }
+        .write(&out.join(format!("psnr-{scene}")))?;
+        plot::Chart {
+            title: &format!("{scene}: meshing time against reduction rate"),
+            x_label: "reduction rate (full-resolution triangles / triangles)",
+            y_label: "ms, one thread (log)",
+            linear_x: true,
+            log_y: true,
+            legend: plotters::prelude::SeriesLabelPosition::MiddleRight,
+            series: series(|r| r.ms),
+        }
+        .write(&out.join(format!("time-{scene}")))?;
+    }
+    Ok(())
+}
