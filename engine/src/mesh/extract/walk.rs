@@ -1,0 +1,199 @@
+//! The top-down traversal of an extraction (DMesh Sec. 4.3, 5.3): from the
+//! root diamonds down, a triangle is split where the selection (Eq. 3 or
+//! Eq. 4) or an outline asks; culled triangles are recorded as spheres for
+//! the [`Reach`](crate::mesh::reach::Reach); segmented ones are dropped.
+
+use glam::DVec3;
+
+use crate::mesh::error_metric::norm_bound;
+use crate::mesh::grid::{cell_half, half_of, Pt};
+use crate::mesh::hierarchy::Hierarchy;
+use crate::mesh::outline::bit;
+use crate::mesh::select::{PlaneMask, Select, ALL_PLANES};
+use crate::mesh::strips::BREAK;
+
+struct Walk<'a, S> {
+    mesh: &'a Hierarchy,
+    sel: &'a S,
+    /// Vertices split whatever `sel` says (one bit per grid vertex; empty
+    /// for none): the outlines' (`outline.rs`).
+    forced: &'a [u64],
+    tris: Vec<[u32; 3]>,
+    dropped: usize,
+    /// Smallest [`Select::left_out`] over the left-out vertices with an error.
+    clearance: f64,
+    /// Culled triangles' spheres in the reference frame.
+    culled: Vec<(DVec3, f64)>,
+}
+
+/// What a walk found besides its triangles.
+pub(super) struct Walked {
+    pub(super) dropped: usize,
+    pub(super) clearance: f64,
+    pub(super) culled: Vec<(DVec3, f64)>,
+}
+
+impl<S: Select> Walk<'_, S> {
+    fn skip(&mut self) {
+        if self.tris.last().is_some_and(|t| *t != BREAK) {
+            self.tris.push(BREAK);
+        }
+    }
+
+    fn emit(&mut self, l: Pt, r: Pt, a: Pt) {
+        let g = &self.mesh.grid;
+        // Orient so that the 2D cross product in (x right, y down) is negative:
+        // the 3D normal then points towards the reference camera.
+        let cross = (i64::from(r.0) - i64::from(l.0)) * (i64::from(a.1) - i64::from(l.1))
+            - (i64::from(r.1) - i64::from(l.1)) * (i64::from(a.0) - i64::from(l.0));
+        let (l, r) = if cross > 0 { (r, l) } else { (l, r) };
+        self.tris.push([l, r, a].map(|p| g.index(p) as u32));
+    }
+
+    /// Triangle with hypotenuse `l-r` (entered at `l`, left at `r`) and apex
+    /// `a`, with their positions; `mask` holds the frustum planes it may cross.
+    fn tri(&mut self, (l, pl): (Pt, DVec3), (r, pr): (Pt, DVec3), (a, pa): (Pt, DVec3), mask: PlaneMask) {
+        let g = self.mesh.grid;
+        if l.0.abs_diff(r.0) == 1 && l.1.abs_diff(r.1) == 1 {
+            let cell = (l.0.min(r.0), l.1.min(r.1));
+            if self.mesh.flags[g.index(cell)].cell(cell_half(cell, a)) {
+                self.dropped += 1;
+                self.skip();
+            } else if mask != 0 && {
+                let c = 0.5 * (pl + pr);
+                let radius = norm_bound(pl - c).max(norm_bound(pa - c));
+                let culled = self.sel.cull(c, radius, mask).is_none();
+                if culled {
+                    self.culled.push((c, radius));
+                }
+                culled
+            } {
+                self.skip();
+            } else {
+                self.emit(l, r, a);
+            }
+            return;
+        }
+        let m = ((l.0 + r.0) / 2, (l.1 + r.1) / 2);
+        let mi = g.index(m);
+        let flags = self.mesh.flags[mi].half(half_of(m, a));
+        if flags.all {
+            self.dropped += 1;
+            self.skip();
+            return;
+        }
+        let pm = self.mesh.position(m);
+        let radius = self.mesh.radius[mi];
+        // Culling stops at triangles 8 samples across: below that a
+        // straddling triangle's fringe outside the view costs less to send
+        // than to test (the client clips it).
+        let mask = if mask == 0 || l.0.abs_diff(r.0).max(l.1.abs_diff(r.1)) < CULL_MIN_SPAN {
+            0
+        } else {
+            let reach = split_sphere(radius, pm, [pl, pr, pa]);
+            match self.sel.cull(pm, reach, mask) {
+                Some(left) => left,
+                None => {
+                    self.record_culled((l, pl), (r, pr), (a, pa), (m, pm), reach);
+                    self.skip();
+                    return;
+                }
+            }
+        };
+        let err2 = self.mesh.err2[mi];
+        if self.sel.active(err2, pm, radius) || bit(self.forced, mi) {
+            self.tri((l, pl), (a, pa), (m, pm), mask);
+            self.tri((a, pa), (r, pr), (m, pm), mask);
+            return;
+        }
+        if err2 > 0.0 {
+            self.clearance = self.clearance.min(self.sel.left_out(pm, radius));
+        }
+        if flags.any {
+            self.dropped += 1;
+            self.skip();
+        } else {
+            self.emit(l, r, a);
+        }
+    }
+
+    /// Records the culled triangle `l r a` (split vertex `m`, its sphere's
+    /// radius `reach`) for the [`Reach`]: its sphere, or, while that sphere is
+    /// large against its distance from the eye (a camera beside it could not
+    /// be told apart from one looking at it), its children's.
+    fn record_culled(
+        &mut self,
+        (l, pl): (Pt, DVec3),
+        (r, pr): (Pt, DVec3),
+        (a, pa): (Pt, DVec3),
+        (m, pm): (Pt, DVec3),
+        reach: f64,
+    ) {
+        let span = l.0.abs_diff(r.0).max(l.1.abs_diff(r.1));
+        if span < CULL_MIN_SPAN || reach <= NEAR_CULLED * self.sel.left_out(pm, 0.0) {
+            self.culled.push((pm, reach));
+            return;
+        }
+        for (x, y) in [((l, pl), (a, pa)), ((a, pa), (r, pr))] {
+            let c = ((x.0 .0 + y.0 .0) / 2, (x.0 .1 + y.0 .1) / 2);
+            let pc = self.mesh.position(c);
+            let reach = split_sphere(self.mesh.radius[self.mesh.grid.index(c)], pc, [x.1, y.1, pm]);
+            self.record_culled(x, y, (m, pm), (c, pc), reach);
+        }
+    }
+}
+
+/// The radius of a sphere around a split vertex at `pm` with nested radius
+/// `radius` that holds its triangle's `corners` and, by nesting, every sample
+/// below.
+fn split_sphere(radius: f32, pm: DVec3, corners: [DVec3; 3]) -> f64 {
+    corners
+        .iter()
+        .fold(f64::from(radius), |r, &p| r.max(norm_bound(p - pm)))
+}
+
+/// A culled sphere is split while its radius exceeds this fraction of its
+/// distance from the eye (so it subtends at most about 15 degrees), and
+/// neighbours are merged while the merged one stays within it.
+pub(crate) const NEAR_CULLED: f64 = 0.25;
+
+/// Triangles whose hypotenuse spans fewer grid steps than this are not
+/// tested against the frustum (their parent straddled it).
+const CULL_MIN_SPAN: u32 = 8;
+
+impl Hierarchy {
+    pub(super) fn walk<S: Select>(&self, sel: &S, tris: &mut Vec<[u32; 3]>, forced: &[u64]) -> Walked {
+        let mut walk = Walk {
+            mesh: self,
+            sel,
+            forced,
+            tris: std::mem::take(tris),
+            dropped: 0,
+            clearance: f64::INFINITY,
+            culled: Vec::new(),
+        };
+        let g = self.grid;
+        let s = g.side();
+        for qy in 0..g.n {
+            for k in 0..g.m {
+                let qx = if qy % 2 == 0 { k } else { g.m - 1 - k };
+                let c = (qx * s + s / 2, qy * s + s / 2);
+                if let Some(d) = g.diamond(c) {
+                    let p = (d.a.0 as u32, d.a.1 as u32);
+                    let q = (d.b.0 as u32, d.b.1 as u32);
+                    let a0 = (d.apex[0].0 as u32, d.apex[0].1 as u32);
+                    let a1 = (d.apex[1].0 as u32, d.apex[1].1 as u32);
+                    let at = |v: Pt| (v, self.position(v));
+                    walk.tri(at(p), at(q), at(a0), ALL_PLANES);
+                    walk.tri(at(q), at(p), at(a1), ALL_PLANES);
+                }
+            }
+        }
+        *tris = walk.tris;
+        Walked {
+            dropped: walk.dropped,
+            clearance: walk.clearance,
+            culled: walk.culled,
+        }
+    }
+}
