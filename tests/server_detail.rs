@@ -207,3 +207,48 @@ async fn render_loads_only_the_selected_views_and_sees_store_changes() {
     let r: dmesh_proto::RenderResponse = serde_json::from_slice(&body).unwrap();
     assert!(!r.views[0].color_url.contains("/v0/"), "{}", r.views[0].color_url);
 }
+
+/// `held` is an ETag this server wrote: one longer than the API states
+/// (`openapi.yaml`, `Held`, 512 characters, counted as characters, not
+/// bytes) is a 400 in the query and the body alike, and one at the limit is
+/// no error, only a mesh the client does not hold.
+#[tokio::test]
+async fn an_over_long_held_etag_is_a_bad_request() {
+    let dir = tempfile::tempdir().unwrap();
+    let router = start(state(dir.path(), Settings::default()), Pipeline::default()).await;
+    let body = upload_body(&png16_depth(), &[], &camera_json(0.0, 0.0));
+    let (status, _, body) = send(&router, put("/v1/scenes/h/views/v", body)).await;
+    assert_eq!(status, StatusCode::CREATED, "{}", String::from_utf8_lossy(&body));
+    let compact = |req: axum::http::request::Builder| req.header(header::ACCEPT, dmesh_proto::MESH_MEDIA_TYPE);
+    for (n, want) in [(512, StatusCode::OK), (513, StatusCode::BAD_REQUEST)] {
+        // A two-byte character: the limit is in characters.
+        let held = "\u{92}".repeat(n);
+        let uri = format!("/v1/scenes/h/views/v/strips?epsilon=0.01&held={}", urlencode(&held));
+        let req = compact(Request::get(&uri)).body(Body::empty()).unwrap();
+        let (status, _, body) = send(&router, req).await;
+        assert_eq!(
+            status,
+            want,
+            "GET with {n} characters: {}",
+            String::from_utf8_lossy(&body)
+        );
+        let json = serde_json::json!({ "lod": { "epsilon": 0.01 }, "held": held }).to_string();
+        let req = compact(Request::post("/v1/scenes/h/views/v/strips"))
+            .header(header::CONTENT_TYPE, "application/json")
+            .body(Body::from(json))
+            .unwrap();
+        let (status, _, body) = send(&router, req).await;
+        assert_eq!(
+            status,
+            want,
+            "POST with {n} characters: {}",
+            String::from_utf8_lossy(&body)
+        );
+        if want == StatusCode::BAD_REQUEST {
+            assert!(
+                String::from_utf8_lossy(&body).contains("held"),
+                "the error names the field"
+            );
+        }
+    }
+}

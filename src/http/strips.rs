@@ -43,9 +43,25 @@ impl StripQuery {
                 .map_err(|e| AppError::BadRequest(e.into()))?,
             camera: self.camera.as_deref().map(camera_from_json).transpose()?,
             bits: self.bits,
-            held: self.held,
+            held: held(self.held)?,
             held_camera: self.held_camera.as_deref().map(camera_from_json).transpose()?,
         })
+    }
+}
+
+/// Longest `held` ETag accepted, in characters (`openapi.yaml`, `Held`): an
+/// ETag the server wrote is far shorter, so a longer one is a client's bug,
+/// answered 400 rather than silently treated as "holds nothing".
+pub const MAX_HELD_CHARS: usize = 512;
+
+/// `held` checked against [`MAX_HELD_CHARS`].
+fn held(held: Option<String>) -> Result<Option<String>, AppError> {
+    match held {
+        Some(h) if h.chars().count() > MAX_HELD_CHARS => Err(AppError::BadRequest(format!(
+            "held: {} characters; an ETag this server wrote has at most {MAX_HELD_CHARS}",
+            h.chars().count()
+        ))),
+        other => Ok(other),
     }
 }
 
@@ -97,7 +113,7 @@ pub async fn post_strips(
         lod: b.lod,
         camera: b.camera.as_ref().map(Camera::try_from).transpose()?,
         bits: b.bits,
-        held: b.held,
+        held: held(b.held)?,
         held_camera: b.held_camera.as_ref().map(Camera::try_from).transpose()?,
     };
     strips(state, at, headers, ask).await
