@@ -45,3 +45,10 @@ pub mod wire;
 pub mod wire_compact;
 
 pub use error::{Error, Result};
+
+/// The value `name` stands for in a table of names (an enum's `NAMES`, as
+/// [`image::DepthKind::NAMES`]): the one lookup every `FromStr` of such an
+/// enum makes.
+pub fn by_name<T: Copy>(names: &[(&str, T)], name: &str) -> Option<T> {
+    names.iter().find(|(n, _)| *n == name).map(|&(_, value)| value)
+}

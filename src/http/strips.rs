@@ -56,13 +56,13 @@ pub const MAX_HELD_CHARS: usize = 512;
 
 /// `held` checked against [`MAX_HELD_CHARS`].
 fn held(held: Option<String>) -> Result<Option<String>, AppError> {
-    match held {
-        Some(h) if h.chars().count() > MAX_HELD_CHARS => Err(AppError::BadRequest(format!(
-            "held: {} characters; an ETag this server wrote has at most {MAX_HELD_CHARS}",
-            h.chars().count()
-        ))),
-        other => Ok(other),
+    let chars = held.as_deref().map_or(0, |h| h.chars().count());
+    if chars > MAX_HELD_CHARS {
+        return Err(AppError::BadRequest(format!(
+            "held: {chars} characters; an ETag this server wrote has at most {MAX_HELD_CHARS}"
+        )));
     }
+    Ok(held)
 }
 
 /// The strips answer with its ETag, timing and frame age, or a 304.

@@ -25,10 +25,8 @@
 use anyhow::Result;
 use dmesh_client::blend::{BlendOptions, Blended};
 use dmesh_client::report::cases;
-use dmesh_engine::camera::Camera;
 use dmesh_engine::image::DepthImage;
 use dmesh_engine::mesh::{Hierarchy, Lod};
-use dmesh_engine::render_plan;
 
 mod fig5;
 mod pipeline;
@@ -233,13 +231,7 @@ fn table3(scene: &Scene) -> Result<()> {
         let kept: Vec<usize> = (0..scene.case.references.len()).step_by(every).collect();
         let sub = Scene {
             hierarchies: kept.iter().map(|&k| scene.hierarchies[k].clone()).collect(),
-            selections: {
-                let cameras: Vec<Camera> = case.references.iter().map(|r| r.camera).collect();
-                case.novels
-                    .iter()
-                    .map(|n| render_plan::select(&n.camera, &cameras, dmesh_proto::Selection::Dmesh, None, None))
-                    .collect::<Result<Vec<_>, _>>()?
-            },
+            selections: case.selections(None)?,
             case,
         };
         let (b, bytes) = through_stream(&sub, detail, planes, BlendOptions::default())?;

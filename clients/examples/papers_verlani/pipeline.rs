@@ -10,7 +10,6 @@ use dmesh_client::blend::{blend, BlendOptions, Blended, Texture, ViewInput};
 use dmesh_client::report::cases::Case;
 use dmesh_engine::camera::Camera;
 use dmesh_engine::mesh::{Hierarchy, Lod, Mesh};
-use dmesh_engine::render_plan;
 use dmesh_engine::scene::Weighted;
 use dmesh_engine::wire_compact::{mesh_stream, strip_response};
 use dmesh_proto::StripResponse;
@@ -79,12 +78,7 @@ impl Scene {
             .iter()
             .map(|r| Hierarchy::build(&r.depth, &r.camera, &Default::default()))
             .collect::<Result<Vec<_>, _>>()?;
-        let cameras: Vec<Camera> = case.references.iter().map(|r| r.camera).collect();
-        let selections = case
-            .novels
-            .iter()
-            .map(|n| render_plan::select(&n.camera, &cameras, dmesh_proto::Selection::Dmesh, max_views, None))
-            .collect::<Result<Vec<_>, _>>()?;
+        let selections = case.selections(max_views)?;
         Ok(Self {
             case,
             hierarchies,

@@ -6,6 +6,8 @@ use std::path::Path;
 use anyhow::Context;
 use dmesh_engine::camera::Camera;
 use dmesh_engine::image::{decode_depth, DepthImage, DepthKind, DepthOptions, Limits};
+use dmesh_engine::render_plan;
+use dmesh_engine::scene::Weighted;
 use dmesh_engine::sim::SceneSpec;
 use dmesh_proto::RawGrid;
 use glam::DVec3;
@@ -50,6 +52,19 @@ pub struct Case {
     /// `focal * baseline` of a stereo pair (disparity `= fB / z`), pixels
     /// times metres; `None` for simulated scenes.
     pub focal_baseline: Option<f64>,
+}
+
+impl Case {
+    /// Each novel view's selection of the references by the DMesh rule
+    /// (DMesh Sec. 6.2), at most `max_views` each (`None`: the default).
+    pub fn selections(&self, max_views: Option<u32>) -> anyhow::Result<Vec<Vec<Weighted>>> {
+        let cameras: Vec<Camera> = self.references.iter().map(|r| r.camera).collect();
+        Ok(self
+            .novels
+            .iter()
+            .map(|n| render_plan::select(&n.camera, &cameras, dmesh_proto::Selection::Dmesh, max_views, None))
+            .collect::<Result<Vec<_>, _>>()?)
+    }
 }
 
 /// The simulated demo scene, exact (`noise = None`) or with depth noise and

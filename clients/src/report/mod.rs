@@ -154,12 +154,7 @@ pub fn sweep(case: &Case, options: &Options) -> anyhow::Result<Vec<Row>> {
         })
         .collect::<anyhow::Result<_>>()?;
     let build_ms = median(build_ms);
-    let cameras: Vec<_> = case.references.iter().map(|r| r.camera).collect();
-    let selections = case
-        .novels
-        .iter()
-        .map(|n| render_plan::select(&n.camera, &cameras, dmesh_proto::Selection::Dmesh, None, None))
-        .collect::<Result<Vec<_>, _>>()?;
+    let selections = case.selections(None)?;
     let mut rows = Vec::new();
     // Per row, per novel view, each pixel's squared error (-1: not covered).
     let mut per_pixel: Vec<Vec<Vec<f32>>> = Vec::new();

@@ -87,15 +87,11 @@ impl std::str::FromStr for DepthKind {
     type Err = Error;
 
     fn from_str(s: &str) -> Result<Self> {
-        Self::NAMES
-            .iter()
-            .find(|(name, _)| *name == s)
-            .map(|&(_, kind)| kind)
-            .ok_or_else(|| {
-                Error::invalid(format!(
-                    "depth kind {s:?} is unknown; use z, range, disparity or inverse_depth"
-                ))
-            })
+        crate::by_name(&Self::NAMES, s).ok_or_else(|| {
+            Error::invalid(format!(
+                "depth kind {s:?} is unknown; use z, range, disparity or inverse_depth"
+            ))
+        })
     }
 }
 

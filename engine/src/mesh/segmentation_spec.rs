@@ -52,15 +52,11 @@ impl std::str::FromStr for SegmentMethod {
     type Err = crate::Error;
 
     fn from_str(s: &str) -> crate::Result<Self> {
-        Self::NAMES
-            .iter()
-            .find(|(name, _)| *name == s)
-            .map(|&(_, m)| m)
-            .ok_or_else(|| {
-                crate::Error::invalid(format!(
-                    "segmentation method {s:?} is unknown; use orthogonality, disparity, connectedness or none"
-                ))
-            })
+        crate::by_name(&Self::NAMES, s).ok_or_else(|| {
+            crate::Error::invalid(format!(
+                "segmentation method {s:?} is unknown; use orthogonality, disparity, connectedness or none"
+            ))
+        })
     }
 }
 
