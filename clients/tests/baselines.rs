@@ -52,6 +52,12 @@ fn a_2005_scene_warps_onto_its_right_view() {
     // the foreground, a fraction of a per cent of the pixels.
     assert!(dibr.disparity_mse_full_common.is_finite(), "{dibr:?}");
     assert!(dibr.bad_pixels_common < 0.02, "{dibr:?}");
+    // The scene has depth edges: a band around them, part of the mask,
+    // holding its share of the error or more.
+    for r in &rows {
+        assert!(r.edge_band_common > 0.01 && r.edge_band_common < 0.9, "{r:?}");
+        assert!((0.0..=1.0).contains(&r.edge_error_common), "{r:?}");
+    }
 }
 
 /// Every mesher on cones at rate 10: the rate met within 10 %, scores that
@@ -82,6 +88,8 @@ fn every_mesher_meets_the_rate_on_cones_and_the_files_are_written() {
             "{r:?}"
         );
         assert!((0.0..0.5).contains(&r.bad_pixels_common), "{r:?}");
+        assert!(r.edge_band_common > 0.0 && r.edge_band_common < 1.0, "{r:?}");
+        assert!((0.0..=1.0).contains(&r.edge_error_common), "{r:?}");
         assert!(r.ms > 0.0, "{r:?}");
         // A tenth of the triangles cannot be much better than all of them
         // (each on its own mask; the common mask leaves out the hard pixels).
@@ -130,6 +138,8 @@ fn the_committed_comparison_is_whole() {
                     "disparity_mse_full_common",
                     "common_mask",
                     "bad_pixels_common",
+                    "edge_band_common",
+                    "edge_error_common",
                     "ms",
                     "achieved_rate",
                 ] {

@@ -107,10 +107,24 @@ pub struct Row {
     /// foreground and a background swapped at a depth edge, which carry
     /// nearly all of the MSE.
     pub bad_pixels_common: f64,
+    /// Fraction of the common mask in the depth-edge band ([`edge_band`]).
+    #[serde(default)]
+    pub edge_band_common: f64,
+    /// Fraction of the common mask's colour squared error on those pixels:
+    /// where a mesher loses, at its outlines or on its surfaces.
+    #[serde(default)]
+    pub edge_error_common: f64,
 }
 
 /// Disparity error, pixels, past which a pixel is "bad".
 pub const BAD_DISPARITY_PX: f64 = 1.0;
+
+/// Disparity step, pixels, between neighbouring pixels of the right view's
+/// ground truth that makes a depth edge for [`edge_band`].
+pub const EDGE_STEP_PX: f64 = 2.0;
+
+/// Half-width, pixels, of the band around depth edges ([`edge_band`]).
+pub const EDGE_BAND_PX: usize = 3;
 
 /// What to compare.
 #[derive(Clone, Debug)]
@@ -263,6 +277,60 @@ fn bad_pixels(case: &Case, warped: &Blended, mask: &[bool]) -> f64 {
     bad as f64 / n.max(1) as f64
 }
 
+/// The pixels of the right view within [`EDGE_BAND_PX`] (in x and y) of a
+/// depth edge of its ground truth: neighbours whose disparities differ by
+/// more than [`EDGE_STEP_PX`], or a valid pixel beside an invalid one.
+fn edge_band(case: &Case) -> Vec<bool> {
+    let novel = &case.novels[0];
+    let (w, h) = (novel.camera.width as usize, novel.camera.height as usize);
+    let fb = case.focal_baseline.unwrap_or(1.0);
+    let disparity = |i: usize| {
+        let z = f64::from(novel.depth[i]);
+        (z > 0.0).then(|| fb / z)
+    };
+    let step = |i: usize, j: usize| match (disparity(i), disparity(j)) {
+        (Some(a), Some(b)) => (a - b).abs() > EDGE_STEP_PX,
+        (None, None) => false,
+        _ => true,
+    };
+    let mut edge = vec![false; w * h];
+    for y in 0..h {
+        for x in 0..w {
+            let i = y * w + x;
+            if !(x + 1 < w && step(i, i + 1) || y + 1 < h && step(i, i + w)) {
+                continue;
+            }
+            for yy in y.saturating_sub(EDGE_BAND_PX)..(y + EDGE_BAND_PX + 2).min(h) {
+                for xx in x.saturating_sub(EDGE_BAND_PX)..(x + EDGE_BAND_PX + 2).min(w) {
+                    edge[yy * w + xx] = true;
+                }
+            }
+        }
+    }
+    edge
+}
+
+/// On `mask`: the fraction of its pixels in `edge`, and the fraction of its
+/// colour squared error on them (0 where it has none).
+fn edge_shares(case: &Case, warped: &Blended, mask: &[bool], edge: &[bool]) -> (f64, f64) {
+    let truth = &case.novels[0].rgb;
+    let (mut pixels, mut on_edge) = (0usize, 0usize);
+    let (mut error, mut edge_error) = (0f64, 0f64);
+    for i in (0..mask.len()).filter(|&i| mask[i]) {
+        let e: f64 = (3 * i..3 * i + 3)
+            .map(|k| (f64::from(warped.rgb[k]) - f64::from(truth[k])).powi(2))
+            .sum();
+        pixels += 1;
+        error += e;
+        if edge[i] {
+            on_edge += 1;
+            edge_error += e;
+        }
+    }
+    let share = |a: f64, b: f64| if b > 0.0 { a / b } else { 0.0 };
+    (share(on_edge as f64, pixels as f64), share(edge_error, error))
+}
+
 /// Scores a warped view on `mask` (the full mesh's valid pixels).
 fn score(case: &Case, warped: &Blended, mask: &[bool]) -> anyhow::Result<(f64, f64, f64)> {
     let novel = &case.novels[0];
@@ -323,7 +391,9 @@ pub fn compare_case(case: &Case, meshers: &[Box<dyn Mesher>], options: &Options)
         })
         .collect();
     let full_warp = warped.clone();
+    let edge = edge_band(case);
     let (psnr, disparity_mse, coverage) = score(case, &warped, &mask)?;
+    let (edge_band_common, edge_error_common) = edge_shares(case, &warped, &mask, &edge);
     let mut rows = vec![Row {
         scene: case.name.clone(),
         mesher: FULL.into(),
@@ -342,6 +412,8 @@ pub fn compare_case(case: &Case, meshers: &[Box<dyn Mesher>], options: &Options)
         disparity_mse_full_common: 0.0,
         common_mask: 1.0,
         bad_pixels_common: bad_pixels(case, &warped, &mask),
+        edge_band_common,
+        edge_error_common,
     }];
     // Per-pixel DIBR, scored on the mask like the full mesh.
     let t = Instant::now();
@@ -349,6 +421,7 @@ pub fn compare_case(case: &Case, meshers: &[Box<dyn Mesher>], options: &Options)
     let dibr_ms = t.elapsed().as_secs_f64() * 1e3;
     let (psnr, disparity_mse, coverage) = score(case, &splatted, &mask)?;
     let covered: Vec<bool> = (0..mask.len()).map(|i| mask[i] && splatted.depth[i] > 0.0).collect();
+    let (edge_band_common, edge_error_common) = edge_shares(case, &splatted, &covered, &edge);
     rows.push(Row {
         scene: case.name.clone(),
         mesher: DIBR.into(),
@@ -367,6 +440,8 @@ pub fn compare_case(case: &Case, meshers: &[Box<dyn Mesher>], options: &Options)
         disparity_mse_full_common: disparity_mse_between(case, &splatted, &full_warp, &covered),
         common_mask: covered.iter().filter(|&&c| c).count() as f64 / mask.iter().filter(|&&m| m).count().max(1) as f64,
         bad_pixels_common: bad_pixels(case, &splatted, &covered),
+        edge_band_common,
+        edge_error_common,
     });
     for &rate in &options.rates {
         let mut at_rate: Vec<(Row, Blended)> = Vec::new();
@@ -404,6 +479,8 @@ pub fn compare_case(case: &Case, meshers: &[Box<dyn Mesher>], options: &Options)
                 disparity_mse_full_common: f64::NAN,
                 common_mask: f64::NAN,
                 bad_pixels_common: f64::NAN,
+                edge_band_common: f64::NAN,
+                edge_error_common: f64::NAN,
             };
             at_rate.push((row, warped));
         }
@@ -417,6 +494,7 @@ pub fn compare_case(case: &Case, meshers: &[Box<dyn Mesher>], options: &Options)
             row.disparity_mse_full_common = disparity_mse_between(case, &warped, &full_warp, &common);
             row.common_mask = common_mask;
             row.bad_pixels_common = bad_pixels(case, &warped, &common);
+            (row.edge_band_common, row.edge_error_common) = edge_shares(case, &warped, &common, &edge);
             eprintln!(
                 "{} {} rate {rate}: {} triangles (rate {:.1}), {:.1} ms, PSNR {:.2} dB on {:.3} of the mask, {:.2} dB on the common {:.3}, disparity MSE {:.3}",
                 row.scene,

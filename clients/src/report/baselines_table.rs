@@ -41,9 +41,9 @@ pub fn markdown(rows: &[Row]) -> String {
         let _ = writeln!(out, "### {scene}\n");
         let _ = writeln!(
             out,
-            "| rate asked | mesher | knob | triangles | rate met | ms | ms per further rate | PSNR dB, own mask | coverage | PSNR dB, common mask | disparity MSE px^2, common mask | the same against the full mesh | bad pixels, common mask |"
+            "| rate asked | mesher | knob | triangles | rate met | ms | ms per further rate | PSNR dB, own mask | coverage | PSNR dB, common mask | disparity MSE px^2, common mask | the same against the full mesh | bad pixels, common mask | edge band, common mask | colour error on it |"
         );
-        let _ = writeln!(out, "|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+        let _ = writeln!(out, "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
         let of_scene: Vec<&Row> = rows.iter().filter(|r| r.scene == scene).collect();
         let mut rates: Vec<f64> = of_scene.iter().map(|r| r.rate).collect();
         rates.sort_by(f64::total_cmp);
@@ -53,7 +53,7 @@ pub fn markdown(rows: &[Row]) -> String {
                 let again = r.per_level_ms.unwrap_or(r.ms);
                 let _ = writeln!(
                     out,
-                    "| {} | {} | {} {:.3e} | {} | {:.1} | {:.1} | {:.1} | {:.2} | {:.3} | {:.2} | {:.3} | {:.3} | {:.4} |",
+                    "| {} | {} | {} {:.3e} | {} | {:.1} | {:.1} | {:.1} | {:.2} | {:.3} | {:.2} | {:.3} | {:.3} | {:.4} | {:.3} | {:.3} |",
                     r.rate,
                     r.mesher,
                     r.knob_name,
@@ -67,7 +67,9 @@ pub fn markdown(rows: &[Row]) -> String {
                     r.psnr_common,
                     r.disparity_mse_common,
                     r.disparity_mse_full_common,
-                    r.bad_pixels_common
+                    r.bad_pixels_common,
+                    r.edge_band_common,
+                    r.edge_error_common
                 );
             }
         }
@@ -80,9 +82,9 @@ pub fn markdown(rows: &[Row]) -> String {
     let _ = writeln!(out, "### The RQT against the plane-fit quadtree and QEM\n");
     let _ = writeln!(
         out,
-        "| scene | rate | RQT | common mask | RQT PSNR - quadtree_plane PSNR, common mask, dB | the same, own masks | RQT coverage - quadtree_plane coverage | QEM ms / RQT ms | QEM ms / RQT extraction ms | QEM triangles / RQT triangles |"
+        "| scene | rate | RQT | common mask | RQT PSNR - quadtree_plane PSNR, common mask, dB | the same, own masks | RQT coverage - quadtree_plane coverage | QEM ms / RQT ms | QEM ms / RQT extraction ms | QEM triangles / RQT triangles | RQT colour error on the edge band | QEM's |"
     );
-    let _ = writeln!(out, "|---|---|---|---|---|---|---|---|---|---|");
+    let _ = writeln!(out, "|---|---|---|---|---|---|---|---|---|---|---|---|");
     for scene in scenes(rows) {
         let mut rates: Vec<f64> = rows
             .iter()
@@ -105,17 +107,19 @@ pub fn markdown(rows: &[Row]) -> String {
                         )
                     });
                 let extract = rqt.per_level_ms.unwrap_or(rqt.ms).max(1e-9);
-                let (speed, speed_again, tris) = find(scene, "qem", rate).map_or((f64::NAN, f64::NAN, f64::NAN), |q| {
-                    (
-                        q.ms / rqt.ms.max(1e-9),
-                        q.ms / extract,
-                        q.triangles as f64 / rqt.triangles.max(1) as f64,
-                    )
-                });
+                let (speed, speed_again, tris, qem_edge) =
+                    find(scene, "qem", rate).map_or((f64::NAN, f64::NAN, f64::NAN, f64::NAN), |q| {
+                        (
+                            q.ms / rqt.ms.max(1e-9),
+                            q.ms / extract,
+                            q.triangles as f64 / rqt.triangles.max(1) as f64,
+                            q.edge_error_common,
+                        )
+                    });
                 let _ = writeln!(
                     out,
-                    "| {scene} | {rate} | {variant} | {:.3} | {plane:+.2} | {own:+.2} | {cover:+.3} | {speed:.1} | {speed_again:.0} | {tris:.2} |",
-                    rqt.common_mask
+                    "| {scene} | {rate} | {variant} | {:.3} | {plane:+.2} | {own:+.2} | {cover:+.3} | {speed:.1} | {speed_again:.0} | {tris:.2} | {:.2} | {qem_edge:.2} |",
+                    rqt.common_mask, rqt.edge_error_common
                 );
             }
         }
