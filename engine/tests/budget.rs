@@ -74,8 +74,13 @@ fn a_budget_with_room_keeps_the_outlines_and_a_tight_one_still_fits() {
         .flat_map(|x| (0..h - 1).map(move |y| (x, y)))
         .map(|c| (0..2).filter(|&half| !hier.cell_segmented(c, half)).count() as i64)
         .sum();
-    let outline = hier.coarsest_triangles_with_outlines(1);
+    let outline = hier.coarsest_triangles_with_outlines(Outlines::Refined(1));
     assert!(outline > hier.coarsest_triangles(), "the outline forces vertices");
+    let near_side = hier.coarsest_triangles_with_outlines(Outlines::NearSide(1));
+    assert!(
+        near_side < outline,
+        "the wall's side is spared: {near_side} of {outline}"
+    );
     // Room for twice the outline's coarsest mesh: every unsegmented cell is
     // covered, and the budget is met.
     for max in [2 * outline, 3 * outline, 20 * outline] {
@@ -115,6 +120,44 @@ fn a_budget_with_room_keeps_the_outlines_and_a_tight_one_still_fits() {
         areas.windows(2).all(|a| a[0] >= a[1]) && areas[2] < unsegmented,
         "{areas:?}"
     );
+    // At a coarse tolerance, refining the near side only keeps every cell
+    // of the box, as refining both sides does, for fewer triangles; the
+    // next coarser refinement of both sides erodes it.
+    let box_area = |mesh: &dmesh_engine::mesh::Mesh| -> i64 {
+        let inside = |v: u32| {
+            let (x, y) = ij(mesh, v);
+            (40..=89).contains(&x) && (30..=69).contains(&y)
+        };
+        mesh.triangles
+            .iter()
+            .filter(|t| t.iter().all(|&v| inside(v)))
+            .map(|t| {
+                let [a, b, c] = t.map(|v| ij(mesh, v));
+                ((b.0 - a.0) * (c.1 - a.1) - (b.1 - a.1) * (c.0 - a.0)).abs()
+            })
+            .sum()
+    };
+    let box_cells: i64 = (40..89)
+        .flat_map(|x| (30..69).map(move |y| (x, y)))
+        .map(|c| (0..2).filter(|&half| !hier.cell_segmented(c, half)).count() as i64)
+        .sum();
+    let at = |outlines| {
+        let mesh = hier
+            .extract_as(Lod::Epsilon(10.0), StripOrder::Traversal, outlines)
+            .unwrap();
+        assert_conforming(&mesh);
+        mesh
+    };
+    let (both, near, coarser) = (
+        at(Outlines::Refined(1)),
+        at(Outlines::NearSide(1)),
+        at(Outlines::Refined(2)),
+    );
+    assert_eq!(box_area(&both), box_cells);
+    assert_eq!(box_area(&near), box_cells, "the box's outline eroded");
+    assert!(box_area(&coarser) < box_cells);
+    assert!(near.triangles.len() < both.triangles.len());
+    assert!(area2(&near) < area2(&both), "the wall beside the box is dropped");
     // Dropping outlines at the tolerance the budget chose loses area.
     let kept = hier.extract(Lod::Epsilon(0.05)).unwrap();
     let dropped = hier

@@ -416,7 +416,84 @@ proptest! {
         assert_epsilon_bound(&partial, &depth, eps);
         prop_assert!(mesh.triangles.len() >= partial.triangles.len());
         prop_assert!(partial.triangles.len() >= plain.triangles.len());
+        // Refining only the near side of each outline: conforming and
+        // within epsilon, between the two in triangles, and every
+        // unsegmented cell on the near surface's side is still covered.
+        let near = as_dmesh(Outlines::NearSide(1));
+        assert_conforming(&near);
+        assert_epsilon_bound(&near, &depth, eps);
+        prop_assert!(near.triangles.len() <= mesh.triangles.len());
+        prop_assert!(near.triangles.len() >= plain.triangles.len());
+        let covered = covered_cells(&hier, &near);
+        for (cell, half) in near_side_cells(&hier, w, h) {
+            prop_assert!(covered.contains(&(cell, half)), "cell {:?} half {} uncovered", cell, half);
+        }
     }
+}
+
+/// The unit cells' halves that a mesh covers, as (min corner, half).
+fn covered_cells(hier: &Hierarchy, mesh: &dmesh_engine::mesh::Mesh) -> std::collections::HashSet<((u32, u32), usize)> {
+    let mut out = std::collections::HashSet::new();
+    for t in &mesh.triangles {
+        let p = t.map(|v| ij(mesh, v));
+        let ((x0, x1), (y0, y1)) = bounds(&p);
+        for y in y0..y1 {
+            for x in x0..x1 {
+                // A cell's half is covered when its centroid (times 3) is
+                // inside the triangle (times 3).
+                for half in 0..2 {
+                    let d = hier.grid().cell((x as u32, y as u32));
+                    let c = [d.a, d.b, d.apex[half]];
+                    let g = (c.iter().map(|q| q.0).sum::<i64>(), c.iter().map(|q| q.1).sum::<i64>());
+                    let s = [0, 1, 2].map(|k| {
+                        cross(
+                            (3 * p[k].0, 3 * p[k].1),
+                            (3 * p[(k + 1) % 3].0, 3 * p[(k + 1) % 3].1),
+                            g,
+                        )
+                    });
+                    if s.iter().all(|&v| v > 0) || s.iter().all(|&v| v < 0) {
+                        out.insert(((x as u32, y as u32), half));
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
+/// The cells' halves the near-side refinement must keep, read from the
+/// definition (`surface_side.rs`): unsegmented, with a corner that is a near
+/// corner of a segmented one (at most halfway from its nearest depth to its
+/// farthest, or any valid corner beside an invalid one).
+fn near_side_cells(hier: &Hierarchy, w: u32, h: u32) -> Vec<((u32, u32), usize)> {
+    let z = |p: (i64, i64)| hier.depth((p.0 as u32, p.1 as u32));
+    let corners = |cell: (u32, u32), half: usize| {
+        let d = hier.grid().cell(cell);
+        [d.a, d.b, d.apex[half]]
+    };
+    let cells: Vec<((u32, u32), usize)> = (0..w - 1)
+        .flat_map(|x| (0..h - 1).flat_map(move |y| [((x, y), 0), ((x, y), 1)]))
+        .collect();
+    let mut near = std::collections::HashSet::new();
+    for &(cell, half) in &cells {
+        if hier.cell_segmented(cell, half) {
+            let zs = corners(cell, half).map(z);
+            let lo = zs.iter().copied().fold(f32::MAX, f32::min);
+            let hi = zs.iter().copied().fold(0f32, f32::max);
+            for (p, zp) in corners(cell, half).into_iter().zip(zs) {
+                if zp > 0.0 && (lo <= 0.0 || zp <= 0.5 * (lo + hi)) {
+                    near.insert(p);
+                }
+            }
+        }
+    }
+    cells
+        .into_iter()
+        .filter(|&(cell, half)| {
+            !hier.cell_segmented(cell, half) && corners(cell, half).iter().any(|p| near.contains(p))
+        })
+        .collect()
 }
 
 proptest! {

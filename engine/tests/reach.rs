@@ -43,16 +43,8 @@ fn covered(mesh: &Mesh, w: u32, h: u32) -> Vec<bool> {
     let mut out = vec![false; (w * h) as usize];
     for t in &mesh.triangles {
         let p = t.map(|v| ij(mesh, v));
-        let cross = |a: (i64, i64), b: (i64, i64), c: (i64, i64)| (b.0 - a.0) * (c.1 - a.1) - (b.1 - a.1) * (c.0 - a.0);
         let area = cross(p[0], p[1], p[2]);
-        let (x0, x1) = (
-            p.iter().map(|q| q.0).min().unwrap(),
-            p.iter().map(|q| q.0).max().unwrap(),
-        );
-        let (y0, y1) = (
-            p.iter().map(|q| q.1).min().unwrap(),
-            p.iter().map(|q| q.1).max().unwrap(),
-        );
+        let ((x0, x1), (y0, y1)) = bounds(&p);
         for y in y0.max(0)..=y1.min(i64::from(h) - 1) {
             for x in x0.max(0)..=x1.min(i64::from(w) - 1) {
                 let s = [

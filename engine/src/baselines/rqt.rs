@@ -49,7 +49,7 @@ impl Mesher for Rqt {
     fn name(&self) -> &'static str {
         match self.outlines {
             Outlines::Dropped => "rqt_dropping",
-            Outlines::Refined(_) | Outlines::Kept => "rqt",
+            Outlines::Refined(_) | Outlines::NearSide(_) | Outlines::Kept => "rqt",
         }
     }
 
@@ -57,6 +57,7 @@ impl Mesher for Rqt {
         let knob = if self.object_space { "epsilon (m)" } else { "tau (px)" };
         match self.outlines {
             Outlines::Refined(finest) => format!("{knob}, edges to {finest}"),
+            Outlines::NearSide(finest) => format!("{knob}, near side to {finest}"),
             Outlines::Kept => format!("{knob}, edges to 1"),
             Outlines::Dropped => knob.to_string(),
         }
@@ -91,24 +92,19 @@ impl Mesher for Rqt {
     }
 
     /// For the rates a refinement cannot reach (its edges alone take more
-    /// triangles), the next coarser refinement, then none, as a triangle
-    /// budget falls back (`outline.rs`); for those `tau` cannot reach,
-    /// `epsilon`.
+    /// triangles), the next on the budget's ladder (`outline.rs`): the
+    /// same depth on the near side only, then the next coarser depth, then
+    /// none; for those `tau` cannot reach, `epsilon`.
     fn fallback(&self) -> Option<Box<dyn Mesher>> {
-        let finest = match self.outlines {
-            Outlines::Kept => Some(1),
-            Outlines::Refined(finest) => Some(finest),
+        let outlines = match self.outlines {
+            Outlines::Kept => Some(Outlines::NearSide(1)),
+            Outlines::Refined(finest) => Some(Outlines::NearSide(finest)),
+            Outlines::NearSide(finest) if finest < COARSEST_REFINEMENT => Some(Outlines::Refined(2 * finest)),
+            Outlines::NearSide(_) => Some(Outlines::Dropped),
             Outlines::Dropped => None,
         };
-        let next = match (finest, self.object_space) {
-            (Some(finest), _) if finest < COARSEST_REFINEMENT => Rqt {
-                outlines: Outlines::Refined(2 * finest),
-                ..*self
-            },
-            (Some(_), _) => Rqt {
-                outlines: Outlines::Dropped,
-                ..*self
-            },
+        let next = match (outlines, self.object_space) {
+            (Some(outlines), _) => Rqt { outlines, ..*self },
             (None, false) => Rqt {
                 object_space: true,
                 ..*self

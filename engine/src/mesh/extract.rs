@@ -32,6 +32,7 @@ use glam::DVec3;
 
 use super::hierarchy::Hierarchy;
 use super::lod::Lod;
+use super::outline::Rung;
 use super::reach::{merge_spheres, Reach, MAX_CULLED};
 use super::select::{Select, Static, ViewDependent, ALL_PLANES};
 use super::strips::{stripify, stripify_greedy, stripify_tunnelled, StripOrder, BREAK};
@@ -110,11 +111,54 @@ pub enum Outlines {
     /// rounded up to a power of two, at most 32), which are dropped whole;
     /// with 1, down to the segmented cells themselves.
     Refined(u32),
-    /// `Refined(1)` for a tolerance; for a triangle budget, the finest
-    /// refinement whose forced triangles take at most half the budget, or
-    /// none when no refinement's do. What the service serves.
+    /// The same, but only where the triangle holds the near surface
+    /// (`surface_side.rs`): the near surface's outline is kept as finely,
+    /// and the far surface beside it is dropped in triangles as large as
+    /// the extracted resolution's, for fewer triangles.
+    NearSide(u32),
+    /// `Refined(1)` for a tolerance; for a triangle budget, the first of
+    /// `Refined(1)`, `NearSide(1)`, `Refined(2)`, `NearSide(2)`, ... whose
+    /// forced triangles take at most half the budget, or none when no
+    /// refinement's do. What the service serves.
     #[default]
     Kept,
+}
+
+impl Outlines {
+    /// The refinement it asks of a tolerance (`Kept`: `Refined(1)`).
+    pub(crate) fn rung(self) -> Option<Rung> {
+        match self {
+            Self::Dropped => None,
+            Self::Refined(finest) => Some(Rung {
+                finest,
+                near_side: false,
+            }),
+            Self::NearSide(finest) => Some(Rung {
+                finest,
+                near_side: true,
+            }),
+            Self::Kept => Some(Rung {
+                finest: 1,
+                near_side: false,
+            }),
+        }
+    }
+}
+
+impl From<Option<Rung>> for Outlines {
+    fn from(rung: Option<Rung>) -> Self {
+        match rung {
+            None => Self::Dropped,
+            Some(Rung {
+                finest,
+                near_side: false,
+            }) => Self::Refined(finest),
+            Some(Rung {
+                finest,
+                near_side: true,
+            }) => Self::NearSide(finest),
+        }
+    }
 }
 
 /// Per-thread buffers of [`Hierarchy::extract_with`].
@@ -148,25 +192,21 @@ impl Hierarchy {
             (_, Lod::Triangles { max, view }) => {
                 let max = u64::from(max);
                 // Resolved to `Epsilon` or `Tau` with the refinement it counted.
-                let (lod, finest) = match outlines {
-                    Outlines::Dropped => (self.lod_for_triangles(max, view)?, None),
-                    Outlines::Refined(finest) => (
-                        self.resolve_budget(&self.outline(finest).stats, max, view)?,
-                        Some(finest),
-                    ),
-                    Outlines::Kept => {
+                let (lod, rung) = match outlines.rung() {
+                    None => (self.lod_for_triangles(max, view)?, None),
+                    Some(rung) if outlines != Outlines::Kept => {
+                        (self.resolve_budget(&self.outline(rung).stats, max, view)?, Some(rung))
+                    }
+                    Some(_) => {
                         let (lod, outline) = self.outline_lod_for_triangles(max, view)?;
-                        (lod, outline.map(|o| o.finest))
+                        (lod, outline.map(Rung::from))
                     }
                 };
-                let outlines = finest.map_or(Outlines::Dropped, Outlines::Refined);
-                return self.extract_as(lod, strips, outlines);
+                return self.extract_as(lod, strips, Outlines::from(rung));
             }
-            (Outlines::Dropped, _) => None,
-            (Outlines::Refined(finest), _) => Some(finest),
-            (Outlines::Kept, _) => Some(1),
+            _ => outlines.rung(),
         };
-        let forced: &[u64] = finest.map_or(&[], |f| &self.outline(f).forced);
+        let forced: &[u64] = finest.map_or(&[], |rung| &self.outline(rung).forced);
         let mut mesh = match lod {
             Lod::Epsilon(eps) => {
                 if !(eps.is_finite() && eps >= 0.0) {

@@ -102,11 +102,11 @@ pub(crate) struct Levels<'a> {
 /// A split vertex above level 0: `v` bisects `a-b`; `apex` are its halves'
 /// apexes (`None` off the grid).
 #[derive(Clone, Copy)]
-struct Split {
-    v: Pt,
-    a: Pt,
-    b: Pt,
-    apex: [Option<Pt>; 2],
+pub(super) struct Split {
+    pub(super) v: Pt,
+    pub(super) a: Pt,
+    pub(super) b: Pt,
+    pub(super) apex: [Option<Pt>; 2],
     bisects: Bisects,
 }
 
@@ -119,7 +119,7 @@ impl Split {
 
 /// The split vertices of the given levels (0 is the finest) in the order
 /// the pass needs them (see `for_each_coarse`).
-fn for_each_split(grid: Grid, levels: std::ops::Range<u32>, mut f: impl FnMut(Split)) {
+pub(super) fn for_each_split(grid: Grid, levels: std::ops::Range<u32>, mut f: impl FnMut(Split)) {
     let (gw, gh) = (grid.gw(), grid.gh());
     for g in levels {
         let h = 1u32 << g;

@@ -19,6 +19,8 @@
 //! - [`extract`]: the top-down traversal emitting a conforming mesh (Sec. 4.3-4.4);
 //! - `outline`: outlines kept at any level of detail, refining the coarse
 //!   triangles a discontinuity crosses, with the budget counting them (Sec. 5.3);
+//! - `surface_side`: which of those triangles hold the near surface, so a
+//!   refinement may spare the far side;
 //! - [`strips`]: generalised strips with primitive restart (Fig. 13): the
 //!   traversal's order, greedy strips over the adjacency, and tunnels
 //!   joining them weighed by their index count.
@@ -43,6 +45,7 @@ pub mod segmentation;
 pub mod segmentation_spec;
 mod select;
 pub mod strips;
+mod surface_side;
 
 pub use extract::{Mesh, MeshVertex, Outlines};
 pub use grid::Grid;

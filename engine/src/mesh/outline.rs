@@ -16,6 +16,13 @@
 //! `finest` stops at triangles `2 * finest` samples across, dropped whole
 //! as Sec. 5.3 drops them.
 //!
+//! Refining only the near side (`surface_side.rs`) seeds only the halves
+//! that hold the near surface: the far surface's triangles beside an
+//! outline are dropped as Sec. 5.3 drops them, and the near surface keeps
+//! its outline as finely for fewer triangles. A budget tries each depth on
+//! both sides, then on the near side, before the next coarser depth
+//! ([`ladder`]).
+//!
 //! The set does not depend on the level of detail. It is computed once per
 //! hierarchy and depth, on the first extraction that asks for it, with the
 //! budget's statistics (`budget.rs`) counting the forced vertices in the
@@ -30,9 +37,30 @@ use super::border::FORCED;
 use super::budget::ErrorStats;
 use super::flags::Flags;
 use super::grid::{Grid, Kind};
+use super::surface_side::surface_halves;
 
 /// The refinement depths kept: triangles 2, 4, ..., 64 samples across.
 pub(crate) const DEPTHS: [u32; 6] = [1, 2, 4, 8, 16, 32];
+
+/// One outline refinement: its depth, and whether it refines only the
+/// near side of a discontinuity.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Rung {
+    /// Triangles no finer than `2 * finest` samples across are refined.
+    pub finest: u32,
+    /// Only those that hold the near surface.
+    pub near_side: bool,
+}
+
+/// The refinements a budget tries, from the most triangles to the fewest:
+/// each depth on both sides, then on the near side only (the near surface's
+/// outline kept as finely, the far surface beside it dropped in coarser
+/// triangles), then the next coarser depth.
+pub(crate) fn ladder() -> impl Iterator<Item = Rung> {
+    DEPTHS
+        .into_iter()
+        .flat_map(|finest| [false, true].map(|near_side| Rung { finest, near_side }))
+}
 
 /// The largest share of a triangle budget that forced outline triangles
 /// may take: a budget picks the finest depth whose forced triangles fit in
@@ -44,17 +72,31 @@ pub(crate) const OUTLINE_SHARE: f64 = 0.5;
 pub(crate) struct Outline {
     /// Triangles no finer than `2 * finest` samples across are refined.
     pub finest: u32,
+    /// Only those that hold the near surface (`surface_side.rs`).
+    pub near_side: bool,
     /// One bit per grid vertex: forced.
     pub forced: Vec<u64>,
     /// The budget's statistics with the forced vertices in the base.
     pub stats: ErrorStats,
 }
 
-/// The outlines of a hierarchy, one per depth in [`DEPTHS`], each
+impl From<&Outline> for Rung {
+    fn from(o: &Outline) -> Self {
+        Self {
+            finest: o.finest,
+            near_side: o.near_side,
+        }
+    }
+}
+
+/// The outlines of a hierarchy, one per depth in [`DEPTHS`] and side, each
 /// computed on first use.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct OutlineCache {
-    depths: [OnceLock<Outline>; DEPTHS.len()],
+    /// Per depth, both sides, then the near side only.
+    depths: [OnceLock<Outline>; 2 * DEPTHS.len()],
+    /// Which halves hold the surface (`surface_side.rs`), for every depth.
+    surface: OnceLock<Vec<u8>>,
 }
 
 /// True when bit `i` of `bits` is set (false past its end).
@@ -65,15 +107,23 @@ pub(crate) fn bit(bits: &[u64], i: usize) -> bool {
 
 impl OutlineCache {
     /// The outline of refinement depth `finest` (rounded up to one of
-    /// [`DEPTHS`], at most the coarsest), computing it on first use from
-    /// the hierarchy's grid, flags and saturated errors.
-    pub(crate) fn get(&self, finest: u32, grid: Grid, flags: &[Flags], err2: &[f32]) -> &Outline {
-        let k = DEPTHS.iter().position(|&d| d >= finest).unwrap_or(DEPTHS.len() - 1);
-        self.depths[k].get_or_init(|| {
-            let forced = forced_set(grid, flags, DEPTHS[k]);
+    /// [`DEPTHS`], at most the coarsest), on both sides of a discontinuity
+    /// or on its near side only, computing it on first use from the
+    /// hierarchy's grid, depths, flags and saturated errors.
+    pub(crate) fn get(&self, rung: Rung, grid: Grid, z: &[f32], flags: &[Flags], err2: &[f32]) -> &Outline {
+        let k = DEPTHS
+            .iter()
+            .position(|&d| d >= rung.finest)
+            .unwrap_or(DEPTHS.len() - 1);
+        self.depths[2 * k + usize::from(rung.near_side)].get_or_init(|| {
+            let surface = rung
+                .near_side
+                .then(|| &self.surface.get_or_init(|| surface_halves(grid, z, flags))[..]);
+            let forced = forced_set(grid, flags, surface, DEPTHS[k]);
             let stats = ErrorStats::gather_with(grid, err2, |i| err2[i] == FORCED || bit(&forced, i));
             Outline {
                 finest: DEPTHS[k],
+                near_side: rung.near_side,
                 forced,
                 stats,
             }
@@ -86,19 +136,21 @@ impl OutlineCache {
             .iter()
             .filter_map(OnceLock::get)
             .map(|o| 8 * o.forced.capacity() + o.stats.heap_bytes())
-            .sum()
+            .sum::<usize>()
+            + self.surface.get().map_or(0, Vec::capacity)
     }
 }
 
 /// The forced vertices of refinement depth `finest`: one pass over the
-/// flags for the seeds, then their dependencies, each vertex visited once.
-fn forced_set(grid: Grid, flags: &[Flags], finest: u32) -> Vec<u64> {
+/// flags for the seeds (with `surface`, only the halves that hold the near
+/// surface seed), then their dependencies, each vertex visited once.
+fn forced_set(grid: Grid, flags: &[Flags], surface: Option<&[u8]>, finest: u32) -> Vec<u64> {
     let gw = grid.gw() as usize;
     let mut forced = vec![0u64; grid.len().div_ceil(64)];
     let mut stack: Vec<usize> = (0..grid.len())
         .filter(|&i| {
             let f = flags[i];
-            let partial = (0..2).any(|k| f.half(k).any && !f.half(k).all);
+            let partial = (0..2).any(|k| f.half(k).partial() && surface.is_none_or(|holds| holds[i] >> k & 1 == 1));
             partial
                 && match grid.kind(((i % gw) as u32, (i / gw) as u32)) {
                     Kind::Root => false,

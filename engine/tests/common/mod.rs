@@ -11,6 +11,20 @@ use proptest::prelude::*;
 /// A grid point in signed coordinates.
 type P = (i64, i64);
 
+/// Twice the signed area of `a, b, c`.
+pub fn cross(a: P, b: P, c: P) -> i64 {
+    (b.0 - a.0) * (c.1 - a.1) - (b.1 - a.1) * (c.0 - a.0)
+}
+
+/// The bounding box of `points`: `((x_min, x_max), (y_min, y_max))`.
+pub fn bounds(points: &[P]) -> ((i64, i64), (i64, i64)) {
+    let span = |f: fn(&P) -> i64| {
+        let v = points.iter().map(f);
+        (v.clone().min().unwrap_or(0), v.max().unwrap_or(0))
+    };
+    (span(|p| p.0), span(|p| p.1))
+}
+
 /// A perspective camera with a 60-degree-ish field of view, principal point at the centre.
 pub fn camera(w: u32, h: u32) -> Camera {
     let f = f64::from(w.max(h));
@@ -106,14 +120,7 @@ pub fn assert_conforming(mesh: &Mesh) {
                 assert!(!used.contains(&r), "T-junction: vertex {r:?} inside edge {p:?}-{q:?}");
             }
         }
-        let (x0, x1) = (
-            t.iter().map(|p| p.0).min().unwrap(),
-            t.iter().map(|p| p.0).max().unwrap(),
-        );
-        let (y0, y1) = (
-            t.iter().map(|p| p.1).min().unwrap(),
-            t.iter().map(|p| p.1).max().unwrap(),
-        );
+        let ((x0, x1), (y0, y1)) = bounds(t);
         for cy in y0..y1 {
             for cx in x0..x1 {
                 // Four sample points per cell, one inside each quarter triangle,

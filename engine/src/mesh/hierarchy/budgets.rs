@@ -8,7 +8,8 @@ use crate::camera::Camera;
 use crate::error::Result;
 use crate::mesh::budget::ErrorStats;
 use crate::mesh::lod::Lod;
-use crate::mesh::outline::{Outline, DEPTHS, OUTLINE_SHARE};
+use crate::mesh::outline::{ladder, Outline, Rung, OUTLINE_SHARE};
+use crate::mesh::Outlines;
 
 impl Hierarchy {
     /// Triangles of the coarsest mesh before segmentation: two per root quad,
@@ -47,33 +48,35 @@ impl Hierarchy {
         )
     }
 
-    /// The outline of refinement depth `finest` (`outline.rs`), computed
-    /// on first use.
-    pub(crate) fn outline(&self, finest: u32) -> &Outline {
-        self.outlines.get(finest, self.grid, &self.flags, &self.err2)
+    /// The outline of one refinement (`outline.rs`), computed on first use.
+    pub(crate) fn outline(&self, rung: Rung) -> &Outline {
+        self.outlines.get(rung, self.grid, &self.z, &self.flags, &self.err2)
     }
 
-    /// Triangles of the coarsest mesh whose coarse triangles a
-    /// discontinuity crosses are refined down to `2 * finest` samples
-    /// across (`finest` rounded up to a power of two, at most 32), rather
-    /// than dropped: the smallest budget [`Self::extract_keeping_outlines`]
-    /// keeps such outlines in.
-    pub fn coarsest_triangles_with_outlines(&self, finest: u32) -> u64 {
-        self.outline(finest).stats.coarsest_triangles()
+    /// Triangles of the coarsest mesh with the coarse triangles that a
+    /// discontinuity crosses treated as `outlines` says (`Kept` as for a
+    /// tolerance: refined down to the segmented cells): twice this is the
+    /// smallest budget an extraction keeps such outlines in.
+    pub fn coarsest_triangles_with_outlines(&self, outlines: Outlines) -> u64 {
+        match outlines.rung() {
+            Some(rung) => self.outline(rung).stats.coarsest_triangles(),
+            None => self.coarsest_triangles(),
+        }
     }
 
     /// [`Self::lod_for_triangles`] for an extraction that keeps outlines:
-    /// the finest refinement depth whose forced triangles take at most half
-    /// of `max_triangles` (`outline.rs`), with the level of detail whose
-    /// mesh, refined so, provably fits; or, when no depth's do, no
-    /// refinement and [`Self::lod_for_triangles`].
+    /// the first refinement of [`ladder`] (each depth on both sides of a
+    /// discontinuity, then on its near side, finest first) whose forced
+    /// triangles take at most half of `max_triangles` (`outline.rs`), with
+    /// the level of detail whose mesh, refined so, provably fits; or, when
+    /// no refinement's do, none and [`Self::lod_for_triangles`].
     pub(crate) fn outline_lod_for_triangles<'v>(
         &self,
         max_triangles: u64,
         view: Option<&'v Camera>,
     ) -> Result<(Lod<'v>, Option<&Outline>)> {
-        for finest in DEPTHS {
-            let outline = self.outline(finest);
+        for rung in ladder() {
+            let outline = self.outline(rung);
             if outline.stats.coarsest_triangles() as f64 <= OUTLINE_SHARE * max_triangles as f64 {
                 let lod = self.resolve_budget(&outline.stats, max_triangles, view)?;
                 return Ok((lod, Some(outline)));
