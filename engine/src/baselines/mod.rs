@@ -125,13 +125,18 @@ pub trait Mesher: Sync {
 }
 
 /// Every mesher of the comparison, the restricted quadtree first (as the
-/// service extracts it, keeping outlines, then dropping the coarse
-/// triangles a discontinuity crosses as DMesh Sec. 5.3 does).
+/// service extracts it, keeping outlines; then dropping the coarse
+/// triangles a discontinuity crosses as DMesh Sec. 5.3 does; then as
+/// served, but segmented by the baselines' own cut, [`shared_cut`]).
 pub fn all() -> Vec<Box<dyn Mesher>> {
     vec![
         Box::new(rqt::Rqt::default()),
         Box::new(rqt::Rqt {
             outlines: crate::mesh::Outlines::Dropped,
+            ..rqt::Rqt::default()
+        }),
+        Box::new(rqt::Rqt {
+            segmentation: shared_cut(),
             ..rqt::Rqt::default()
         }),
         Box::new(decimate::Decimate),
@@ -150,6 +155,17 @@ pub fn all() -> Vec<Box<dyn Mesher>> {
 /// differ). A slanted surface changes by a few per cent per pixel; an object
 /// before its background by tens.
 pub const JUMP: f32 = 0.1;
+
+/// The baselines' cut as the RQT's segmentation: Eq. 11's gate alone at
+/// [`JUMP`] (orthogonality at 90 degrees flags every triangle the gate
+/// lets through), so a full-resolution triangle is cut exactly when two of
+/// its corners are [`discontinuous`].
+pub fn shared_cut() -> crate::mesh::Segmentation {
+    crate::mesh::Segmentation {
+        method: crate::mesh::Method::Orthogonality { omega_deg: 90.0 },
+        lambda: f64::from(JUMP),
+    }
+}
 
 /// True when samples of depths `a` and `b` (both valid) are not one surface.
 pub fn discontinuous(a: f32, b: f32) -> bool {
@@ -355,6 +371,47 @@ pub(crate) fn positions(last: u32, step: f64) -> Vec<u32> {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+
+    /// The RQT given the baselines' cut segments a full-resolution triangle
+    /// exactly when two of its corners are `discontinuous`.
+    #[test]
+    fn the_shared_cut_is_the_baselines_rule() {
+        let (w, h) = (23u32, 17u32);
+        let mut s = 7u64;
+        let z: Vec<f32> = (0..w * h)
+            .map(|_| {
+                s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                // Steps of 0-30 % between neighbours, some past the cut.
+                1.0 + (s >> 40) as f32 / (1u64 << 24) as f32 * 0.3
+            })
+            .collect();
+        let depth = DepthImage::from_z(w, h, z.clone()).unwrap();
+        let camera = Camera::perspective(w, h, 30.0, 30.0, 11.0, 8.0).unwrap();
+        let hier = crate::mesh::Hierarchy::build(&depth, &camera, &shared_cut()).unwrap();
+        let (mut cut, mut kept) = (0, 0);
+        for y in 0..h - 1 {
+            for x in 0..w - 1 {
+                for half in 0..2 {
+                    let d = hier.grid().cell((x, y));
+                    let zs = [d.a, d.b, d.apex[half]].map(|(u, v)| z[v as usize * w as usize + u as usize]);
+                    let jump = [(0, 1), (1, 2), (0, 2)]
+                        .iter()
+                        .any(|&(i, j)| discontinuous(zs[i], zs[j]));
+                    assert_eq!(
+                        hier.cell_segmented((x, y), half),
+                        jump,
+                        "cell ({x}, {y}) half {half}: {zs:?}"
+                    );
+                    if jump {
+                        cut += 1;
+                    } else {
+                        kept += 1;
+                    }
+                }
+            }
+        }
+        assert!(cut > 50 && kept > 50, "{cut} {kept}");
+    }
 
     /// A tilted plane seen by a pinhole camera: `1/z` affine in the pixel.
     pub(crate) fn tilted_plane(width: u32, height: u32) -> (DepthImage, Camera) {

@@ -47,6 +47,9 @@ const COARSEST_REFINEMENT: u32 = 32;
 
 impl Mesher for Rqt {
     fn name(&self) -> &'static str {
+        if self.segmentation == super::shared_cut() {
+            return "rqt_shared_cut";
+        }
         match self.outlines {
             Outlines::Dropped => "rqt_dropping",
             Outlines::Refined(_) | Outlines::NearSide(_) | Outlines::Kept => "rqt",
