@@ -392,8 +392,10 @@ pub(crate) mod tests {
         for y in 0..h - 1 {
             for x in 0..w - 1 {
                 for half in 0..2 {
-                    let d = hier.grid().cell((x, y));
-                    let zs = [d.a, d.b, d.apex[half]].map(|(u, v)| z[v as usize * w as usize + u as usize]);
+                    let zs = hier
+                        .grid()
+                        .cell_triangle((x, y), half)
+                        .map(|(u, v)| z[v as usize * w as usize + u as usize]);
                     let jump = [(0, 1), (1, 2), (0, 2)]
                         .iter()
                         .any(|&(i, j)| discontinuous(zs[i], zs[j]));

@@ -25,6 +25,7 @@ use super::{Knob, Mesher, TriMesh};
 use crate::camera::Camera;
 use crate::error::Result;
 use crate::image::DepthImage;
+use crate::mesh::outline::next_rung;
 use crate::mesh::{Hierarchy, Lod, Outlines, Segmentation, StripOrder, Threads};
 
 /// The restricted quadtree at an image-space tolerance (or, as its
@@ -40,10 +41,6 @@ pub struct Rqt {
     /// [`Outlines::Dropped`] as DMesh Sec. 5.3 does.
     pub outlines: Outlines,
 }
-
-/// The coarsest refinement of edges the comparison falls back to (triangles
-/// 64 samples across) before it gives up refining.
-const COARSEST_REFINEMENT: u32 = 32;
 
 impl Mesher for Rqt {
     fn name(&self) -> &'static str {
@@ -99,13 +96,7 @@ impl Mesher for Rqt {
     /// same depth on the near side only, then the next coarser depth, then
     /// none; for those `tau` cannot reach, `epsilon`.
     fn fallback(&self) -> Option<Box<dyn Mesher>> {
-        let outlines = match self.outlines {
-            Outlines::Kept => Some(Outlines::NearSide(1)),
-            Outlines::Refined(finest) => Some(Outlines::NearSide(finest)),
-            Outlines::NearSide(finest) if finest < COARSEST_REFINEMENT => Some(Outlines::Refined(2 * finest)),
-            Outlines::NearSide(_) => Some(Outlines::Dropped),
-            Outlines::Dropped => None,
-        };
+        let outlines = self.outlines.rung().map(|rung| Outlines::from(next_rung(rung)));
         let next = match (outlines, self.object_space) {
             (Some(outlines), _) => Rqt { outlines, ..*self },
             (None, false) => Rqt {

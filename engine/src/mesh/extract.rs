@@ -192,15 +192,13 @@ impl Hierarchy {
             (_, Lod::Triangles { max, view }) => {
                 let max = u64::from(max);
                 // Resolved to `Epsilon` or `Tau` with the refinement it counted.
-                let (lod, rung) = match outlines.rung() {
-                    None => (self.lod_for_triangles(max, view)?, None),
-                    Some(rung) if outlines != Outlines::Kept => {
-                        (self.resolve_budget(&self.outline(rung).stats, max, view)?, Some(rung))
-                    }
-                    Some(_) => {
+                let (lod, rung) = match (outlines, outlines.rung()) {
+                    (Outlines::Kept, _) => {
                         let (lod, outline) = self.outline_lod_for_triangles(max, view)?;
                         (lod, outline.map(Rung::from))
                     }
+                    (_, None) => (self.lod_for_triangles(max, view)?, None),
+                    (_, Some(rung)) => (self.resolve_budget(&self.outline(rung).stats, max, view)?, Some(rung)),
                 };
                 return self.extract_as(lod, strips, Outlines::from(rung));
             }

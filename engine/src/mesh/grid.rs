@@ -148,6 +148,14 @@ impl Grid {
             apex,
         }
     }
+
+    /// The corners of half `half` of the unit cell with min corner `c`: a
+    /// full-resolution triangle, diagonal ends first.
+    #[inline]
+    pub fn cell_triangle(&self, c: Pt, half: usize) -> [Pt; 3] {
+        let d = self.cell(c);
+        [d.a, d.b, d.apex[half]].map(|(x, y)| (x as u32, y as u32))
+    }
 }
 
 /// Which half of the diamond split by `m` has apex `apex`.

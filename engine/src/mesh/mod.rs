@@ -39,7 +39,7 @@ pub mod hierarchy;
 mod levels;
 pub mod lod;
 pub mod normals;
-mod outline;
+pub(crate) mod outline;
 pub mod reach;
 pub mod segmentation;
 pub mod segmentation_spec;

@@ -62,6 +62,13 @@ pub(crate) fn ladder() -> impl Iterator<Item = Rung> {
         .flat_map(|finest| [false, true].map(|near_side| Rung { finest, near_side }))
 }
 
+/// The refinement after `rung` on the [`ladder`]; `None` after the last
+/// (or for a depth not in [`DEPTHS`]): the comparison's fallback.
+#[cfg(feature = "baselines")]
+pub(crate) fn next_rung(rung: Rung) -> Option<Rung> {
+    ladder().skip_while(|&r| r != rung).nth(1)
+}
+
 /// The largest share of a triangle budget that forced outline triangles
 /// may take: a budget picks the finest depth whose forced triangles fit in
 /// it, so that at least the rest is left for the surfaces' interiors.

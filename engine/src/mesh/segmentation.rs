@@ -23,7 +23,7 @@
 use glam::DVec3;
 
 use super::backproject::BackProject;
-use super::grid::{Diamond, Grid};
+use super::grid::Grid;
 use super::normals::oct_decode;
 use crate::camera::Camera;
 use crate::error::{Error, Result};
@@ -149,10 +149,9 @@ fn leaf_flags_body(s: &Samples<'_>, seg: &Segmentation) -> Vec<u8> {
             if quiet[x as usize] {
                 continue;
             }
-            let d: Diamond = grid.cell((x, y));
             let mut bits = 0u8;
             for half in 0..2 {
-                let corners = [d.a, d.b, d.apex[half]].map(|(cx, cy)| (cx as u32, cy as u32));
+                let corners = grid.cell_triangle((x, y), half);
                 let zs = corners.map(|(cx, cy)| s.z[grid.index((cx, cy))]);
                 // Invalid corners always segment; the cheap gate of Eq. 11 comes
                 // before any back-projection, since most triangles fail it.

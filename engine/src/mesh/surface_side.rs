@@ -28,10 +28,7 @@ use super::levels::for_each_split;
 pub(crate) fn surface_halves(grid: Grid, z: &[f32], flags: &[Flags]) -> Vec<u8> {
     let (gw, gh) = (grid.gw(), grid.gh());
     let at = |p: Pt| grid.index(p);
-    let corners = |cell: Pt, half: usize| {
-        let d = grid.cell(cell);
-        [d.a, d.b, d.apex[half]].map(|(x, y)| (x as u32, y as u32))
-    };
+    let corners = |cell: Pt, half: usize| grid.cell_triangle(cell, half);
     // The near corners of every segmented full-resolution triangle.
     let mut near = vec![false; grid.len()];
     for y in 0..gh.saturating_sub(1) {
@@ -106,10 +103,7 @@ mod tests {
     fn oracle(hier: &Hierarchy) -> Vec<u8> {
         let grid = hier.grid;
         let (gw, gh) = (grid.gw(), grid.gh());
-        let corners = |cell: Pt, half: usize| {
-            let d = grid.cell(cell);
-            [d.a, d.b, d.apex[half]].map(|(x, y)| (x as u32, y as u32))
-        };
+        let corners = |cell: Pt, half: usize| grid.cell_triangle(cell, half);
         let mut near = vec![false; grid.len()];
         let mut cells = Vec::new();
         for y in 0..gh - 1 {
