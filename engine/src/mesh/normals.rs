@@ -34,16 +34,16 @@ pub fn oct_encode(n: DVec3) -> [u8; 2] {
     [q(px), q(py)]
 }
 
-/// [`oct_encode`] of a non-zero finite direction `n` given `1 / |n|_1`,
-/// without branches so the per-sample loop stays straight.
+/// The octahedral coordinates in `[-1, 1]` of [`oct_encode`] for a
+/// non-zero finite direction `n` given `1 / |n|_1`, without branches so
+/// the per-sample loop stays straight.
 #[inline(always)]
-fn oct_encode_scaled(n: DVec3, inv_l1: f64) -> [u8; 2] {
+fn oct_scaled(n: DVec3, inv_l1: f64) -> [f64; 2] {
     let (px, py) = (n.x * inv_l1, n.y * inv_l1);
     let lower = n.z < 0.0;
     let fx = if lower { (1.0 - py.abs()).copysign(px) } else { px };
     let fy = if lower { (1.0 - px.abs()).copysign(py) } else { py };
-    let q = |v: f64| (v * 127.5 + 128.0) as u8;
-    [q(fx), q(fy)]
+    [fx, fy]
 }
 
 /// The encoding of -z, the normal facing the reference camera.
@@ -89,6 +89,15 @@ fn encode(n: DVec3, v: DVec3) -> ([u8; 2], u8) {
 /// unless `n` or `v` is zero or so large that the arithmetic overflows.
 #[inline(always)]
 fn encode_straight(n: DVec3, v: DVec3) -> ([u8; 2], u8, bool) {
+    let ([a, b, c], ok) = encode_unrounded(n, v);
+    ([a as u8, b as u8], c as u8, ok)
+}
+
+/// [`encode_straight`] before its conversions to bytes: the two octahedral
+/// coordinates mapped to `[0.5, 255.5]` and rho to `[0.5, 255.5]`, which
+/// `as u8` truncates.
+#[inline(always)]
+fn encode_unrounded(n: DVec3, v: DVec3) -> ([f64; 3], bool) {
     let dot = n.dot(v);
     let nn = n.length_squared() * v.length_squared();
     let l1 = n.x.abs() + n.y.abs() + n.z.abs();
@@ -97,11 +106,17 @@ fn encode_straight(n: DVec3, v: DVec3) -> ([u8; 2], u8, bool) {
     // Face the camera: flip n when it points away.
     let flip = if dot > 0.0 { -1.0 } else { 1.0 };
     let ok = (nn > 0.0) & (nn < f64::INFINITY) & (r > 0.0) & (r < f64::INFINITY);
-    (
-        oct_encode_scaled(n * flip, norms * r),
-        rho_to_byte(dot.abs() * l1 * r),
-        ok,
-    )
+    let [fx, fy] = oct_scaled(n * flip, norms * r);
+    let rho = dot.abs() * l1 * r;
+    ([fx * 127.5 + 128.0, fy * 127.5 + 128.0, rho * 255.0 + 0.5], ok)
+}
+
+/// `t as u8` for `t` in `[0, 256)` (elsewhere some byte), in arithmetic
+/// that vectorises where `as` does not: adding 2^52 to a whole number below
+/// it leaves that number in the low bits of the sum.
+#[inline(always)]
+fn truncate(t: f64) -> u8 {
+    (t.floor() + 4_503_599_627_370_496.0).to_bits() as u8
 }
 
 /// An interior row and its neighbours: depths of the row, the row above and
@@ -148,17 +163,29 @@ impl Stencil<'_> {
 }
 
 /// [`encode_straight`] of the central-difference normal of every sample
-/// `1..w - 1` of an interior row, as if all its neighbours were valid, in a
-/// loop without branches (so it vectorises); `fast[x]` says where that
-/// holds: the five samples are valid and the result is [`encode`]'s.
+/// `1..w - 1` of an interior row, as if all its neighbours were valid;
+/// `fast[x]` says where that holds: the five samples are valid and the
+/// result is [`encode`]'s. Two straight loops, so both vectorise: the
+/// arithmetic into the unrounded bytes (`scratch`), then their conversion.
 #[inline(always)]
-fn interior_row(s: &Stencil<'_>, ortho: bool, nrow: &mut [[u8; 2]], rrow: &mut [u8], fast: &mut [bool]) {
+fn interior_row(
+    s: &Stencil<'_>,
+    ortho: bool,
+    nrow: &mut [[u8; 2]],
+    rrow: &mut [u8],
+    fast: &mut [bool],
+    scratch: &mut [[f64; 3]],
+) {
     let w = s.zrow.len();
     for x in 1..w - 1 {
         let (n, p) = s.normal(x);
-        let (normal, rho, ok) = encode_straight(n, if ortho { DVec3::Z } else { p });
-        (nrow[x], rrow[x]) = (normal, rho);
+        let (t, ok) = encode_unrounded(n, if ortho { DVec3::Z } else { p });
+        scratch[x] = t;
         fast[x] = s.complete(x) & ok;
+    }
+    for x in 1..w - 1 {
+        let [a, b, c] = scratch[x];
+        (nrow[x], rrow[x]) = ([truncate(a), truncate(b)], truncate(c));
     }
 }
 
@@ -178,6 +205,7 @@ fn normals_and_quality_body(grid: &Grid, camera: &Camera, bp: &BackProject, z: &
     let ortho = camera.is_orthographic();
     let view = |p: DVec3| if ortho { DVec3::Z } else { p };
     let mut fast = vec![false; w];
+    let mut scratch = vec![[0f64; 3]; w];
     // Any sample: differences across it along the row and the column,
     // one-sided where a neighbour is invalid (depth 0) or off the image.
     let general = |x: usize, y: usize| {
@@ -226,7 +254,7 @@ fn normals_and_quality_body(grid: &Grid, camera: &Camera, bp: &BackProject, z: &
             cols,
             rows,
         };
-        interior_row(&stencil, ortho, nrow, rrow, &mut fast);
+        interior_row(&stencil, ortho, nrow, rrow, &mut fast, &mut scratch);
         for x in (1..w - 1).filter(|&x| !fast[x]) {
             if zrow[x] <= 0.0 {
                 (nrow[x], rrow[x]) = (facing, 0);
