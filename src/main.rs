@@ -15,6 +15,12 @@ mod commands {
     pub mod serve;
 }
 
+/// mimalloc rather than the system allocator: freed build arrays stay with
+/// the process instead of being faulted in again by the next build (the
+/// root `Cargo.toml` says what it saves).
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 use std::path::PathBuf;
 use std::process::ExitCode;
 

@@ -17,6 +17,11 @@
 
 mod scenes;
 
+/// The server's allocator (see the root `Cargo.toml`), so the figures are
+/// the binary's.
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 use std::hint::black_box;
 use std::time::Duration;
 

@@ -3,6 +3,11 @@
 //! `profile_build [SIZE | WxH] [ITERATIONS] [THREADS] [portable]` (threads
 //! 1 or 2, default as `Hierarchy::build`; `portable`: without the AVX2 code
 //! even where the CPU has it, to measure what it brings).
+/// The server's allocator (see the root `Cargo.toml`), so the figures are
+/// the binary's.
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 fn main() {
     let mut args = std::env::args().skip(1);
     let size = args.next().unwrap_or_else(|| "513".into());

@@ -47,8 +47,8 @@ use super::backproject::BackProject;
 use super::budget::ErrorStats;
 use super::flags::Flags;
 use super::grid::{Grid, Pt};
-use super::levels::{coarse_deviations, run_coarse, run_finest, Levels};
-use super::normals::normals_and_quality;
+use super::levels::{coarse_deviations, run_coarse, run_finest, split_count, Levels};
+use super::normals::{normals_and_quality, normals_and_quality_in};
 use super::outline::{OutlineCache, DEPTHS};
 use super::segmentation::{leaf_flags, Method, Samples, Segmentation};
 use crate::camera::Camera;
@@ -182,16 +182,23 @@ impl Passes {
         std::thread::scope(|scope| {
             let (send, receive) = mpsc::channel();
             let job = helper.then(|| {
+                // The helper's arrays are allocated here: this thread's
+                // allocator hands out memory it has used before, where a new
+                // thread's would take fresh pages and fault each one in.
+                let levels: Vec<Vec<[f32; 2]>> =
+                    (1..grid.k).map(|g| Vec::with_capacity(split_count(grid, g))).collect();
+                let buffers =
+                    (!normals_first).then(|| (Vec::with_capacity(grid.len()), Vec::with_capacity(grid.len())));
                 scope.spawn(move || {
                     // Level by level, so the pass can start on one while
                     // the next is computed. The receiver outlives this
                     // thread: sending cannot fail.
-                    for g in 1..grid.k {
-                        let _ = send.send(coarse_deviations(grid, z, g));
+                    for (g, out) in (1..grid.k).zip(levels) {
+                        let _ = send.send(coarse_deviations(grid, z, g, out));
                     }
-                    (!normals_first).then(|| {
+                    buffers.map(|buffers| {
                         let t = Instant::now();
-                        let done = normals_and_quality(&grid, camera, bp, z);
+                        let done = normals_and_quality_in(&grid, camera, bp, z, buffers);
                         (done, t.elapsed().as_secs_f64() * 1e3)
                     })
                 })

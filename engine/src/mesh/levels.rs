@@ -176,15 +176,23 @@ crate::simd::dispatch! {
     /// the pass. Halves that turn out segmented get a value too, which the
     /// pass ignores (it is finite: invalid samples are 0). With AVX2 where
     /// the CPU has it.
-    pub(crate) fn coarse_deviations(grid: Grid, z: &[f32], g: u32) -> Vec<[f32; 2]> = coarse_deviations_body;
+    /// The deviations go into `out` (whatever it holds), so a build on two
+    /// threads can hand the helper memory the calling thread has used.
+    pub(crate) fn coarse_deviations(grid: Grid, z: &[f32], g: u32, out: Vec<[f32; 2]>) -> Vec<[f32; 2]> = coarse_deviations_body;
+}
+
+/// How many halves' pairs [`coarse_deviations`] gives for level `g`.
+pub(crate) fn split_count(grid: Grid, g: u32) -> usize {
+    let mut count = 0;
+    for_each_split(grid, g..g + 1, |_| count += 1);
+    count
 }
 
 #[inline(always)]
-fn coarse_deviations_body(grid: Grid, z: &[f32], g: u32) -> Vec<[f32; 2]> {
-    let mut count = 0;
-    for_each_split(grid, g..g + 1, |_| count += 1);
+fn coarse_deviations_body(grid: Grid, z: &[f32], g: u32, mut out: Vec<[f32; 2]>) -> Vec<[f32; 2]> {
     let gw = grid.gw() as usize;
-    let mut out = Vec::with_capacity(count);
+    out.clear();
+    out.reserve(split_count(grid, g));
     for_each_split(grid, g..g + 1, |s| {
         let h = s.h();
         out.push(

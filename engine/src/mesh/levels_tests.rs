@@ -137,7 +137,7 @@ fn coarse_three_ways(n: u32, z: &[f32], cells: &[u8]) -> [State; 3] {
     let fx = Fixture::new(n, z);
     let (grid, zmax) = (fx.grid, fx.zmax);
     let finest = fx.run(&fx.start(cells), &|l, flags| run_finest(l, flags, zmax));
-    let levels: Vec<_> = (1..grid.k).map(|g| coarse_deviations(grid, z, g)).collect();
+    let levels: Vec<_> = (1..grid.k).map(|g| coarse_deviations(grid, z, g, Vec::new())).collect();
     [
         fx.run(&finest, &|l, flags| run_coarse(l, flags, zmax, &mut |_| None)),
         fx.run(&finest, &|l, flags| {

@@ -189,19 +189,34 @@ fn interior_row(
     }
 }
 
+/// Computes the encoded normal and quality byte of every grid vertex.
+pub fn normals_and_quality(grid: &Grid, camera: &Camera, bp: &BackProject, z: &[f32]) -> (Vec<[u8; 2]>, Vec<u8>) {
+    normals_and_quality_in(grid, camera, bp, z, (Vec::new(), Vec::new()))
+}
+
 crate::simd::dispatch! {
-    /// Computes the encoded normal and quality byte of every grid vertex
-    /// (with AVX2 where the CPU has it: [`crate::simd`]).
-    pub fn normals_and_quality(grid: &Grid, camera: &Camera, bp: &BackProject, z: &[f32]) -> (Vec<[u8; 2]>, Vec<u8>) = normals_and_quality_body;
+    /// [`normals_and_quality`] into `buffers` (whatever they hold), so a
+    /// build on two threads can hand the helper memory the calling thread
+    /// has used before (with AVX2 where the CPU has it: [`crate::simd`]).
+    pub fn normals_and_quality_in(grid: &Grid, camera: &Camera, bp: &BackProject, z: &[f32], buffers: (Vec<[u8; 2]>, Vec<u8>)) -> (Vec<[u8; 2]>, Vec<u8>) = normals_and_quality_body;
 }
 
 #[inline(always)]
-fn normals_and_quality_body(grid: &Grid, camera: &Camera, bp: &BackProject, z: &[f32]) -> (Vec<[u8; 2]>, Vec<u8>) {
+fn normals_and_quality_body(
+    grid: &Grid,
+    camera: &Camera,
+    bp: &BackProject,
+    z: &[f32],
+    buffers: (Vec<[u8; 2]>, Vec<u8>),
+) -> (Vec<[u8; 2]>, Vec<u8>) {
     let gw = grid.gw() as usize;
     let (w, h) = (grid.width as usize, grid.height as usize);
     let facing = OCT_FACING;
-    let mut normals = vec![facing; grid.len()];
-    let mut rho = vec![0u8; grid.len()];
+    let (mut normals, mut rho) = buffers;
+    normals.clear();
+    normals.resize(grid.len(), facing);
+    rho.clear();
+    rho.resize(grid.len(), 0);
     let ortho = camera.is_orthographic();
     let view = |p: DVec3| if ortho { DVec3::Z } else { p };
     let mut fast = vec![false; w];
