@@ -48,14 +48,6 @@ fn detail2(za: f64, zv: f64, zb: f64) -> f64 {
     detail * detail
 }
 
-/// [`round_up`] without branches: `v >= 0` (or NaN, which saturates).
-#[inline(always)]
-fn round_up_straight(v: f64) -> f32 {
-    let f = v as f32;
-    let up = f32::from_bits(f.to_bits() + u32::from(f64::from(f) < v));
-    up.min(f32::MAX)
-}
-
 /// Eq. 1, squared, as `point_line_3d_sq` computes it, without branches.
 #[inline(always)]
 fn eq1(p: DVec3, a: DVec3, b: DVec3) -> f64 {
@@ -98,7 +90,7 @@ impl Levels<'_> {
                     let (za, zv, zb) = (f64::from(zr[x - 1]), f64::from(zr[x]), f64::from(zr[x + 1]));
                     let ((aa, ba), (av, bv), (ab, bb)) = (cols[x - 1], cols[x], cols[x + 1]);
                     let own = eq2(aa + ba * za, za, av + bv * zv, zv, ab + bb * zb, zb).max(detail2(za, zv, zb));
-                    *g = round_up_straight(own);
+                    *g = round_up(own);
                 }
             } else {
                 let (zu, zd) = (&z[(y - 1) * gw..y * gw], &z[(y + 1) * gw..(y + 2) * gw]);
@@ -109,7 +101,7 @@ impl Levels<'_> {
                     let x = 2 * i;
                     let (za, zv, zb) = (f64::from(zu[x]), f64::from(zr[x]), f64::from(zd[x]));
                     let own = eq2(au + bu * za, za, av + bv * zv, zv, ad + bd * zb, zb).max(detail2(za, zv, zb));
-                    *g = round_up_straight(own);
+                    *g = round_up(own);
                 }
             }
             // Flags, and which error counts.
@@ -214,8 +206,8 @@ impl Levels<'_> {
                 let pa = point(ca, rp, za);
                 let pb = point(cb, rq, zb);
                 let own = eq1(pv, pa, pb).max(detail2(f64::from(za), f64::from(zv), f64::from(zb)));
-                *g = round_up_straight(own);
-                *r = round_up_straight(radius);
+                *g = round_up(own);
+                *r = round_up(radius);
             }
             let (head, tail) = self.err2.split_at_mut(y * gw);
             let (err_row, rest) = tail.split_at_mut(gw);

@@ -43,11 +43,15 @@ impl Bisects {
     }
 }
 
-/// `v` as f32, rounded up (an error or radius may grow, never shrink),
-/// saturated at `f32::MAX`.
+/// `v >= 0` as f32, rounded up (an error or radius may grow, never
+/// shrink), saturated at `f32::MAX` (which NaN also gives). Without
+/// branches: one step up of a non-negative f32 is the next bit pattern,
+/// which `f32::next_up` finds through tests of sign and class.
+#[inline(always)]
 pub(super) fn round_up(v: f64) -> f32 {
+    debug_assert!(!(v < 0.0), "round_up of {v}");
     let f = v as f32;
-    if f64::from(f) < v { f.next_up() } else { f }.min(f32::MAX)
+    f32::from_bits(f.to_bits() + u32::from(f64::from(f) < v)).min(f32::MAX)
 }
 
 /// Eq. 1 (a diagonal) or Eq. 2 (an edge along a row or a column): the
