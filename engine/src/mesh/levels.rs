@@ -15,7 +15,9 @@
 //! against it. The finest level's loops are in `finest.rs`.
 
 use super::backproject::BackProject;
-use super::deviation::{half_rows, max_deviation, small_half_deviation, SmallHalf};
+use super::deviation::{
+    half_rows, max_deviation, same_shape, small_half_deviation, small_half_deviation_x4, SmallHalf,
+};
 use super::error_metric::{norm_bound, point_line_2d_sq, point_line_3d_sq};
 use super::flags::{Flags, Half};
 use super::grid::{half_of, Grid, Pt};
@@ -49,7 +51,7 @@ impl Bisects {
 /// which `f32::next_up` finds through tests of sign and class.
 #[inline(always)]
 pub(super) fn round_up(v: f64) -> f32 {
-    debug_assert!(!(v < 0.0), "round_up of {v}");
+    debug_assert!(v >= 0.0 || v.is_nan(), "round_up of {v}");
     let f = v as f32;
     f32::from_bits(f.to_bits() + u32::from(f64::from(f) < v)).min(f32::MAX)
 }
@@ -123,6 +125,7 @@ impl Split {
 
 /// The split vertices of the given levels (0 is the finest) in the order
 /// the pass needs them (see `for_each_coarse`).
+#[inline(always)]
 pub(super) fn for_each_split(grid: Grid, levels: std::ops::Range<u32>, mut f: impl FnMut(Split)) {
     let (gw, gh) = (grid.gw(), grid.gh());
     for g in levels {
@@ -197,14 +200,79 @@ fn coarse_deviations_body(grid: Grid, z: &[f32], g: u32, mut out: Vec<[f32; 2]>)
     let gw = grid.gw() as usize;
     out.clear();
     out.reserve(split_count(grid, g));
-    for_each_split(grid, g..g + 1, |s| {
-        let h = s.h();
-        out.push(
-            s.apex
-                .map(|apex| apex.map_or(0.0, |apex| half_deviation2(z, gw, s, h, apex))),
-        );
-    });
+    // The splits of one row of one kind, taken together.
+    let mut row: Vec<Split> = Vec::new();
+    for_each_split(
+        grid,
+        g..g + 1,
+        #[inline(always)]
+        |s| {
+            if row.last().is_some_and(|r| r.v.1 != s.v.1 || r.bisects != s.bisects) {
+                row_deviations(z, gw, &row, &mut out);
+                row.clear();
+            }
+            row.push(s);
+        },
+    );
+    row_deviations(z, gw, &row, &mut out);
     out
+}
+
+/// Appends to `out` the squared deviations, rounded up, of the halves of
+/// `row` (splits of one kind on one row of a level), in order: each pair
+/// as [`half_deviation2`] gives it (0 where a half does not exist). The
+/// small halves (half-size 2 or 4) go four of the same shape at a time
+/// where their apexes exist ([`small_half_deviation_x4`], the same bits).
+#[inline(always)]
+fn row_deviations(z: &[f32], gw: usize, row: &[Split], out: &mut Vec<[f32; 2]>) {
+    let Some(first) = row.first() else { return };
+    let h = first.h();
+    let one = |s: &Split| {
+        let mut pair = [0f32; 2];
+        for (d, apex) in pair.iter_mut().zip(s.apex) {
+            if let Some(apex) = apex {
+                *d = half_deviation2(z, gw, *s, h, apex);
+            }
+        }
+        pair
+    };
+    let start = out.len();
+    out.resize(start + row.len(), [0.0; 2]);
+    let out = &mut out[start..];
+    // A centre's diagonal turns from one to the next, so the same shapes
+    // are two apart.
+    let stride = if first.bisects == Bisects::Diagonal { 2 } else { 1 };
+    let block = 4 * stride;
+    let whole = if h <= 4 { row.len() / block * block } else { 0 };
+    for b in (0..whole).step_by(block) {
+        for phase in 0..stride {
+            let idx: [usize; 4] = std::array::from_fn(|l| b + phase + l * stride);
+            let shapes = |half: usize| -> Option<[SmallHalf; 4]> {
+                let mut shapes = [SmallHalf::Centre { apex: 0, su: 0, sw: 0 }; 4];
+                for (shape, &i) in shapes.iter_mut().zip(&idx) {
+                    *shape = small_half(gw, row[i], row[i].apex[half]?);
+                }
+                same_shape(&shapes).then_some(shapes)
+            };
+            if let (Some(s0), Some(s1)) = (shapes(0), shapes(1)) {
+                let (d0, d1) = if h == 2 {
+                    (small_half_deviation_x4::<2>(z, s0), small_half_deviation_x4::<2>(z, s1))
+                } else {
+                    (small_half_deviation_x4::<4>(z, s0), small_half_deviation_x4::<4>(z, s1))
+                };
+                for (l, &i) in idx.iter().enumerate() {
+                    out[i] = [round_up(d0[l] * d0[l]), round_up(d1[l] * d1[l])];
+                }
+            } else {
+                for i in idx {
+                    out[i] = one(&row[i]);
+                }
+            }
+        }
+    }
+    for i in whole..row.len() {
+        out[i] = one(&row[i]);
+    }
 }
 
 /// Where the pass over the levels above the finest gets each level's
