@@ -75,7 +75,8 @@ impl Levels<'_> {
     pub(super) fn finest_edges<const ROW: bool>(&mut self, flags: &mut [Flags], zmax: f32, geo: &mut [f32]) {
         let (gw, gh) = (self.grid.gw() as usize, self.grid.gh() as usize);
         let (bp, camera, z) = (self.bp, self.camera, self.z);
-        let cols = bp.cols();
+        let (col_a, col_b) = bp.cols();
+        let col = |x: usize| (col_a[x], col_b[x]);
         let len = 2.0;
         let ys = if ROW { (0..gh).step_by(2) } else { (1..gh).step_by(2) };
         for y in ys {
@@ -88,7 +89,7 @@ impl Levels<'_> {
                 for (i, g) in geo.iter_mut().enumerate() {
                     let x = 2 * i + 1;
                     let (za, zv, zb) = (f64::from(zr[x - 1]), f64::from(zr[x]), f64::from(zr[x + 1]));
-                    let ((aa, ba), (av, bv), (ab, bb)) = (cols[x - 1], cols[x], cols[x + 1]);
+                    let ((aa, ba), (av, bv), (ab, bb)) = (col(x - 1), col(x), col(x + 1));
                     let own = eq2(aa + ba * za, za, av + bv * zv, zv, ab + bb * zb, zb).max(detail2(za, zv, zb));
                     *g = round_up(own);
                 }
@@ -164,7 +165,8 @@ impl Levels<'_> {
     pub(super) fn finest_centres(&mut self, flags: &mut [Flags], zmax: f32, geo: &mut [f32], rad: &mut [f32]) {
         let (gw, gh) = (self.grid.gw() as usize, self.grid.gh() as usize);
         let (bp, camera, z) = (self.bp, self.camera, self.z);
-        let cols = bp.cols();
+        let (col_a, col_b) = bp.cols();
+        let col = |x: usize| (col_a[x], col_b[x]);
         let point = BackProject::point_from;
         for y in (1..gh).step_by(2) {
             let rows = [bp.row(y - 1), bp.row(y), bp.row(y + 1)];
@@ -188,18 +190,18 @@ impl Levels<'_> {
                 let za = if odd { zp[x - 1] } else { zp[x + 1] };
                 let zb = if odd { zq[x + 1] } else { zq[x - 1] };
                 let (ca, cb) = if odd {
-                    (cols[x - 1], cols[x + 1])
+                    (col(x - 1), col(x + 1))
                 } else {
-                    (cols[x + 1], cols[x - 1])
+                    (col(x + 1), col(x - 1))
                 };
                 let zv = zs[1][x];
-                let pv = point(cols[x], rows[1], zv);
+                let pv = point(col(x), rows[1], zv);
                 let mut radius = 0f64;
                 for (col, row, zc) in [
-                    (cols[x - 1], rows[1], zs[1][x - 1]),
-                    (cols[x + 1], rows[1], zs[1][x + 1]),
-                    (cols[x], rows[0], zs[0][x]),
-                    (cols[x], rows[2], zs[2][x]),
+                    (col(x - 1), rows[1], zs[1][x - 1]),
+                    (col(x + 1), rows[1], zs[1][x + 1]),
+                    (col(x), rows[0], zs[0][x]),
+                    (col(x), rows[2], zs[2][x]),
                 ] {
                     radius = radius.max(norm_bound(pv - point(col, row, zc)));
                 }

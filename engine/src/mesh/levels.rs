@@ -397,7 +397,6 @@ impl Levels<'_> {
     ) {
         let (gw, gh) = (self.grid.gw(), self.grid.gh());
         let (bp, camera, z) = (self.bp, self.camera, self.z);
-        let cols = bp.cols();
         let q = h / 2;
         // Children lie `d` rows above and below (and, for centres, on the
         // row itself).
@@ -442,7 +441,7 @@ impl Levels<'_> {
             debug_assert!(next.is_none() || dev2.is_some(), "deviations ran short");
             let (za, zb, zv) = (z[at(a)], z[at(b)], z[at(v)]);
             let xi = x as usize;
-            let pv = point(cols[xi], row_factor, zv);
+            let pv = point(bp.col(xi), row_factor, zv);
             let mut bits = flag_row[xi].cell_only();
             let mut own = 0f64;
             let mut own_dev2 = 0f32;
@@ -467,7 +466,7 @@ impl Levels<'_> {
                         std::cmp::Ordering::Greater => (err_down[mx], rad_down[mx], flag_down[mx]),
                     };
                     err = err.max(ce);
-                    let dd = pv - point(cols[mx], factor(m.1), z[at(m)]);
+                    let dd = pv - point(bp.col(mx), factor(m.1), z[at(m)]);
                     radius = radius.max(norm_bound(dd) + f64::from(cr));
                     let kid = cf.half(half_of(m, v));
                     flagged = Some(flagged.map_or(kid, |f| f.join(kid)));
@@ -482,8 +481,8 @@ impl Levels<'_> {
                     if !eq12_done {
                         eq12_done = true;
                         let (pa, pb) = (
-                            point(cols[a.0 as usize], factor(a.1), za),
-                            point(cols[b.0 as usize], factor(b.1), zb),
+                            point(bp.col(a.0 as usize), factor(a.1), za),
+                            point(bp.col(b.0 as usize), factor(b.1), zb),
                         );
                         own = own.max(eq12(bisects, pv, pa, pb));
                     }

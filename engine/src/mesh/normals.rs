@@ -125,7 +125,9 @@ struct Stencil<'a> {
     zrow: &'a [f32],
     zup: &'a [f32],
     zdown: &'a [f32],
-    cols: &'a [(f64, f64)],
+    /// The column factors `(a, b)` of `x = a + b z`, as two rows.
+    col_a: &'a [f64],
+    col_b: &'a [f64],
     rows: [(f64, f64); 3],
 }
 
@@ -154,7 +156,8 @@ impl Stencil<'_> {
             f64::from(self.zup[x]),
             f64::from(self.zdown[x]),
         );
-        let ((axl, bxl), (ax, bx), (axr, bxr)) = (self.cols[x - 1], self.cols[x], self.cols[x + 1]);
+        let (ca, cb) = (self.col_a, self.col_b);
+        let ((axl, bxl), (ax, bx), (axr, bxr)) = ((ca[x - 1], cb[x - 1]), (ca[x], cb[x]), (ca[x + 1], cb[x + 1]));
         let p = DVec3::new(ax + bx * zc, ay + by * zc, zc);
         let dx = DVec3::new(axr + bxr * zr - axl - bxl * zl, by * (zr - zl), zr - zl);
         let dy = DVec3::new(bx * (zd - zu), ayd + byd * zd - ayu - byu * zu, zd - zu);
@@ -174,17 +177,17 @@ fn interior_row(
     nrow: &mut [[u8; 2]],
     rrow: &mut [u8],
     fast: &mut [bool],
-    scratch: &mut [[f64; 3]],
+    scratch: &mut [Vec<f64>; 3],
 ) {
     let w = s.zrow.len();
     for x in 1..w - 1 {
         let (n, p) = s.normal(x);
         let (t, ok) = encode_unrounded(n, if ortho { DVec3::Z } else { p });
-        scratch[x] = t;
+        (scratch[0][x], scratch[1][x], scratch[2][x]) = (t[0], t[1], t[2]);
         fast[x] = s.complete(x) & ok;
     }
     for x in 1..w - 1 {
-        let [a, b, c] = scratch[x];
+        let (a, b, c) = (scratch[0][x], scratch[1][x], scratch[2][x]);
         (nrow[x], rrow[x]) = ([truncate(a), truncate(b)], truncate(c));
     }
 }
@@ -220,7 +223,8 @@ fn normals_and_quality_body(
     let ortho = camera.is_orthographic();
     let view = |p: DVec3| if ortho { DVec3::Z } else { p };
     let mut fast = vec![false; w];
-    let mut scratch = vec![[0f64; 3]; w];
+    let mut scratch = [vec![0f64; w], vec![0f64; w], vec![0f64; w]];
+    let (col_a, col_b) = bp.cols();
     // Any sample: differences across it along the row and the column,
     // one-sided where a neighbour is invalid (depth 0) or off the image.
     let general = |x: usize, y: usize| {
@@ -260,13 +264,13 @@ fn normals_and_quality_body(
         // vectorises); the samples where that does not apply are redone one
         // by one.
         let (zup, zdown) = (&z[row - gw..row - gw + w], &z[row + gw..row + gw + w]);
-        let cols = &bp.cols()[..w];
         let rows = [bp.row(y - 1), bp.row(y), bp.row(y + 1)];
         let stencil = Stencil {
             zrow,
             zup,
             zdown,
-            cols,
+            col_a: &col_a[..w],
+            col_b: &col_b[..w],
             rows,
         };
         interior_row(&stencil, ortho, nrow, rrow, &mut fast, &mut scratch);
