@@ -185,11 +185,6 @@ fn measure(width: u32, height: u32, mode: Mode, seconds: f64, fps: f64, clients:
     Ok(row)
 }
 
-/// The server's allocator (see the root `Cargo.toml`), so the figures are
-/// the binary's.
-#[global_allocator]
-static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
-
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with("--")).collect();
     let seconds: f64 = args.first().map_or(Ok(10.0), |s| s.parse())?;

@@ -24,11 +24,6 @@ fn png(width: u32, height: u32, rgb: &[u8]) -> anyhow::Result<Vec<u8>> {
     Ok(out)
 }
 
-/// The server's allocator (see the root `Cargo.toml`), so the figures are
-/// the binary's.
-#[global_allocator]
-static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
-
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with("--")).collect();
     let seconds: f64 = args.first().map_or(Ok(10.0), |s| s.parse())?;

@@ -2,6 +2,11 @@
 
 use std::sync::Arc;
 
+/// The server binary's allocator (see the root `Cargo.toml`), so the
+/// benches that include this module measure what the binary runs.
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 /// A server running in this process. Dropping it stops the server and
 /// removes its store.
 pub struct InProcess {

@@ -75,8 +75,7 @@ impl Levels<'_> {
     pub(super) fn finest_edges<const ROW: bool>(&mut self, flags: &mut [Flags], zmax: f32, geo: &mut [f32]) {
         let (gw, gh) = (self.grid.gw() as usize, self.grid.gh() as usize);
         let (bp, camera, z) = (self.bp, self.camera, self.z);
-        let (col_a, col_b) = bp.cols();
-        let col = |x: usize| (col_a[x], col_b[x]);
+        let col = |x: usize| bp.col(x);
         let len = 2.0;
         let ys = if ROW { (0..gh).step_by(2) } else { (1..gh).step_by(2) };
         for y in ys {
@@ -165,8 +164,7 @@ impl Levels<'_> {
     pub(super) fn finest_centres(&mut self, flags: &mut [Flags], zmax: f32, geo: &mut [f32], rad: &mut [f32]) {
         let (gw, gh) = (self.grid.gw() as usize, self.grid.gh() as usize);
         let (bp, camera, z) = (self.bp, self.camera, self.z);
-        let (col_a, col_b) = bp.cols();
-        let col = |x: usize| (col_a[x], col_b[x]);
+        let col = |x: usize| bp.col(x);
         let point = BackProject::point_from;
         for y in (1..gh).step_by(2) {
             let rows = [bp.row(y - 1), bp.row(y), bp.row(y + 1)];

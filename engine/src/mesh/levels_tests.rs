@@ -263,3 +263,17 @@ proptest! {
         }
     }
 }
+
+/// The count the helper's arrays are sized by is the number of split
+/// vertices the pass visits, on grids padded or not.
+#[test]
+fn split_count_counts_the_splits() {
+    for (w, h) in [(3, 7), (33, 33), (40, 17), (513, 300)] {
+        let grid = Grid::for_image(w, h);
+        for g in 1..grid.k {
+            let mut visited = 0;
+            for_each_split(grid, g..g + 1, |_| visited += 1);
+            assert_eq!(split_count(grid, g), visited, "{w} x {h}, level {g}");
+        }
+    }
+}

@@ -22,16 +22,8 @@ pub fn oct_encode(n: DVec3) -> [u8; 2] {
     if !(l1 > 0.0 && l1.is_finite()) {
         return OCT_FACING;
     }
-    let inv = 1.0 / l1;
-    let (mut px, mut py) = (n.x * inv, n.y * inv);
-    if n.z < 0.0 {
-        let (ax, ay) = (px.abs(), py.abs());
-        (px, py) = ((1.0 - ay).copysign(px), (1.0 - ax).copysign(py));
-    }
-    // [-1, 1] to [0.5, 255.5], truncated: rounds to the nearest of 256 steps.
     // `as` saturates, so nothing can wrap.
-    let q = |v: f64| (v * 127.5 + 128.0) as u8;
-    [q(px), q(py)]
+    oct_scaled(n, 1.0 / l1).map(|v| oct_unrounded(v) as u8)
 }
 
 /// The octahedral coordinates in `[-1, 1]` of [`oct_encode`] for a
@@ -62,7 +54,20 @@ pub fn oct_decode(e: [u8; 2]) -> DVec3 {
 
 /// Quantises `rho` in `[0, 1]` to a byte.
 pub fn rho_to_byte(rho: f64) -> u8 {
-    (rho * 255.0 + 0.5) as u8
+    rho_unrounded(rho) as u8
+}
+
+/// An octahedral coordinate in `[-1, 1]` mapped to `[0.5, 255.5]`, which
+/// `as u8` truncates to the nearest of 256 steps.
+#[inline(always)]
+fn oct_unrounded(v: f64) -> f64 {
+    v * 127.5 + 128.0
+}
+
+/// `rho` in `[0, 1]` mapped to `[0.5, 255.5]`, which `as u8` rounds.
+#[inline(always)]
+fn rho_unrounded(rho: f64) -> f64 {
+    rho * 255.0 + 0.5
 }
 
 /// The encoded normal (turned to face the camera) and quality byte of a
@@ -108,7 +113,7 @@ fn encode_unrounded(n: DVec3, v: DVec3) -> ([f64; 3], bool) {
     let ok = (nn > 0.0) & (nn < f64::INFINITY) & (r > 0.0) & (r < f64::INFINITY);
     let [fx, fy] = oct_scaled(n * flip, norms * r);
     let rho = dot.abs() * l1 * r;
-    ([fx * 127.5 + 128.0, fy * 127.5 + 128.0, rho * 255.0 + 0.5], ok)
+    ([oct_unrounded(fx), oct_unrounded(fy), rho_unrounded(rho)], ok)
 }
 
 /// `t as u8` for `t` in `[0, 256)` (elsewhere some byte), in arithmetic
