@@ -192,10 +192,14 @@ pub fn select(
     max_views: Option<u32>,
     max_angle_deg: Option<f64>,
 ) -> Result<Vec<Weighted>> {
+    let dmesh = SelectionRule::Dmesh {
+        max_angle_deg: max_angle_deg.unwrap_or(MAX_ANGLE_DEG),
+    };
+    // Checked whichever rule selects: a request naming an angle out of
+    // range is refused even when the limited set does not use it.
+    crate::scene::selection::limit_deg(dmesh)?;
     let rule = match selection {
-        dmesh_proto::Selection::Dmesh => SelectionRule::Dmesh {
-            max_angle_deg: max_angle_deg.unwrap_or(MAX_ANGLE_DEG),
-        },
+        dmesh_proto::Selection::Dmesh => dmesh,
         dmesh_proto::Selection::Limited => SelectionRule::Limited,
     };
     select_views(novel, cameras, rule, max_views.map_or(MAX_VIEWS, |m| m as usize))
@@ -273,6 +277,24 @@ pub fn extract_mesh(
 
 #[cfg(test)]
 mod tests {
+    /// An angle out of range is refused under either rule, before any view
+    /// is looked at; in range, the limited set still ignores it.
+    #[test]
+    fn an_angle_out_of_range_is_refused_under_either_rule() {
+        use dmesh_proto::Selection;
+        let cam = crate::camera::Camera::perspective(8, 8, 8.0, 8.0, 3.5, 3.5).unwrap();
+        for selection in [Selection::Dmesh, Selection::Limited] {
+            for bad in [-1.0, 180.5, 6.1e307, f64::NAN] {
+                let err = super::select(&cam, &[cam], selection, None, Some(bad)).unwrap_err();
+                assert!(err.to_string().contains("max_angle_deg"), "{selection:?} {bad}: {err}");
+            }
+            assert_eq!(
+                super::select(&cam, &[cam], selection, None, Some(10.0)).unwrap().len(),
+                1
+            );
+        }
+    }
+
     #[test]
     fn a_budget_leaves_out_the_views_whose_share_no_mesh_fits() {
         // 1000 triangles over weights 0.6, 0.3995, 0.0005: the last gets

@@ -54,8 +54,8 @@ fn direction(c: &Camera) -> DVec3 {
     (c.rotation * DVec3::Z).normalize_or(DVec3::Z)
 }
 
-/// The angle limit of `rule`, degrees.
-fn limit_deg(rule: SelectionRule) -> Result<f64> {
+/// The angle limit of `rule`, degrees, or why it is not one.
+pub(crate) fn limit_deg(rule: SelectionRule) -> Result<f64> {
     match rule {
         SelectionRule::Dmesh { max_angle_deg } if (0.0..=180.0).contains(&max_angle_deg) => Ok(max_angle_deg),
         SelectionRule::Dmesh { max_angle_deg } => Err(Error::invalid(format!(
