@@ -230,6 +230,32 @@ async fn bad_inputs_get_their_status_and_code_and_keep_the_stored_view(kind: Sto
             "bad_request",
         ),
         (
+            "size mismatch in a live frame (checked from the colour's header)",
+            put(
+                "/v1/scenes/s/views/v?live=true",
+                multipart(&[
+                    ("camera", camera_json(0.0, 0.0).as_bytes()),
+                    ("depth", &good),
+                    ("color", &small_color),
+                ]),
+            ),
+            StatusCode::BAD_REQUEST,
+            "bad_request",
+        ),
+        (
+            "a live frame's colour that is no image",
+            put(
+                "/v1/scenes/s/views/v?live=true",
+                multipart(&[
+                    ("camera", camera_json(0.0, 0.0).as_bytes()),
+                    ("depth", &good),
+                    ("color", b"GIF89a not an image we take"),
+                ]),
+            ),
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "undecodable_image",
+        ),
+        (
             "NaN in camera",
             put(
                 "/v1/scenes/s/views/v",

@@ -1,6 +1,7 @@
 //! Ingest: one uploaded view decoded (depth to `z`, mask, colour checked
 //! against the depth's size: `dmesh_engine::image::decode_view`, which
-//! `dmesh mesh` uses too), built, and stored with its hierarchy cached. A
+//! `dmesh mesh` uses too; a live frame's colour from its header alone),
+//! built, and stored with its hierarchy cached. A
 //! view that cannot be meshed is not kept; a failed store leaves the old
 //! view (DESIGN.md, "Store"). Nothing is copied or converted twice: the
 //! images stay the buffers the upload arrived in, the decoded depth is
@@ -12,7 +13,7 @@ use bytes::Bytes;
 
 use crate::store::StoredView;
 use dmesh_engine::camera::{camera_from_json, Camera};
-use dmesh_engine::image::{decode_view, DepthKind, DepthOptions, ViewFiles};
+use dmesh_engine::image::{check_color_header, decode_view, DepthKind, DepthOptions, ViewFiles};
 use dmesh_engine::mesh::{Hierarchy, SegmentationSpec};
 
 use super::error::AppError;
@@ -43,12 +44,18 @@ pub fn ingest(state: &AppState, scene: &str, view: &str, upload: Upload, live: b
     // again, which costs nothing).
     upload.segmentation.validate()?;
     let camera: Camera = camera_from_json(&upload.camera)?;
+    // A live frame's colour is checked from its header: decoding it whole
+    // would take a tenth of the frame's time (docs/live.md).
     let files = ViewFiles {
         depth: &upload.depth,
         mask: upload.mask.as_deref(),
-        color: Some(&upload.color),
+        color: (!live).then_some(&upload.color[..]),
     };
-    let depth = decode_view(files, &upload.options, &camera, &state.settings.limits)?.depth;
+    let limits = &state.settings.limits;
+    let depth = decode_view(files, &upload.options, &camera, limits)?.depth;
+    if live {
+        check_color_header(&upload.color, &depth, limits)?;
+    }
     // Build before storing: a view that cannot be meshed is not kept.
     let hierarchy = Hierarchy::build(&depth, &camera, &upload.segmentation.to_engine())?;
     let valid_samples = depth.valid_count() as u64;

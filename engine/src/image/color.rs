@@ -1,6 +1,8 @@
 //! Colour images (PNG or JPEG) decoded to 8-bit RGB.
 
-use image::ImageFormat;
+use std::io::Cursor;
+
+use image::{ImageFormat, ImageReader};
 
 use super::{png_depth::decode_with_limits, sniff, Format, Limits};
 use crate::error::{Error, Result};
@@ -18,20 +20,33 @@ pub struct ColorImage {
 
 /// Decodes a PNG or JPEG colour image, recognised by its magic bytes.
 pub fn decode_color(bytes: &[u8], limits: &Limits) -> Result<ColorImage> {
-    let format = match sniff(bytes) {
-        Some(Format::Png) => ImageFormat::Png,
-        Some(Format::Jpeg) => ImageFormat::Jpeg,
-        _ => {
-            return Err(Error::decode(
-                "colour image is not PNG or JPEG (unrecognised magic bytes)",
-            ))
-        }
-    };
-    let image = decode_with_limits(bytes, format, "colour image", limits)?;
+    let image = decode_with_limits(bytes, color_format(bytes)?, "colour image", limits)?;
     let rgb = image.to_rgb8();
     Ok(ColorImage {
         width: rgb.width(),
         height: rgb.height(),
         rgb: rgb.into_raw(),
     })
+}
+
+/// A colour image's size from its header, within `limits`, without
+/// decoding its pixels.
+pub fn color_dimensions(bytes: &[u8], limits: &Limits) -> Result<(u32, u32)> {
+    let reader = ImageReader::with_format(Cursor::new(bytes), color_format(bytes)?);
+    let (w, h) = reader
+        .into_dimensions()
+        .map_err(|e| Error::decode(format!("colour image: {e}")))?;
+    limits.check("colour image", u64::from(w), u64::from(h))?;
+    Ok((w, h))
+}
+
+/// PNG or JPEG, by the magic bytes.
+fn color_format(bytes: &[u8]) -> Result<ImageFormat> {
+    match sniff(bytes) {
+        Some(Format::Png) => Ok(ImageFormat::Png),
+        Some(Format::Jpeg) => Ok(ImageFormat::Jpeg),
+        _ => Err(Error::decode(
+            "colour image is not PNG or JPEG (unrecognised magic bytes)",
+        )),
+    }
 }

@@ -16,10 +16,10 @@ pub mod pgm;
 mod png_depth;
 mod view;
 
-pub use color::{decode_color, ColorImage};
+pub use color::{color_dimensions, decode_color, ColorImage};
 pub use exr_depth::encode_exr;
 pub use pfm::{decode_pfm, encode_pfm};
-pub use view::{decode_view, DecodedView, ViewFiles};
+pub use view::{check_color_header, decode_view, DecodedView, ViewFiles};
 
 use crate::camera::Camera;
 use crate::error::{Error, Result};
