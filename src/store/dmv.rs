@@ -74,8 +74,12 @@ pub fn encode(v: &StoredView) -> Result<Vec<u8>, StoreError> {
     out.extend_from_slice(&(meta.len() as u64).to_le_bytes());
     out.extend_from_slice(&meta);
     out.extend_from_slice(&(v.z.len() as u64).to_le_bytes());
-    for z in &v.z {
-        out.extend_from_slice(&z.to_le_bytes());
+    // Sized first, then filled: a straight copy, where a push per sample
+    // checked the capacity each time.
+    let start = out.len();
+    out.resize(start + 4 * v.z.len(), 0);
+    for (bytes, z) in out[start..].chunks_exact_mut(4).zip(&v.z) {
+        bytes.copy_from_slice(&z.to_le_bytes());
     }
     out.extend_from_slice(&(v.color.len() as u64).to_le_bytes());
     out.extend_from_slice(&v.color);

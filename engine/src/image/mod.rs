@@ -315,39 +315,48 @@ fn to_z(raw: RawSamples, options: &DepthOptions, camera: &Camera) -> Result<Dept
         mut values,
     } = raw;
     let w = width as usize;
-    for (idx, v) in values.iter_mut().enumerate() {
-        let raw = f64::from(*v);
-        // Raw zero stays invalid whatever the offset: Middlebury's "unknown".
-        if raw == 0.0 || !raw.is_finite() {
-            *v = 0.0;
-            continue;
-        }
-        let x = raw * options.scale + options.offset;
-        let z = match options.kind {
-            DepthKind::Z => x,
-            DepthKind::Range => {
-                let (u, vv) = ((idx % w) as f64, (idx / w) as f64);
-                x / camera.ray_length(u, vv)
+    let (scale, offset) = (options.scale, options.offset);
+    // One straight loop per kind (the compiler widens them).
+    match options.kind {
+        DepthKind::Z => to_z_with(&mut values, |_, raw| raw * scale + offset),
+        DepthKind::Range => to_z_with(&mut values, |idx, raw| {
+            let (u, vv) = ((idx % w) as f64, (idx / w) as f64);
+            (raw * scale + offset) / camera.ray_length(u, vv)
+        }),
+        DepthKind::Disparity => to_z_with(&mut values, |_, raw| {
+            let x = raw * scale + offset;
+            if x > 0.0 {
+                fb / x
+            } else {
+                0.0
             }
-            DepthKind::Disparity => {
-                if x > 0.0 {
-                    fb / x
-                } else {
-                    0.0
-                }
+        }),
+        DepthKind::InverseDepth => to_z_with(&mut values, |_, raw| {
+            let x = raw * scale + offset;
+            if x > 0.0 {
+                1.0 / x
+            } else {
+                0.0
             }
-            DepthKind::InverseDepth => {
-                if x > 0.0 {
-                    1.0 / x
-                } else {
-                    0.0
-                }
-            }
-        };
-        let z = z as f32;
-        *v = if z.is_finite() && z > 0.0 { z } else { 0.0 };
+        }),
     }
     DepthImage::from_z(width, height, values)
+}
+
+/// Each raw sample in place as `z(index, raw)`, as f32; a raw 0 or
+/// non-finite value (Middlebury's "unknown"), and any `z` not finite and
+/// positive, is 0 (invalid).
+#[inline(always)]
+fn to_z_with(values: &mut [f32], z: impl Fn(usize, f64) -> f64) {
+    for (idx, v) in values.iter_mut().enumerate() {
+        let raw = f64::from(*v);
+        let z = if raw == 0.0 || !raw.is_finite() {
+            0.0
+        } else {
+            z(idx, raw) as f32
+        };
+        *v = if z.is_finite() && z > 0.0 { z } else { 0.0 };
+    }
 }
 
 #[cfg(test)]
