@@ -14,6 +14,7 @@
 pub mod conditional;
 pub mod error;
 pub mod negotiate;
+mod slots;
 pub mod strips;
 pub mod views;
 pub mod web;
@@ -30,6 +31,8 @@ use axum::routing::{get, post};
 use axum::{BoxError, Router};
 use tower::ServiceBuilder;
 use tower_http::compression::CompressionLayer;
+
+use slots::Slots;
 
 pub use crate::service::{AppState, Settings, DEFAULT_REVALIDATE};
 pub use error::AppError;
@@ -83,13 +86,6 @@ async fn timed_out(error: BoxError) -> AppError {
     }
 }
 
-/// The admission limits: one for reads, one for uploads.
-pub struct Slots {
-    reads: tokio::sync::Semaphore,
-    uploads: tokio::sync::Semaphore,
-    wait: Duration,
-}
-
 /// Load shedding: a request that finds no free slot of its class (uploads
 /// are `PUT`s, everything else under `/v1` is a read) waits for one at most
 /// `queue_wait` (a short queue absorbs bursts without letting latency
@@ -100,17 +96,23 @@ async fn shed(State(slots): State<Arc<Slots>>, mut request: Request, next: Next)
     if !path.starts_with("/v1/") {
         return next.run(request).await;
     }
-    let class = if request.method() == axum::http::Method::PUT {
+    let upload = request.method() == axum::http::Method::PUT;
+    if upload {
         request.extensions_mut().insert(BuildSlot(slots.clone()));
-        &slots.uploads
-    } else {
-        &slots.reads
-    };
-    if let Ok(_permit) = class.try_acquire() {
+    }
+    let free = if upload { slots.try_upload() } else { slots.try_read() };
+    if let Some(_permit) = free {
         return next.run(request).await;
     }
-    match tokio::time::timeout(slots.wait, class.acquire()).await {
-        Ok(Ok(_permit)) => next.run(request).await,
+    let wait = async {
+        if upload {
+            slots.upload().await
+        } else {
+            slots.read().await
+        }
+    };
+    match tokio::time::timeout(slots.wait, wait).await {
+        Ok(Some(_permit)) => next.run(request).await,
         _ => AppError::Overloaded(1).into_response(),
     }
 }
@@ -118,15 +120,15 @@ async fn shed(State(slots): State<Arc<Slots>>, mut request: Request, next: Next)
 /// Handed to an upload: its build takes one of the read slots too, once
 /// the body is in, so that while a frame builds the renders hold at most
 /// the other cores and the build has one of its own (a live view keeps its
-/// frame rate while clients render it). It waits its turn behind the reads
-/// already queued, and is never shed: the upload was admitted.
+/// frame rate while clients render it). It goes ahead of the reads queued
+/// (`slots.rs`), and is never shed: the upload was admitted.
 #[derive(Clone)]
 pub struct BuildSlot(Arc<Slots>);
 
 impl BuildSlot {
     /// A read slot, held while the permit lives.
     pub async fn acquire(&self) -> Option<tokio::sync::SemaphorePermit<'_>> {
-        self.0.reads.acquire().await.ok()
+        self.0.build().await
     }
 }
 
@@ -196,11 +198,11 @@ pub fn app(state: Arc<AppState>, pipeline: Pipeline) -> Router {
                 .layer(HandleErrorLayer::new(timed_out))
                 .timeout(pipeline.timeout),
         );
-    let slots = Arc::new(Slots {
-        reads: tokio::sync::Semaphore::new(pipeline.max_concurrency.max(1)),
-        uploads: tokio::sync::Semaphore::new(pipeline.max_uploads.max(1)),
-        wait: pipeline.queue_wait,
-    });
+    let slots = Arc::new(Slots::new(
+        pipeline.max_concurrency,
+        pipeline.max_uploads,
+        pipeline.queue_wait,
+    ));
     // The viewer's files are served from memory outside the limit: shedding
     // them would only break a page load without sparing any CPU-bound work.
     api.route_layer(middleware::from_fn_with_state(state.clone(), record))
