@@ -27,6 +27,23 @@ pub enum Error {
     Internal(String),
 }
 
+/// A number as a message quotes it: as Rust prints it, but in scientific
+/// notation when that would be a long run of digits (`1e300` prints 301
+/// of them; a fuzzer sends such values).
+#[derive(Clone, Copy, Debug)]
+pub struct Shown(pub f64);
+
+impl std::fmt::Display for Shown {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let v = self.0.abs();
+        if v >= 1e15 || (v > 0.0 && v < 1e-6) {
+            write!(f, "{:e}", self.0)
+        } else {
+            write!(f, "{}", self.0)
+        }
+    }
+}
+
 /// Shorthand for results of the engine.
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
@@ -44,5 +61,22 @@ impl Error {
     /// Undecodable image bytes.
     pub fn decode(message: impl Into<String>) -> Self {
         Self::Decode(message.into())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_quoted_number_is_short() {
+        assert_eq!(Shown(6.1e307).to_string(), "6.1e307");
+        assert_eq!(Shown(-1e300).to_string(), "-1e300");
+        assert_eq!(Shown(1e-9).to_string(), "1e-9");
+        assert_eq!(Shown(180.5).to_string(), "180.5");
+        assert_eq!(Shown(-1.0).to_string(), "-1");
+        assert_eq!(Shown(0.0).to_string(), "0");
+        assert_eq!(Shown(f64::NAN).to_string(), "NaN");
+        assert_eq!(Shown(f64::INFINITY).to_string(), "inf");
     }
 }

@@ -78,7 +78,8 @@ impl Ask {
             (WireLod::MaxTriangles(max), camera) => Detail::MaxTriangles { max, camera },
             (WireLod::BudgetMs(ms), _) if !(ms.is_finite() && ms > 0.0) => {
                 return Err(Error::invalid(format!(
-                    "budget_ms is {ms}; it must be a finite number of milliseconds > 0"
+                    "budget_ms is {}; it must be a finite number of milliseconds > 0",
+                    crate::error::Shown(ms)
                 )))
             }
             (WireLod::BudgetMs(ms), camera) => Detail::BudgetMs { ms, camera },
@@ -286,7 +287,9 @@ mod tests {
         for selection in [Selection::Dmesh, Selection::Limited] {
             for bad in [-1.0, 180.5, 6.1e307, f64::NAN] {
                 let err = super::select(&cam, &[cam], selection, None, Some(bad)).unwrap_err();
-                assert!(err.to_string().contains("max_angle_deg"), "{selection:?} {bad}: {err}");
+                let err = err.to_string();
+                assert!(err.contains("max_angle_deg"), "{selection:?} {bad}: {err}");
+                assert!(err.len() < 80, "the value is quoted short: {err}");
             }
             assert_eq!(
                 super::select(&cam, &[cam], selection, None, Some(10.0)).unwrap().len(),

@@ -286,20 +286,21 @@ fn to_z(raw: RawSamples, options: &DepthOptions, camera: &Camera) -> Result<Dept
     if !options.scale.is_finite() || options.scale == 0.0 {
         return Err(Error::invalid(format!(
             "depth scale is {}; it must be finite and non-zero",
-            options.scale
+            crate::error::Shown(options.scale)
         )));
     }
     if !options.offset.is_finite() {
         return Err(Error::invalid(format!(
             "depth offset is {}; it must be finite",
-            options.offset
+            crate::error::Shown(options.offset)
         )));
     }
     let fb = match (options.kind, options.focal_baseline) {
         (DepthKind::Disparity, Some(fb)) if fb.is_finite() && fb > 0.0 => fb,
         (DepthKind::Disparity, Some(fb)) => {
             return Err(Error::invalid(format!(
-                "focal_baseline is {fb}; it must be a finite number greater than 0"
+                "focal_baseline is {}; it must be a finite number greater than 0",
+                crate::error::Shown(fb)
             )))
         }
         (DepthKind::Disparity, None) => {

@@ -43,7 +43,8 @@ pub(crate) fn decode(bytes: &[u8], limits: &Limits) -> Result<RawSamples> {
         .map_err(|_| Error::decode("PFM scale is not a number"))?;
     if !scale.is_finite() || scale == 0.0 {
         return Err(Error::decode(format!(
-            "PFM scale is {scale}; it must be finite and non-zero"
+            "PFM scale is {}; it must be finite and non-zero",
+            crate::error::Shown(scale)
         )));
     }
     limits.check("PFM image", w, h)?;

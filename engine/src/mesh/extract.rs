@@ -209,7 +209,8 @@ impl Hierarchy {
             Lod::Epsilon(eps) => {
                 if !(eps.is_finite() && eps >= 0.0) {
                     return Err(Error::invalid(format!(
-                        "epsilon is {eps}; it must be a finite number >= 0"
+                        "epsilon is {}; it must be a finite number >= 0",
+                        crate::error::Shown(eps)
                     )));
                 }
                 let eps2 = (eps * eps) as f32;
@@ -222,7 +223,8 @@ impl Hierarchy {
             Lod::Tau { tau, view } => {
                 if !(tau.is_finite() && tau >= 0.0) {
                     return Err(Error::invalid(format!(
-                        "tau is {tau}; it must be a finite number of pixels >= 0"
+                        "tau is {}; it must be a finite number of pixels >= 0",
+                        crate::error::Shown(tau)
                     )));
                 }
                 let sel = ViewDependent::new(&self.camera, view, tau);

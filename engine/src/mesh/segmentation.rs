@@ -83,7 +83,8 @@ impl Segmentation {
     pub fn validate(&self) -> Result<()> {
         let bad = |name: &str, v: f64, accepted: &str| {
             Err(Error::invalid(format!(
-                "segmentation {name} is {v}; it must be {accepted}"
+                "segmentation {name} is {}; it must be {accepted}",
+                crate::error::Shown(v)
             )))
         };
         if !(self.lambda.is_finite() && self.lambda >= 0.0) {

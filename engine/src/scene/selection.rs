@@ -59,7 +59,8 @@ pub(crate) fn limit_deg(rule: SelectionRule) -> Result<f64> {
     match rule {
         SelectionRule::Dmesh { max_angle_deg } if (0.0..=180.0).contains(&max_angle_deg) => Ok(max_angle_deg),
         SelectionRule::Dmesh { max_angle_deg } => Err(Error::invalid(format!(
-            "max_angle_deg is {max_angle_deg}; it must be between 0 and 180"
+            "max_angle_deg is {}; it must be between 0 and 180",
+            crate::error::Shown(max_angle_deg)
         ))),
         SelectionRule::Limited => Ok(40.0),
     }

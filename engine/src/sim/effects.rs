@@ -42,7 +42,8 @@ impl Effects {
     pub fn validate(&self) -> crate::Result<()> {
         let fraction = |name: &str, v: Option<f64>| match v {
             Some(f) if !(0.0..=1.0).contains(&f) => Err(crate::Error::invalid(format!(
-                "effect {name} is {f}; it must be a fraction between 0 and 1"
+                "effect {name} is {}; it must be a fraction between 0 and 1",
+                crate::error::Shown(f)
             ))),
             _ => Ok(()),
         };
@@ -52,7 +53,8 @@ impl Effects {
             if let Some(x) = v {
                 if !(x.is_finite() && x >= 0.0) {
                     return Err(crate::Error::invalid(format!(
-                        "effect {name} is {x}; it must be a finite number >= 0"
+                        "effect {name} is {}; it must be a finite number >= 0",
+                        crate::error::Shown(x)
                     )));
                 }
             }

@@ -77,7 +77,7 @@ impl SceneSpec {
         if !(self.fov_deg > 1.0 && self.fov_deg < 170.0) {
             return Err(crate::Error::invalid(format!(
                 "fov_deg is {}; it must be between 1 and 170",
-                self.fov_deg
+                crate::error::Shown(self.fov_deg)
             )));
         }
         if !(self.texture.checker.is_finite() && self.texture.checker > 0.0) {
