@@ -3,10 +3,7 @@
 //! The server's upload and `dmesh mesh` both decode through it, so the same
 //! file gets the same answer from either.
 
-use super::{
-    color_dimensions, decode_color, decode_depth, decode_mask, sniff, ColorImage, DepthImage, DepthOptions, Format,
-    Limits,
-};
+use super::{color_dimensions, decode_color, decode_depth, decode_mask, ColorImage, DepthImage, DepthOptions, Limits};
 use crate::camera::Camera;
 use crate::error::{Error, Result};
 
@@ -45,7 +42,7 @@ pub fn decode_view(
     let color = match files.color {
         None => None,
         Some(bytes) => {
-            let c = decode_color(known_color(bytes)?, limits)?;
+            let c = decode_color(bytes, limits)?;
             same_size(c.width, c.height, &depth)?;
             Some(c)
         }
@@ -58,19 +55,8 @@ pub fn decode_view(
 /// so damage past the header is not seen: for a live frame, whose budget a
 /// whole decode would take a tenth of (`decode_view` decodes it whole).
 pub fn check_color_header(bytes: &[u8], depth: &DepthImage, limits: &Limits) -> Result<()> {
-    let (width, height) = color_dimensions(known_color(bytes)?, limits)?;
+    let (width, height) = color_dimensions(bytes, limits)?;
     same_size(width, height, depth)
-}
-
-/// `bytes`, when they start as PNG or JPEG do.
-fn known_color(bytes: &[u8]) -> Result<&[u8]> {
-    if matches!(sniff(bytes), Some(Format::Png | Format::Jpeg)) {
-        Ok(bytes)
-    } else {
-        Err(Error::Decode(
-            "colour is not PNG or JPEG (unrecognised magic bytes)".into(),
-        ))
-    }
 }
 
 /// Refuses a colour image of another size than `depth`.
