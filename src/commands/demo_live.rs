@@ -29,11 +29,13 @@ const SIZE: (u32, u32) = (320, 240);
 
 /// Stores the live scene's first frame, so the scene exists once the
 /// server listens, then a thread that stores the next at `fps` until the
-/// process ends. A frame that cannot be stored is reported and the feed
-/// goes on with the next.
+/// process ends, or until a client deletes or replaces the view (the feed
+/// then stops, as a camera unplugged would, rather than bring the view
+/// back). A frame that cannot be stored is reported and the feed goes on
+/// with the next.
 pub fn start(state: Arc<AppState>, fps: f64) -> Result<()> {
     let mut frames = Frames::new(fps)?;
-    frames.store(&state, 0)?;
+    let mut last = frames.store(&state, 0, None)?.context("the first frame")?;
     tracing::info!("demo scene: {SCENE} moves at {fps} frames per second (view {VIEW}, live)");
     std::thread::Builder::new()
         .name("demo-live".into())
@@ -43,8 +45,13 @@ pub fn start(state: Arc<AppState>, fps: f64) -> Result<()> {
             for k in 1u64.. {
                 let due = start + period.mul_f64(k as f64);
                 std::thread::sleep(due.saturating_duration_since(Instant::now()));
-                if let Err(e) = frames.store(&state, k) {
-                    tracing::warn!("{SCENE}: frame {k} not stored: {e:#}");
+                match frames.store(&state, k, Some(&last)) {
+                    Ok(Some(version)) => last = version,
+                    Ok(None) => {
+                        tracing::info!("{SCENE}: view {VIEW} was deleted or replaced; its feed stops");
+                        return;
+                    }
+                    Err(e) => tracing::warn!("{SCENE}: frame {k} not stored: {e:#}"),
                 }
             }
         })
@@ -79,8 +86,10 @@ impl Frames {
         })
     }
 
-    /// Stores frame `k` as the view's live frame.
-    fn store(&mut self, state: &AppState, k: u64) -> Result<()> {
+    /// Stores frame `k` as the view's live frame, over the version
+    /// `previous` when given (none stored when the view is another by
+    /// then), and gives the version stored.
+    fn store(&mut self, state: &AppState, k: u64, previous: Option<&str>) -> Result<Option<String>> {
         let i = (k % self.count as u64) as usize;
         if i == self.rendered.len() {
             let view = dmesh_engine::sim::render_view(&self.spec.swayed(i as f64 / self.fps), &self.camera, true, k)?;
@@ -99,7 +108,10 @@ impl Frames {
         }
         let stored = &self.rendered[i];
         let loaded = Loaded::from_stored(stored, String::new())?;
-        state.store_view(SCENE, VIEW, stored, loaded, true)?;
-        Ok(())
+        let done = match previous {
+            None => Some(state.store_view(SCENE, VIEW, stored, loaded, true)?),
+            Some(previous) => state.store_live_frame_over(SCENE, VIEW, stored, loaded, previous)?,
+        };
+        Ok(done.map(|loaded| loaded.version.clone()))
     }
 }

@@ -158,3 +158,17 @@ test('parent edges follow PROTOCOL.md', () => {
   const n = octDecode(128, 128);
   assert.ok(Math.abs(Math.hypot(...n) - 1) < 1e-12 && n[2] > 0.99);
 });
+
+test('deleting demo-live\'s view stops its feed rather than bringing the view back', async () => {
+  const live = await startServer(['--demo', '--demo-live-fps', '20']);
+  try {
+    const view = `${live.url}/v1/scenes/demo-live/views/v00`;
+    assert.equal((await fetch(view)).status, 200, 'the feed has stored a frame');
+    assert.equal((await fetch(view, { method: 'DELETE' })).status, 204);
+    // Ten frame periods: a feed still running would have stored one.
+    await new Promise((resolve) => setTimeout(resolve, 500));
+    assert.equal((await fetch(view)).status, 404, 'the deleted view stays deleted');
+  } finally {
+    await live.stop();
+  }
+});

@@ -26,6 +26,38 @@ impl AppState {
         live: bool,
     ) -> Result<Arc<Loaded>, AppError> {
         let _commit = self.commit.lock().unwrap_or_else(|p| p.into_inner());
+        self.store_view_committing(scene, view, stored, loaded, live)
+    }
+
+    /// [`Self::store_view`] of a live frame only while the view is the
+    /// version `previous` (what this writer stored last): `None`, storing
+    /// nothing, once it was deleted or replaced by someone else. So a
+    /// writer that feeds a view (the demo's `demo-live`) stops when a
+    /// client deletes or takes over the view, rather than bringing it back.
+    pub fn store_live_frame_over(
+        &self,
+        scene: &str,
+        view: &str,
+        stored: &StoredView,
+        loaded: Loaded,
+        previous: &str,
+    ) -> Result<Option<Arc<Loaded>>, AppError> {
+        let _commit = self.commit.lock().unwrap_or_else(|p| p.into_inner());
+        if self.store.version(scene, view)?.as_deref() != Some(previous) {
+            return Ok(None);
+        }
+        self.store_view_committing(scene, view, stored, loaded, true).map(Some)
+    }
+
+    /// [`Self::store_view`]'s work, with the commit lock held.
+    fn store_view_committing(
+        &self,
+        scene: &str,
+        view: &str,
+        stored: &StoredView,
+        loaded: Loaded,
+        live: bool,
+    ) -> Result<Arc<Loaded>, AppError> {
         let key = (scene.to_string(), view.to_string());
         let version = if live {
             let version = self.store.put_live(scene, view, stored)?;
