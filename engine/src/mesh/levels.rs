@@ -16,7 +16,8 @@
 
 use super::backproject::BackProject;
 use super::deviation::{
-    half_rows, max_deviation, same_shape, small_half_deviation, small_half_deviation_x4, SmallHalf,
+    half_rows, max_deviation, same_shape, small_edge_deviation, small_half_deviation, small_half_deviation_off_edge,
+    small_half_deviation_x4, SmallHalf,
 };
 use super::error_metric::{norm_bound, point_line_2d_sq, point_line_3d_sq};
 use super::flags::{Flags, Half};
@@ -448,6 +449,11 @@ impl Levels<'_> {
             let mut bits = flag_row[xi].cell_only();
             let mut own = 0f64;
             let mut own_dev2 = 0f32;
+            // Without given deviations: the unflagged halves' largest, and
+            // for a small edge midpoint's halves the samples on the edge
+            // they share, scanned once (`max` commutes with `round_up`).
+            let mut own_dev = 0f64;
+            let mut edge_done = false;
             let mut err = 0f32;
             let mut radius = 0f64;
             let mut eq12_done = false;
@@ -477,10 +483,29 @@ impl Levels<'_> {
                 let flagged = flagged.unwrap_or(Half::ABSENT);
                 bits.set_half(half, flagged);
                 if flagged.unflagged() {
-                    own_dev2 = own_dev2.max(match dev2 {
-                        Some(dv) => dv[half],
-                        None => half_deviation2(z, gw as usize, s, h, c),
-                    });
+                    match dev2 {
+                        Some(dv) => own_dev2 = own_dev2.max(dv[half]),
+                        None if h <= 4 && bisects != Bisects::Diagonal => {
+                            let shape = small_half(gw as usize, s, c);
+                            let SmallHalf::Edge { v, along, .. } = shape else {
+                                unreachable!("an edge midpoint's half")
+                            };
+                            let (edge, rest) = if h == 2 {
+                                (
+                                    (!edge_done).then(|| small_edge_deviation::<2>(z, v, along)),
+                                    small_half_deviation_off_edge::<2>(z, shape),
+                                )
+                            } else {
+                                (
+                                    (!edge_done).then(|| small_edge_deviation::<4>(z, v, along)),
+                                    small_half_deviation_off_edge::<4>(z, shape),
+                                )
+                            };
+                            edge_done = true;
+                            own_dev = own_dev.max(edge.unwrap_or(0.0)).max(rest);
+                        }
+                        None => own_dev2 = own_dev2.max(half_deviation2(z, gw as usize, s, h, c)),
+                    }
                     if !eq12_done {
                         eq12_done = true;
                         let (pa, pb) = (
@@ -495,7 +520,7 @@ impl Levels<'_> {
                 }
             }
             flag_row[xi] = bits;
-            err_row[xi] = err.max(round_up(own)).max(own_dev2);
+            err_row[xi] = err.max(round_up(own)).max(own_dev2).max(round_up(own_dev * own_dev));
             rad_row[xi] = round_up(radius);
         }
     }
