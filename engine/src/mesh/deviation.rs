@@ -148,41 +148,14 @@ pub(crate) fn small_half_deviation<const H: isize>(z: &[f32], shape: SmallHalf) 
     small_half_deviation_from::<H>(z, shape, 0)
 }
 
-/// [`small_half_deviation`] of an edge midpoint's half without the samples
-/// on the bisected edge (row `r = 0`), which its two halves share with the
-/// same interpolant: [`small_edge_deviation`] scans those once for both,
-/// and the larger of the two is the half's deviation, the same bits.
+/// [`small_half_deviation`] from row `first` (0 or 1) of an edge
+/// midpoint's half; a centre's half is scanned whole. An edge midpoint's
+/// two halves share row 0, the samples on the edge they bisect, with the
+/// same interpolant there: a pass that scans the first half whole and the
+/// second from row 1 gets the larger of their deviations in the same bits,
+/// reading those samples once.
 #[inline(always)]
-pub(crate) fn small_half_deviation_off_edge<const H: isize>(z: &[f32], shape: SmallHalf) -> f64 {
-    debug_assert!(
-        matches!(shape, SmallHalf::Edge { .. }),
-        "a centre's halves share no row"
-    );
-    small_half_deviation_from::<H>(z, shape, 1)
-}
-
-/// The deviation over the samples on the edge `v - H along ..= v + H along`
-/// that an edge midpoint `v` bisects: row `r = 0` of both its halves in
-/// [`small_half_deviation`], with the same arithmetic.
-#[inline(always)]
-pub(crate) fn small_edge_deviation<const H: isize>(z: &[f32], v: isize, along: isize) -> f64 {
-    let at = |i: isize| f64::from(z[i as usize]);
-    let (za, zb) = (at(v - H * along), at(v + H * along));
-    let mid = 0.5 * (za + zb);
-    let g = (zb - za) / (2 * H) as f64;
-    // `base` at r = 0 as the half's scan computes it: `mid + 0 * rise`,
-    // which is `mid` for any finite `rise`.
-    let mut worst = 0f64;
-    for k in -H..H + 1 {
-        let d = (at(v + k * along) - (mid + k as f64 * g)).abs();
-        worst = if d > worst { d } else { worst };
-    }
-    worst
-}
-
-/// [`small_half_deviation`] from row `first` of an edge midpoint's half.
-#[inline(always)]
-fn small_half_deviation_from<const H: isize>(z: &[f32], shape: SmallHalf, first: isize) -> f64 {
+pub(crate) fn small_half_deviation_from<const H: isize>(z: &[f32], shape: SmallHalf, first: isize) -> f64 {
     let at = |i: isize| f64::from(z[i as usize]);
     let mut worst = 0f64;
     let mut visit = |i: isize, lin: f64| {
@@ -430,14 +403,31 @@ mod tests {
                     2 => small_half_deviation::<2>(&z, shape),
                     _ => small_half_deviation::<4>(&z, shape),
                 };
-                // An edge midpoint's half: its edge and the rest, scanned
-                // apart as the one-thread pass does, give the same bits.
-                if let SmallHalf::Edge { v, along, .. } = shape {
-                    let split = match h {
-                        2 => small_edge_deviation::<2>(&z, v, along).max(small_half_deviation_off_edge::<2>(&z, shape)),
-                        _ => small_edge_deviation::<4>(&z, v, along).max(small_half_deviation_off_edge::<4>(&z, shape)),
+                // An edge midpoint's halves, the other scanned whole and
+                // this one from row 1 as the one-thread pass does: the
+                // larger of the two in the same bits as both whole.
+                if let SmallHalf::Edge { v, along, across, apex } = shape {
+                    let other = SmallHalf::Edge {
+                        v,
+                        along,
+                        across: -across,
+                        apex: 2 * v - apex,
                     };
-                    assert_eq!(split.to_bits(), fast.to_bits(), "h {h} apex {c:?}: edge apart");
+                    let (whole, shared) = match h {
+                        2 => (
+                            small_half_deviation::<2>(&z, other),
+                            small_half_deviation_from::<2>(&z, shape, 1),
+                        ),
+                        _ => (
+                            small_half_deviation::<4>(&z, other),
+                            small_half_deviation_from::<4>(&z, shape, 1),
+                        ),
+                    };
+                    assert_eq!(
+                        whole.max(shared).to_bits(),
+                        whole.max(fast).to_bits(),
+                        "h {h} apex {c:?}: the edge scanned once"
+                    );
                 }
                 // Four lanes: the same half moved 0 to 3 columns, each lane
                 // the same bits as the scalar code there.

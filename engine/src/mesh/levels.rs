@@ -16,8 +16,8 @@
 
 use super::backproject::BackProject;
 use super::deviation::{
-    half_rows, max_deviation, same_shape, small_edge_deviation, small_half_deviation, small_half_deviation_off_edge,
-    small_half_deviation_x4, SmallHalf,
+    half_rows, max_deviation, same_shape, small_half_deviation, small_half_deviation_from, small_half_deviation_x4,
+    SmallHalf,
 };
 use super::error_metric::{norm_bound, point_line_2d_sq, point_line_3d_sq};
 use super::flags::{Flags, Half};
@@ -449,11 +449,9 @@ impl Levels<'_> {
             let mut bits = flag_row[xi].cell_only();
             let mut own = 0f64;
             let mut own_dev2 = 0f32;
-            // Without given deviations: the unflagged halves' largest, and
-            // for a small edge midpoint's halves the samples on the edge
-            // they share, scanned once (`max` commutes with `round_up`).
+            // Without given deviations: the unflagged halves' largest
+            // (`max` commutes with `round_up`).
             let mut own_dev = 0f64;
-            let mut edge_done = false;
             let mut err = 0f32;
             let mut radius = 0f64;
             let mut eq12_done = false;
@@ -486,23 +484,15 @@ impl Levels<'_> {
                     match dev2 {
                         Some(dv) => own_dev2 = own_dev2.max(dv[half]),
                         None if h <= 4 && bisects != Bisects::Diagonal => {
-                            let shape = small_half(gw as usize, s, c);
-                            let SmallHalf::Edge { v, along, .. } = shape else {
-                                unreachable!("an edge midpoint's half")
-                            };
-                            let (edge, rest) = if h == 2 {
-                                (
-                                    (!edge_done).then(|| small_edge_deviation::<2>(z, v, along)),
-                                    small_half_deviation_off_edge::<2>(z, shape),
-                                )
+                            // A small edge midpoint's halves share the
+                            // samples on its edge: a second unflagged half
+                            // (one came before: `eq12_done`) skips them.
+                            let (shape, first) = (small_half(gw as usize, s, c), isize::from(eq12_done));
+                            own_dev = own_dev.max(if h == 2 {
+                                small_half_deviation_from::<2>(z, shape, first)
                             } else {
-                                (
-                                    (!edge_done).then(|| small_edge_deviation::<4>(z, v, along)),
-                                    small_half_deviation_off_edge::<4>(z, shape),
-                                )
-                            };
-                            edge_done = true;
-                            own_dev = own_dev.max(edge.unwrap_or(0.0)).max(rest);
+                                small_half_deviation_from::<4>(z, shape, first)
+                            });
                         }
                         None => own_dev2 = own_dev2.max(half_deviation2(z, gw as usize, s, h, c)),
                     }
