@@ -6,7 +6,11 @@
 //!   and the detail (a finest half's exact deviation: its one interior
 //!   sample is `v`), rounded up to f32, and for centres the nested radius.
 //!   Every vertex of a kind on a row has the same shape, so the loop is
-//!   straight and the compiler widens it (AVX2 where the CPU has it);
+//!   straight and the compiler widens it (AVX2 where the CPU has it). A
+//!   centre's diagonal turns from one centre to the next, so the centres'
+//!   samples and column factors are first gathered into rows of their own,
+//!   one per role ([`CentreSamples`], [`CentreColumns`]): read in place,
+//!   the turn kept the loop scalar;
 //! - **flags**, byte by byte: the halves' segmentation from the leaf cells,
 //!   which geometric error counts (an unflagged half's), a partly segmented
 //!   half's footprint (rare: only along discontinuities), and the
@@ -69,13 +73,113 @@ fn leaf(f: Flags, t: usize) -> Half {
     Half::leaf(f.cell(t))
 }
 
+/// The column factors the centres of level 0 read, one row per role, `i`
+/// for the centre at `x = 2i + 1`: their own column's, their left and right
+/// neighbours', and the ends of their diagonal (`a` on the row of `p`, `b`
+/// on the other), which trade places from one centre to the next. The same
+/// for every row, so gathered once.
+struct CentreColumns {
+    v: [Vec<f64>; 2],
+    left: [Vec<f64>; 2],
+    right: [Vec<f64>; 2],
+    a: [Vec<f64>; 2],
+    b: [Vec<f64>; 2],
+}
+
+impl CentreColumns {
+    fn new(bp: &BackProject, n: usize) -> Self {
+        let (ca, cb) = bp.cols();
+        let at = |x: &dyn Fn(usize) -> usize| [ca, cb].map(|c| (0..n).map(|i| c[x(i)]).collect::<Vec<_>>());
+        Self {
+            v: at(&|i| 2 * i + 1),
+            left: at(&|i| 2 * i),
+            right: at(&|i| 2 * i + 2),
+            a: at(&|i| if i % 2 == 1 { 2 * i } else { 2 * i + 2 }),
+            b: at(&|i| if i % 2 == 1 { 2 * i + 2 } else { 2 * i }),
+        }
+    }
+}
+
+/// The depths one row of level-0 centres reads, one row per role (see
+/// [`CentreColumns`]): the centre's, its four neighbours', and its
+/// diagonal's ends.
+#[derive(Default)]
+struct CentreSamples {
+    v: Vec<f32>,
+    left: Vec<f32>,
+    right: Vec<f32>,
+    up: Vec<f32>,
+    down: Vec<f32>,
+    a: Vec<f32>,
+    b: Vec<f32>,
+}
+
+impl CentreSamples {
+    /// The `n` centres between rows `zs[0]` and `zs[2]`, whose diagonals
+    /// start on row `p_row` (0 or 2).
+    fn gather(&mut self, zs: [&[f32]; 3], p_row: usize, n: usize) {
+        let (zp, zq) = (zs[p_row], zs[2 - p_row]);
+        let fill = |v: &mut Vec<f32>, f: &dyn Fn(usize) -> f32| {
+            v.clear();
+            v.extend((0..n).map(f));
+        };
+        fill(&mut self.v, &|i| zs[1][2 * i + 1]);
+        fill(&mut self.left, &|i| zs[1][2 * i]);
+        fill(&mut self.right, &|i| zs[1][2 * i + 2]);
+        fill(&mut self.up, &|i| zs[0][2 * i + 1]);
+        fill(&mut self.down, &|i| zs[2][2 * i + 1]);
+        fill(&mut self.a, &|i| if i % 2 == 1 { zp[2 * i] } else { zp[2 * i + 2] });
+        fill(&mut self.b, &|i| if i % 2 == 1 { zq[2 * i + 2] } else { zq[2 * i] });
+    }
+}
+
+/// The detail and Eq. 1 (`geo`) and the nested radius (`rad`) of a row of
+/// level-0 centres, rounded up, from their samples in rows of their own: a
+/// straight loop over equal-length slices, which the compiler widens.
+#[inline(always)]
+fn centre_geometry(
+    c: &CentreColumns,
+    s: &CentreSamples,
+    rows: [(f64, f64); 3],
+    (rp, rq): ((f64, f64), (f64, f64)),
+    geo: &mut [f32],
+    rad: &mut [f32],
+) {
+    let n = geo.len();
+    let rad = &mut rad[..n];
+    fn two(v: &[Vec<f64>; 2], n: usize) -> (&[f64], &[f64]) {
+        (&v[0][..n], &v[1][..n])
+    }
+    let (cv, cl, cr) = (two(&c.v, n), two(&c.left, n), two(&c.right, n));
+    let (ca, cb) = (two(&c.a, n), two(&c.b, n));
+    let (zv, zl, zr) = (&s.v[..n], &s.left[..n], &s.right[..n]);
+    let (zu, zd, za, zb) = (&s.up[..n], &s.down[..n], &s.a[..n], &s.b[..n]);
+    let point = BackProject::point_from;
+    for i in 0..n {
+        let pv = point((cv.0[i], cv.1[i]), rows[1], zv[i]);
+        let mut radius = 0f64;
+        for (col, row, zc) in [
+            ((cl.0[i], cl.1[i]), rows[1], zl[i]),
+            ((cr.0[i], cr.1[i]), rows[1], zr[i]),
+            ((cv.0[i], cv.1[i]), rows[0], zu[i]),
+            ((cv.0[i], cv.1[i]), rows[2], zd[i]),
+        ] {
+            radius = radius.max(norm_bound(pv - point(col, row, zc)));
+        }
+        let pa = point((ca.0[i], ca.1[i]), rp, za[i]);
+        let pb = point((cb.0[i], cb.1[i]), rq, zb[i]);
+        let own = eq1(pv, pa, pb).max(detail2(f64::from(za[i]), f64::from(zv[i]), f64::from(zb[i])));
+        geo[i] = round_up(own);
+        rad[i] = round_up(radius);
+    }
+}
+
 impl Levels<'_> {
     /// The edge midpoints of level 0 along rows (`ROW`) or columns.
     #[inline(always)]
     pub(super) fn finest_edges<const ROW: bool>(&mut self, flags: &mut [Flags], zmax: f32, geo: &mut [f32]) {
         let (gw, gh) = (self.grid.gw() as usize, self.grid.gh() as usize);
         let (bp, camera, z) = (self.bp, self.camera, self.z);
-        let col = |x: usize| bp.col(x);
         let len = 2.0;
         let ys = if ROW { (0..gh).step_by(2) } else { (1..gh).step_by(2) };
         for y in ys {
@@ -85,6 +189,11 @@ impl Levels<'_> {
             if ROW {
                 let n = gw / 2;
                 let geo = &mut geo[..n];
+                // Slices as long as the loop reads (x + 1 <= 2n), so the
+                // compiler sees every index in bounds and widens the loop.
+                let (zr, (col_a, col_b)) = (&zr[..2 * n + 1], bp.cols());
+                let (col_a, col_b) = (&col_a[..2 * n + 1], &col_b[..2 * n + 1]);
+                let col = |x: usize| (col_a[x], col_b[x]);
                 for (i, g) in geo.iter_mut().enumerate() {
                     let x = 2 * i + 1;
                     let (za, zv, zb) = (f64::from(zr[x - 1]), f64::from(zr[x]), f64::from(zr[x + 1]));
@@ -164,8 +273,8 @@ impl Levels<'_> {
     pub(super) fn finest_centres(&mut self, flags: &mut [Flags], zmax: f32, geo: &mut [f32], rad: &mut [f32]) {
         let (gw, gh) = (self.grid.gw() as usize, self.grid.gh() as usize);
         let (bp, camera, z) = (self.bp, self.camera, self.z);
-        let col = |x: usize| bp.col(x);
-        let point = BackProject::point_from;
+        let columns = CentreColumns::new(bp, gw / 2);
+        let mut samples = CentreSamples::default();
         for y in (1..gh).step_by(2) {
             let rows = [bp.row(y - 1), bp.row(y), bp.row(y + 1)];
             let zs = [
@@ -178,37 +287,11 @@ impl Levels<'_> {
             // odd i (v at x = 2i + 1), x + 1 for even.
             let p_row = if (y - 1) / 2 % 2 == 1 { 0 } else { 2 };
             let q_row = 2 - p_row;
-            let (zp, zq) = (zs[p_row], zs[q_row]);
             let (rp, rq) = (rows[p_row], rows[q_row]);
             let n = gw / 2;
             let (geo, rad) = (&mut geo[..n], &mut rad[..n]);
-            for (i, (g, r)) in geo.iter_mut().zip(rad.iter_mut()).enumerate() {
-                let x = 2 * i + 1;
-                let odd = i % 2 == 1;
-                let za = if odd { zp[x - 1] } else { zp[x + 1] };
-                let zb = if odd { zq[x + 1] } else { zq[x - 1] };
-                let (ca, cb) = if odd {
-                    (col(x - 1), col(x + 1))
-                } else {
-                    (col(x + 1), col(x - 1))
-                };
-                let zv = zs[1][x];
-                let pv = point(col(x), rows[1], zv);
-                let mut radius = 0f64;
-                for (col, row, zc) in [
-                    (col(x - 1), rows[1], zs[1][x - 1]),
-                    (col(x + 1), rows[1], zs[1][x + 1]),
-                    (col(x), rows[0], zs[0][x]),
-                    (col(x), rows[2], zs[2][x]),
-                ] {
-                    radius = radius.max(norm_bound(pv - point(col, row, zc)));
-                }
-                let pa = point(ca, rp, za);
-                let pb = point(cb, rq, zb);
-                let own = eq1(pv, pa, pb).max(detail2(f64::from(za), f64::from(zv), f64::from(zb)));
-                *g = round_up(own);
-                *r = round_up(radius);
-            }
+            samples.gather(zs, p_row, n);
+            centre_geometry(&columns, &samples, rows, (rp, rq), geo, rad);
             let (head, tail) = self.err2.split_at_mut(y * gw);
             let (err_row, rest) = tail.split_at_mut(gw);
             let (err_up, err_down) = (&head[(y - 1) * gw..], &rest[..gw]);
