@@ -89,13 +89,19 @@ struct CentreColumns {
 impl CentreColumns {
     fn new(bp: &BackProject, n: usize) -> Self {
         let (ca, cb) = bp.cols();
-        let at = |x: &dyn Fn(usize) -> usize| [ca, cb].map(|c| (0..n).map(|i| c[x(i)]).collect::<Vec<_>>());
+        let at = |x: fn(usize) -> usize| {
+            [ca, cb].map(|c| {
+                let mut v = Vec::new();
+                fill(&mut v, n, |i| c[x(i)]);
+                v
+            })
+        };
         Self {
-            v: at(&|i| 2 * i + 1),
-            left: at(&|i| 2 * i),
-            right: at(&|i| 2 * i + 2),
-            a: at(&|i| if i % 2 == 1 { 2 * i } else { 2 * i + 2 }),
-            b: at(&|i| if i % 2 == 1 { 2 * i + 2 } else { 2 * i }),
+            v: at(|i| 2 * i + 1),
+            left: at(|i| 2 * i),
+            right: at(|i| 2 * i + 2),
+            a: at(|i| if i % 2 == 1 { 2 * i } else { 2 * i + 2 }),
+            b: at(|i| if i % 2 == 1 { 2 * i + 2 } else { 2 * i }),
         }
     }
 }
@@ -119,18 +125,21 @@ impl CentreSamples {
     /// start on row `p_row` (0 or 2).
     fn gather(&mut self, zs: [&[f32]; 3], p_row: usize, n: usize) {
         let (zp, zq) = (zs[p_row], zs[2 - p_row]);
-        let fill = |v: &mut Vec<f32>, f: &dyn Fn(usize) -> f32| {
-            v.clear();
-            v.extend((0..n).map(f));
-        };
-        fill(&mut self.v, &|i| zs[1][2 * i + 1]);
-        fill(&mut self.left, &|i| zs[1][2 * i]);
-        fill(&mut self.right, &|i| zs[1][2 * i + 2]);
-        fill(&mut self.up, &|i| zs[0][2 * i + 1]);
-        fill(&mut self.down, &|i| zs[2][2 * i + 1]);
-        fill(&mut self.a, &|i| if i % 2 == 1 { zp[2 * i] } else { zp[2 * i + 2] });
-        fill(&mut self.b, &|i| if i % 2 == 1 { zq[2 * i + 2] } else { zq[2 * i] });
+        fill(&mut self.v, n, |i| zs[1][2 * i + 1]);
+        fill(&mut self.left, n, |i| zs[1][2 * i]);
+        fill(&mut self.right, n, |i| zs[1][2 * i + 2]);
+        fill(&mut self.up, n, |i| zs[0][2 * i + 1]);
+        fill(&mut self.down, n, |i| zs[2][2 * i + 1]);
+        fill(&mut self.a, n, |i| if i % 2 == 1 { zp[2 * i] } else { zp[2 * i + 2] });
+        fill(&mut self.b, n, |i| if i % 2 == 1 { zq[2 * i + 2] } else { zq[2 * i] });
     }
+}
+
+/// `v` holds `f(0), ..., f(n - 1)`, in the memory it had.
+#[inline(always)]
+fn fill<T>(v: &mut Vec<T>, n: usize, f: impl Fn(usize) -> T) {
+    v.clear();
+    v.extend((0..n).map(f));
 }
 
 /// The detail and Eq. 1 (`geo`) and the nested radius (`rad`) of a row of
