@@ -31,20 +31,57 @@ pub fn oct_encode(n: DVec3) -> [u8; 2] {
         return OCT_FACING;
     }
     // `as` saturates, so nothing can wrap.
-    oct_scaled(n, 1.0 / l1).map(|v| oct_unrounded(v) as u8)
+    oct_scaled(n.to_array(), 1.0 / l1).map(|v| oct_unrounded(v) as u8)
 }
 
 /// The octahedral coordinates in `[-1, 1]` of [`oct_encode`] for a
-/// non-zero finite direction `n` given `1 / |n|_1`, without branches so
-/// the per-sample loop stays straight.
+/// non-zero finite direction `(x, y, z)` given `1 / |n|_1`, without
+/// branches (the f32 rows' loop stays straight). One statement of the fold
+/// for both precisions.
 #[inline(always)]
-fn oct_scaled(n: DVec3, inv_l1: f64) -> [f64; 2] {
-    let (px, py) = (n.x * inv_l1, n.y * inv_l1);
-    let lower = n.z < 0.0;
-    let fx = if lower { (1.0 - py.abs()).copysign(px) } else { px };
-    let fy = if lower { (1.0 - px.abs()).copysign(py) } else { py };
+fn oct_scaled<T: Real>([x, y, z]: [T; 3], inv_l1: T) -> [T; 2] {
+    let (px, py) = (x * inv_l1, y * inv_l1);
+    let lower = z < T::ZERO;
+    let fx = if lower { (T::ONE - py.abs()).copysign(px) } else { px };
+    let fy = if lower { (T::ONE - px.abs()).copysign(py) } else { py };
     [fx, fy]
 }
+
+/// The arithmetic [`oct_scaled`] and the byte mappings need, so the f64
+/// encoder and the f32 rows share one statement of each.
+trait Real:
+    Copy + PartialOrd + std::ops::Add<Output = Self> + std::ops::Sub<Output = Self> + std::ops::Mul<Output = Self>
+{
+    const ZERO: Self;
+    const ONE: Self;
+    /// `v` exactly (the constants used are whole or half numbers).
+    fn of(v: f32) -> Self;
+    fn abs(self) -> Self;
+    fn copysign(self, sign: Self) -> Self;
+}
+
+macro_rules! real {
+    ($t:ty) => {
+        impl Real for $t {
+            const ZERO: Self = 0.0;
+            const ONE: Self = 1.0;
+            #[inline(always)]
+            fn of(v: f32) -> Self {
+                Self::from(v)
+            }
+            #[inline(always)]
+            fn abs(self) -> Self {
+                <$t>::abs(self)
+            }
+            #[inline(always)]
+            fn copysign(self, sign: Self) -> Self {
+                <$t>::copysign(self, sign)
+            }
+        }
+    };
+}
+real!(f32);
+real!(f64);
 
 /// The encoding of -z, the normal facing the reference camera.
 const OCT_FACING: [u8; 2] = [128, 128];
@@ -68,14 +105,14 @@ pub fn rho_to_byte(rho: f64) -> u8 {
 /// An octahedral coordinate in `[-1, 1]` mapped to `[0.5, 255.5]`, which
 /// `as u8` truncates to the nearest of 256 steps.
 #[inline(always)]
-fn oct_unrounded(v: f64) -> f64 {
-    v * 127.5 + 128.0
+fn oct_unrounded<T: Real>(v: T) -> T {
+    v * T::of(127.5) + T::of(128.0)
 }
 
 /// `rho` in `[0, 1]` mapped to `[0.5, 255.5]`, which `as u8` rounds.
 #[inline(always)]
-fn rho_unrounded(rho: f64) -> f64 {
-    rho * 255.0 + 0.5
+fn rho_unrounded<T: Real>(rho: T) -> T {
+    rho * T::of(255.0) + T::of(0.5)
 }
 
 /// The encoded normal (turned to face the camera) and quality byte of a
@@ -108,14 +145,9 @@ fn encode_unrounded(n: Vec3, v: Vec3) -> ([f32; 3], bool) {
     let ok = (nn > f32::MIN_POSITIVE) & (nn < f32::INFINITY) & (r > f32::MIN_POSITIVE) & (r < f32::INFINITY);
     // Face the camera: flip n when it points away.
     let flip = if dot > 0.0 { -1.0 } else { 1.0 };
-    let inv_l1 = norms * r;
-    let (px, py) = (n.x * flip * inv_l1, n.y * flip * inv_l1);
-    let lower = n.z * flip < 0.0;
-    let fx = if lower { (1.0 - py.abs()).copysign(px) } else { px };
-    let fy = if lower { (1.0 - px.abs()).copysign(py) } else { py };
+    let [fx, fy] = oct_scaled((n * flip).to_array(), norms * r);
     let rho = dot.abs() * l1 * r;
-    let unrounded = |v: f32| v * 127.5 + 128.0;
-    ([unrounded(fx), unrounded(fy), rho * 255.0 + 0.5], ok)
+    ([oct_unrounded(fx), oct_unrounded(fy), rho_unrounded(rho)], ok)
 }
 
 /// `t as u8` for `t` in `[0, 256)` (elsewhere some byte), in arithmetic
