@@ -11,7 +11,10 @@
 //! the compiler keeps tight. The halves of the two levels just above the
 //! finest (nine in ten of those scanned, of 9 to 45 samples) are read at
 //! fixed offsets instead ([`small_half_deviation`]), where setting up their
-//! few short rows cost more than the samples.
+//! few short rows cost more than the samples. The build scans the halves
+//! of the coarser levels (half-size 8 and up) in f32 within a stated
+//! margin above this scan (`deviation_f32.rs`); this one is its oracle in
+//! the tests and its fallback for extreme depths.
 
 use super::grid::Pt;
 
@@ -39,6 +42,20 @@ impl Trapezoid {
                 (self.hi0 + self.dhi * k) as u32,
             )
         })
+    }
+}
+
+/// Calls `f(y, x_lo, x_hi)` on each row of a half, in order.
+#[inline(always)]
+pub(crate) fn for_each_row((spans, count): HalfRows, mut f: impl FnMut(usize, usize, usize)) {
+    for t in &spans[..count] {
+        let (mut y, mut lo, mut hi) = (t.y0, t.lo0, t.hi0);
+        for _ in 0..t.rows {
+            f(y as usize, lo as usize, hi as usize);
+            y += t.dy;
+            lo += t.dlo;
+            hi += t.dhi;
+        }
     }
 }
 
@@ -98,7 +115,7 @@ pub(crate) fn half_rows(v: Pt, h: u32, apex: Pt, along_row: bool, diagonal: bool
 /// of the corners `(a, b, c)`. All samples in it must be valid. Inlined
 /// into the build's pass (about 6 % fewer instructions there).
 #[inline(always)]
-pub(crate) fn max_deviation(z: &[f32], gw: usize, [a, b, c]: [Pt; 3], (spans, count): HalfRows) -> f64 {
+pub(crate) fn max_deviation(z: &[f32], gw: usize, [a, b, c]: [Pt; 3], rows: HalfRows) -> f64 {
     let at = |p: Pt| f64::from(z[p.1 as usize * gw + p.0 as usize]);
     let (za, zb, zc) = (at(a), at(b), at(c));
     let (ax, ay) = (f64::from(a.0), f64::from(a.1));
@@ -113,18 +130,16 @@ pub(crate) fn max_deviation(z: &[f32], gw: usize, [a, b, c]: [Pt; 3], (spans, co
     let gy = (ux * (zc - za) - (zb - za) * vx) / det;
     let origin = za - gy * ay - gx * ax;
     let mut worst = 0f64;
-    for t in &spans[..count] {
-        let (mut y, mut lo, mut hi) = (t.y0, t.lo0, t.hi0);
-        for _ in 0..t.rows {
-            let start = y as usize * gw;
-            let base = origin + gy * y as f64 + gx * lo as f64;
-            let d = row_max_deviation(&z[start + lo as usize..=start + hi as usize], base, gx);
+    for_each_row(
+        rows,
+        #[inline(always)]
+        |y, lo, hi| {
+            let start = y * gw;
+            let base = origin + gy * f64::from(y as u32) + gx * f64::from(lo as u32);
+            let d = row_max_deviation(&z[start + lo..=start + hi], base, gx);
             worst = if d > worst { d } else { worst };
-            y += t.dy;
-            lo += t.dlo;
-            hi += t.dhi;
-        }
-    }
+        },
+    );
     worst
 }
 

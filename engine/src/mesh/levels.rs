@@ -19,6 +19,7 @@ use super::deviation::{
     half_rows, max_deviation, same_shape, small_half_deviation, small_half_deviation_from, small_half_deviation_x4,
     SmallHalf,
 };
+use super::deviation_f32::max_deviation_f32;
 use super::error_metric::{norm_bound, point_line_2d_sq, point_line_3d_sq};
 use super::flags::{Flags, Half};
 use super::grid::{half_of, Grid, Pt};
@@ -231,7 +232,10 @@ fn coarse_deviations_body(grid: Grid, z: &[f32], g: u32, mut out: Vec<[f32; 2]>)
 fn row_deviations(z: &[f32], gw: usize, row: &[Split], out: &mut Vec<[f32; 2]>) {
     let Some(first) = row.first() else { return };
     let h = first.h();
-    let one = |s: &Split| {
+    // A function, not a closure: a closure the compiler keeps apart is
+    // compiled without the caller's AVX2 (`crate::simd`).
+    #[inline(always)]
+    fn one(z: &[f32], gw: usize, s: &Split, h: u32) -> [f32; 2] {
         let mut pair = [0f32; 2];
         for (d, apex) in pair.iter_mut().zip(s.apex) {
             if let Some(apex) = apex {
@@ -239,7 +243,7 @@ fn row_deviations(z: &[f32], gw: usize, row: &[Split], out: &mut Vec<[f32; 2]>) 
             }
         }
         pair
-    };
+    }
     let start = out.len();
     out.resize(start + row.len(), [0.0; 2]);
     let out = &mut out[start..];
@@ -269,13 +273,13 @@ fn row_deviations(z: &[f32], gw: usize, row: &[Split], out: &mut Vec<[f32; 2]>) 
                 }
             } else {
                 for i in idx {
-                    out[i] = one(&row[i]);
+                    out[i] = one(z, gw, &row[i], h);
                 }
             }
         }
     }
     for i in whole..row.len() {
-        out[i] = one(&row[i]);
+        out[i] = one(z, gw, &row[i], h);
     }
 }
 
@@ -284,18 +288,19 @@ fn row_deviations(z: &[f32], gw: usize, row: &[Split], out: &mut Vec<[f32; 2]>) 
 /// scan each unflagged half as it comes.
 pub(crate) type DeviationSource<'a> = &'a mut dyn FnMut(u32) -> Option<Vec<[f32; 2]>>;
 
-/// The squared exact deviation of the half of `s` with apex `apex`, rounded
-/// up: in straight code for the two levels just above the finest (nine in
-/// ten of these halves), by rows for the others.
+/// The squared deviation of the half of `s` with apex `apex`, rounded up:
+/// exact in straight code for the two levels just above the finest (nine
+/// in ten of these halves), by rows in f32 within a stated margin above
+/// the exact value for the coarser ones (`deviation_f32.rs`). The finest
+/// level's halves (only the tests' general kernel scans them) by rows, exact.
 #[inline(always)]
 fn half_deviation2(z: &[f32], gw: usize, s: Split, h: u32, apex: Pt) -> f32 {
+    let rows = || half_rows(s.v, h, apex, s.bisects == Bisects::Row, s.bisects == Bisects::Diagonal);
     let dev = match h {
+        1 => max_deviation(z, gw, [s.a, s.b, apex], rows()),
         2 => small_half_deviation::<2>(z, small_half(gw, s, apex)),
         4 => small_half_deviation::<4>(z, small_half(gw, s, apex)),
-        _ => {
-            let rows = half_rows(s.v, h, apex, s.bisects == Bisects::Row, s.bisects == Bisects::Diagonal);
-            max_deviation(z, gw, [s.a, s.b, apex], rows)
-        }
+        _ => max_deviation_f32(z, gw, [s.a, s.b, apex], rows()),
     };
     round_up(dev * dev)
 }

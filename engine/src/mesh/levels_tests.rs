@@ -3,6 +3,7 @@
 //! `for_each_coarse` gives; the proptests check the pass's loops (and
 //! `finest.rs`'s) against it.
 
+use super::super::deviation_f32::{MARGIN, RELATIVE};
 use super::super::grid::cell_half;
 use super::*;
 use proptest::prelude::*;
@@ -218,6 +219,32 @@ impl<'z> Fixture<'z> {
     }
 }
 
+/// The levels above the finest by the pass (on one thread) and by the
+/// general kernel given every half's deviation from the exact f64 scan
+/// (`deviation.rs`), the oracle the f32 scans of the coarser levels are
+/// held to.
+fn coarse_against_exact(n: u32, z: &[f32], cells: &[u8]) -> [State; 2] {
+    let fx = Fixture::new(n, z);
+    let (grid, zmax) = (fx.grid, fx.zmax);
+    let gw = grid.gw() as usize;
+    let finest = fx.run(&fx.start(cells), &|l, flags| run_finest(l, flags, zmax));
+    let exact = |s: Split| {
+        s.apex.map(|apex| {
+            apex.map_or(0.0, |c| {
+                let rows = half_rows(s.v, s.h(), c, s.bisects == Bisects::Row, s.bisects == Bisects::Diagonal);
+                let d = max_deviation(z, gw, [s.a, s.b, c], rows);
+                round_up(d * d)
+            })
+        })
+    };
+    [
+        fx.run(&finest, &|l, flags| run_coarse(l, flags, zmax, &mut |_| None)),
+        fx.run(&finest, &|l, flags| {
+            for_each_coarse(grid, |s| l.split_vertex(flags, zmax, s, Some(exact(s))))
+        }),
+    ]
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(64))]
 
@@ -236,6 +263,36 @@ proptest! {
         prop_assert_eq!(&rows.err2, &general.err2);
         prop_assert_eq!(&given.err2, &general.err2);
         prop_assert_eq!(&given.flags, &general.flags);
+    }
+
+    /// The pass's errors are never below those from the exact f64
+    /// deviations, and above them by at most the f32 scans' margin
+    /// (`deviation_f32.rs`); flags and radii are the same.
+    #[test]
+    fn the_coarse_errors_bound_the_exact_ones_within_the_margin(
+        depths in proptest::collection::vec(prop_oneof![1 => Just(0.0f32), 9 => 0.5f32..4.0], 33 * 33),
+        cells in proptest::collection::vec(prop_oneof![6 => Just(0u8), 1 => 0u8..4], 33 * 33),
+        smooth in any::<bool>(),
+    ) {
+        prop_assume!(Grid::for_image(33, 33).len() == depths.len());
+        // Smooth: a level plane with noise of a few f32 steps, where the
+        // rounding the margin covers is most of a deviation.
+        let depths: Vec<f32> = if smooth {
+            depths.iter().map(|&d| if d == 0.0 { 0.0 } else { 3.0 + 1e-6 * d }).collect()
+        } else {
+            depths
+        };
+        let cells = leaf_cells(33, &depths, &cells);
+        let [pass, exact] = coarse_against_exact(33, &depths, &cells);
+        prop_assert_eq!(&pass.flags, &exact.flags);
+        prop_assert_eq!(&pass.radius, &exact.radius);
+        let zmax = f64::from(depths.iter().copied().fold(0f32, f32::max));
+        for (i, (&f, &e)) in pass.err2.iter().zip(&exact.err2).enumerate() {
+            prop_assert!(f >= e, "vertex {}: {} below the exact {}", i, f, e);
+            let (f, e) = (f64::from(f).sqrt(), f64::from(e).sqrt());
+            let bound = e * (1.0 + 2.0 * RELATIVE) + 2.0 * MARGIN * zmax;
+            prop_assert!(f <= bound, "vertex {}: {} above the exact {} by more than the margin", i, f, e);
+        }
     }
 
     /// The tight loops of the finest level compute what the general

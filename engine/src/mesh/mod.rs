@@ -30,6 +30,7 @@ pub mod border;
 pub mod budget;
 pub mod derived_normals;
 mod deviation;
+mod deviation_f32;
 pub mod error_metric;
 pub mod extract;
 mod finest;
