@@ -158,19 +158,10 @@ pub(crate) fn max_deviation(z: &[f32], gw: usize, [a, b, c]: [Pt; 3], rows: Half
 /// samples `c + u su + w sw` with `u + w <= 2H`, where the interpolant is
 /// `z_c + u (z_p1 - z_c) / 2H + w (z_p2 - z_c) / 2H`. The divisions are by
 /// powers of two, so the interpolant is as exact as the general scan's.
+/// The build scans these halves in f32 (`small_half_sweep.rs`); this is
+/// its oracle in the tests and its fallback for extreme depths.
 #[inline(always)]
 pub(crate) fn small_half_deviation<const H: isize>(z: &[f32], shape: SmallHalf) -> f64 {
-    small_half_deviation_from::<H>(z, shape, 0)
-}
-
-/// [`small_half_deviation`] from row `first` (0 or 1) of an edge
-/// midpoint's half; a centre's half is scanned whole. An edge midpoint's
-/// two halves share row 0, the samples on the edge they bisect, with the
-/// same interpolant there: a pass that scans the first half whole and the
-/// second from row 1 gets the larger of their deviations in the same bits,
-/// reading those samples once.
-#[inline(always)]
-pub(crate) fn small_half_deviation_from<const H: isize>(z: &[f32], shape: SmallHalf, first: isize) -> f64 {
     let at = |i: isize| f64::from(z[i as usize]);
     let mut worst = 0f64;
     let mut visit = |i: isize, lin: f64| {
@@ -183,7 +174,7 @@ pub(crate) fn small_half_deviation_from<const H: isize>(z: &[f32], shape: SmallH
             let mid = 0.5 * (za + zb);
             let g = (zb - za) / (2 * H) as f64;
             let rise = (zc - mid) / H as f64;
-            for r in first..H + 1 {
+            for r in 0..H + 1 {
                 let row = v + r * across;
                 let base = mid + r as f64 * rise;
                 for k in r - H..H - r + 1 {
@@ -204,77 +195,6 @@ pub(crate) fn small_half_deviation_from<const H: isize>(z: &[f32], shape: SmallH
         }
     }
     worst
-}
-
-/// Four lanes of `f`.
-#[inline(always)]
-fn lanes(f: impl FnMut(usize) -> f64) -> [f64; 4] {
-    std::array::from_fn(f)
-}
-
-/// [`small_half_deviation`] of four halves at once, in lanes: `shapes` are
-/// one variant with the same steps, apart only in where they lie. Each
-/// lane does the scalar's arithmetic in the same order, so the results are
-/// the same bits; the vector units take the four lanes at once. Where the
-/// halves' rows are not at hand anyway (a batch of a level on the build's
-/// helper thread) this is about a third faster than one by one; inside the
-/// pass, which has the rows in cache, it is not.
-#[inline(always)]
-pub(crate) fn small_half_deviation_x4<const H: isize>(z: &[f32], shapes: [SmallHalf; 4]) -> [f64; 4] {
-    type X4 = [f64; 4];
-    let at = |i: [isize; 4]| -> X4 { std::array::from_fn(|l| f64::from(z[i[l] as usize])) };
-    let mut worst = [0f64; 4];
-    let mut visit = |s: X4, lin: X4| {
-        for l in 0..4 {
-            let d = (s[l] - lin[l]).abs();
-            worst[l] = if d > worst[l] { d } else { worst[l] };
-        }
-    };
-    // Where each lane's half lies: its split vertex, or a centre's apex.
-    let origin = shapes.map(|s| match s {
-        SmallHalf::Edge { v, .. } => v,
-        SmallHalf::Centre { apex, .. } => apex,
-    });
-    let off = |d: isize| -> [isize; 4] { std::array::from_fn(|l| origin[l] + d) };
-    match shapes[0] {
-        SmallHalf::Edge { along, across, .. } => {
-            let (za, zb, zc) = (at(off(-H * along)), at(off(H * along)), at(off(H * across)));
-            let mid = lanes(|l| 0.5 * (za[l] + zb[l]));
-            let g = lanes(|l| (zb[l] - za[l]) / (2 * H) as f64);
-            let rise = lanes(|l| (zc[l] - mid[l]) / H as f64);
-            for r in 0..H + 1 {
-                let base = lanes(|l| mid[l] + r as f64 * rise[l]);
-                for k in r - H..H - r + 1 {
-                    let lin = lanes(|l| base[l] + k as f64 * g[l]);
-                    visit(at(off(r * across + k * along)), lin);
-                }
-            }
-        }
-        SmallHalf::Centre { su, sw, .. } => {
-            let (zc, z1, z2) = (at(off(0)), at(off(2 * H * su)), at(off(2 * H * sw)));
-            let gu = lanes(|l| (z1[l] - zc[l]) / (2 * H) as f64);
-            let gw = lanes(|l| (z2[l] - zc[l]) / (2 * H) as f64);
-            for w in 0..2 * H + 1 {
-                let base = lanes(|l| zc[l] + w as f64 * gw[l]);
-                for u in 0..2 * H - w + 1 {
-                    let lin = lanes(|l| base[l] + u as f64 * gu[l]);
-                    visit(at(off(w * sw + u * su)), lin);
-                }
-            }
-        }
-    }
-    worst
-}
-
-/// Whether four small halves are one variant with the same steps, as
-/// [`small_half_deviation_x4`] takes them.
-#[inline(always)]
-pub(crate) fn same_shape(shapes: &[SmallHalf; 4]) -> bool {
-    let key = |s: &SmallHalf| match *s {
-        SmallHalf::Edge { along, across, .. } => (0, along, across),
-        SmallHalf::Centre { su, sw, .. } => (1, su, sw),
-    };
-    shapes.iter().all(|s| key(s) == key(&shapes[0]))
 }
 
 /// Where a half of the levels just above the finest lies, as flat indices
@@ -358,8 +278,7 @@ mod tests {
     }
 
     /// The straight code of the two levels just above the finest scans the
-    /// same samples against the same interpolant as the general rows, and
-    /// its four-lane form gives each lane's bits.
+    /// same samples against the same interpolant as the general rows.
     #[test]
     fn small_halves_match_the_general_scan() {
         let gw = 17usize;
@@ -418,59 +337,6 @@ mod tests {
                     2 => small_half_deviation::<2>(&z, shape),
                     _ => small_half_deviation::<4>(&z, shape),
                 };
-                // An edge midpoint's halves, the other scanned whole and
-                // this one from row 1 as the one-thread pass does: the
-                // larger of the two in the same bits as both whole.
-                if let SmallHalf::Edge { v, along, across, apex } = shape {
-                    let other = SmallHalf::Edge {
-                        v,
-                        along,
-                        across: -across,
-                        apex: 2 * v - apex,
-                    };
-                    let (whole, shared) = match h {
-                        2 => (
-                            small_half_deviation::<2>(&z, other),
-                            small_half_deviation_from::<2>(&z, shape, 1),
-                        ),
-                        _ => (
-                            small_half_deviation::<4>(&z, other),
-                            small_half_deviation_from::<4>(&z, shape, 1),
-                        ),
-                    };
-                    assert_eq!(
-                        whole.max(shared).to_bits(),
-                        whole.max(fast).to_bits(),
-                        "h {h} apex {c:?}: the edge scanned once"
-                    );
-                }
-                // Four lanes: the same half moved 0 to 3 columns, each lane
-                // the same bits as the scalar code there.
-                let moved: [SmallHalf; 4] = std::array::from_fn(|l| match shape {
-                    SmallHalf::Edge { v, along, across, apex } => SmallHalf::Edge {
-                        v: v + l as isize,
-                        along,
-                        across,
-                        apex: apex + l as isize,
-                    },
-                    SmallHalf::Centre { apex, su, sw } => SmallHalf::Centre {
-                        apex: apex + l as isize,
-                        su,
-                        sw,
-                    },
-                });
-                assert!(same_shape(&moved));
-                let lanes = match h {
-                    2 => small_half_deviation_x4::<2>(&z, moved),
-                    _ => small_half_deviation_x4::<4>(&z, moved),
-                };
-                for (l, &shape) in moved.iter().enumerate() {
-                    let one = match h {
-                        2 => small_half_deviation::<2>(&z, shape),
-                        _ => small_half_deviation::<4>(&z, shape),
-                    };
-                    assert_eq!(lanes[l].to_bits(), one.to_bits(), "h {h} apex {c:?} lane {l}");
-                }
                 assert!(reference > 0.01, "the samples are rough");
                 assert!(
                     (fast - reference).abs() <= 1e-12,

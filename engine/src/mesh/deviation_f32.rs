@@ -1,11 +1,12 @@
-//! The depth deviation of a hierarchy triangle of the coarser levels
-//! (half-size 8 and up), scanned in f32 eight samples at a time and widened
-//! by a stated margin into an upper bound of `deviation.rs`'s f64 scan:
-//! never below it, above it by at most `2^-22` of the deviation plus
-//! [`MARGIN`] times the largest corner depth. Issue 16's decision (a) lets
-//! the stored errors move within such a margin; the extraction's guarantee
-//! (epsilon at every sample) needs only that they never fall below the exact
-//! deviation.
+//! The depth deviation of a hierarchy triangle scanned in f32 and widened
+//! by a stated margin into an upper bound of `deviation.rs`'s exact f64
+//! scan: never below it, above it by at most `2^-22` of the deviation plus
+//! [`MARGIN`] (`2^-20`) times the largest corner depth. Issue 16's decision
+//! (a) lets the stored errors move within such a margin; the extraction's
+//! guarantee (epsilon at every sample) needs only that they never fall
+//! below the exact deviation. This file scans the halves of half-size 8
+//! and up, eight samples of a row at a time; `small_half_sweep.rs` those
+//! of half-size 2 and 4 a level at a time, within the same margin.
 //!
 //! Why f32: the f64 scan's interpolant is a running sum (one add's latency
 //! per four samples), and f32 lanes are twice as many. Here the interpolant
@@ -22,10 +23,11 @@
 //!   `z_lin` there);
 //! - the product rounded: `2 u Z`; the sum rounded: `u Z`;
 //!
-//! so the f32 interpolant is within `6 u Z` of the exact one (plus f64's
-//! `O(2^-50 Z)` in the gradient, and the f64 reference's own rounding,
-//! `O(2^-36 Z)` at most). The rounded `|z - z_lin|` is at least `1 - u` of
-//! the true one. Hence `d32 (1 + 4u) + 8 u Z` bounds both the exact
+//! so the f32 interpolant is within `6 u Z` of the exact one (the small
+//! halves' form, all in f32, within `10 u Z`: `small_half_sweep.rs`), plus
+//! f64's `O(2^-50 Z)` in the gradient and the f64 reference's own rounding,
+//! `O(2^-36 Z)` at most. The rounded `|z - z_lin|` is at least `1 - u` of
+//! the true one. Hence `d32 (1 + 4u) + 16 u Z` bounds both the exact
 //! deviation and the f64 scan's. When the three corners have one depth the
 //! interpolant is exact in both (`base = z_a`, `step = 0`) and only the
 //! relative factor is added, so a fronto-parallel plane keeps deviation 0.
@@ -39,7 +41,7 @@ use super::grid::Pt;
 const U: f64 = f32::EPSILON as f64 / 2.0;
 
 /// The absolute part of the margin, in units of the largest corner depth.
-pub(crate) const MARGIN: f64 = 8.0 * U;
+pub(crate) const MARGIN: f64 = 16.0 * U;
 
 /// The relative part: `d32 * (1 + RELATIVE)`.
 pub(crate) const RELATIVE: f64 = 4.0 * U;
@@ -50,6 +52,23 @@ const HIGH: f32 = 1.152_921_5e18;
 /// Smallest (`2^-60`).
 const LOW: f32 = 8.673_617e-19;
 
+/// Whether a half whose corners have depths `corners` may be scanned in
+/// f32 (the largest within `[2^-60, 2^60]`).
+#[inline(always)]
+pub(crate) fn in_f32_range([za, zb, zc]: [f32; 3]) -> bool {
+    (LOW..=HIGH).contains(&za.abs().max(zb.abs()).max(zc.abs()))
+}
+
+/// The f32 scan's largest `|z - z_lin|`, `worst`, of a half with corner
+/// depths `corners`, widened by the margin into the bound the module doc
+/// states (`corners` [`in_f32_range`]).
+#[inline(always)]
+pub(crate) fn widen(worst: f32, [za, zb, zc]: [f32; 3]) -> f64 {
+    let flat = za == zb && zb == zc;
+    let zmax = za.abs().max(zb.abs()).max(zc.abs());
+    f64::from(worst) * (1.0 + RELATIVE) + if flat { 0.0 } else { MARGIN * f64::from(zmax) }
+}
+
 /// An upper bound of [`max_deviation`] within the margin above, for the
 /// samples in `rows` and the corners `(a, b, c)`; every sample in it must
 /// be valid, as there.
@@ -58,8 +77,7 @@ pub(crate) fn max_deviation_f32(z: &[f32], gw: usize, corners: [Pt; 3], rows: Ha
     let [a, b, c] = corners;
     let at = |p: Pt| z[p.1 as usize * gw + p.0 as usize];
     let (za, zb, zc) = (at(a), at(b), at(c));
-    let zmax = za.abs().max(zb.abs()).max(zc.abs());
-    if !(LOW..=HIGH).contains(&zmax) {
+    if !in_f32_range([za, zb, zc]) {
         return max_deviation(z, gw, corners, rows);
     }
     let (za64, zb64, zc64) = (f64::from(za), f64::from(zb), f64::from(zc));
@@ -86,8 +104,7 @@ pub(crate) fn max_deviation_f32(z: &[f32], gw: usize, corners: [Pt; 3], rows: Ha
             worst = if d > worst { d } else { worst };
         },
     );
-    let flat = za == zb && zb == zc;
-    f64::from(worst) * (1.0 + RELATIVE) + if flat { 0.0 } else { MARGIN * f64::from(zmax) }
+    widen(worst, [za, zb, zc])
 }
 
 /// Largest `|row[i] - (base + i * step)|` in f32: eight samples at a time
@@ -135,10 +152,27 @@ fn row_max_deviation_f32(row: &[f32], base: f32, step: f32) -> f32 {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::super::deviation::half_rows;
     use super::*;
     use proptest::prelude::*;
+
+    /// A `gw x gw` grid of depths around `10^scale`: a ramp of `slope`
+    /// percent across, uniform noise of `noise` times the depth, and a step
+    /// of `jump` times the depth across a slanted line.
+    pub(crate) fn rough_depths(gw: usize, seed: u64, scale: i32, slope: f64, noise: f64, jump: f64) -> Vec<f32> {
+        let depth = 10f64.powi(scale);
+        let mut s = seed;
+        (0..gw * gw)
+            .map(|i| {
+                s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                let r = (s >> 11) as f64 / (1u64 << 53) as f64;
+                let (x, y) = ((i % gw) as f64, (i / gw) as f64);
+                let step = if x + 0.7 * y > gw as f64 { jump } else { 0.0 };
+                (depth * (1.0 + 0.01 * slope * (x - 0.5 * y) / gw as f64 + noise * r + step)) as f32
+            })
+            .collect()
+    }
 
     /// The bound the module doc states, in f64: what the f32 scan may
     /// add to the f64 scan's deviation `exact` of corners up to `zmax`.
@@ -197,17 +231,7 @@ mod tests {
             jump in prop::sample::select(vec![0.0f64, 0.5, 100.0]),
         ) {
             let gw = 4 * h as usize + 1;
-            let depth = 10f64.powi(scale);
-            let mut s = seed;
-            let z: Vec<f32> = (0..gw * gw)
-                .map(|i| {
-                    s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-                    let r = (s >> 11) as f64 / (1u64 << 53) as f64;
-                    let (x, y) = ((i % gw) as f64, (i / gw) as f64);
-                    let step = if x + 0.7 * y > gw as f64 { jump } else { 0.0 };
-                    (depth * (1.0 + 0.01 * slope * (x - 0.5 * y) / gw as f64 + noise * r + step)) as f32
-                })
-                .collect();
+            let z = rough_depths(gw, seed, scale, slope, noise, jump);
             for (corners, rows) in halves(gw as u32, h) {
                 let exact = max_deviation(&z, gw, corners, rows);
                 let fast = max_deviation_f32(&z, gw, corners, rows);

@@ -15,7 +15,10 @@
 //!     `|z - z_lin|` over its samples, `z_lin` interpolating the half's three
 //!     corner depths affinely over the grid (`deviation.rs`). This is what
 //!     makes the static tolerance hold at every sample, not only at the
-//!     refinement points that Eq. 1-2 measure;
+//!     refinement points that Eq. 1-2 measure. The build scans it in f32 and
+//!     stores an upper bound, never below the exact value and above it by
+//!     at most `2^-22` of it plus `2^-20` of the half's largest corner depth
+//!     (`deviation_f32.rs`, `small_half_sweep.rs`; issue 16's decision);
 //!   - for a half that is segmented but not fully (dropping it would drop
 //!     valid, unsegmented samples), its footprint: hypotenuse length in pixels
 //!     times the pixel size at its deepest valid corner. Refining it shrinks
@@ -29,8 +32,9 @@
 //!
 //! The pass itself is in `levels.rs`, in straight loops per kind of vertex
 //! and row (the finest level, three quarters of all vertices, in loops of
-//! its own). The exact deviations of the
-//! levels above it and the normals and quality read only the depths, so with
+//! its own). The deviations of the levels above it (levels 1 and 2 swept a
+//! level at a time, eight vertices a step, on one thread too) and the
+//! normals and quality read only the depths, so with
 //! [`Threads::Parallel`] a helper thread computes them meanwhile (the
 //! normals first when the segmentation needs them: connectedness).
 //!
@@ -47,10 +51,11 @@ use super::backproject::BackProject;
 use super::budget::ErrorStats;
 use super::flags::Flags;
 use super::grid::{Grid, Pt};
-use super::levels::{coarse_deviations, run_coarse, run_finest, split_count, Levels};
+use super::levels::{coarse_deviations, run_coarse, run_finest, small_deviations, split_count, Levels};
 use super::normals::{normals_and_quality, normals_and_quality_in};
 use super::outline::{OutlineCache, DEPTHS};
 use super::segmentation::{leaf_flags, Method, Samples, Segmentation};
+use super::small_half_sweep;
 use crate::camera::Camera;
 use crate::error::{Error, Result};
 use crate::image::DepthImage;
@@ -193,7 +198,12 @@ impl Passes {
                     // Level by level, so the pass can start on one while
                     // the next is computed. The receiver outlives this
                     // thread: sending cannot fail.
-                    for (g, out) in (1..grid.k).zip(levels) {
+                    let mut levels = levels.into_iter();
+                    let small = [(); 2].map(|()| levels.next().unwrap_or_default());
+                    for level in small_deviations(grid, z, small).into_iter().take(grid.k as usize - 1) {
+                        let _ = send.send(level);
+                    }
+                    for (g, out) in (3..grid.k).zip(levels) {
                         let _ = send.send(coarse_deviations(grid, z, g, out));
                     }
                     buffers.map(|buffers| {
@@ -248,13 +258,27 @@ impl Passes {
             let join = |job: std::thread::ScopedJoinHandle<'_, _>| {
                 job.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic))
             };
-            // On one thread each unsegmented half's deviation is computed as
-            // the pass comes to it; the helper sends them a level at a time
-            // (if it panicked, the pass computes the rest and the join
-            // below passes the panic on).
-            let mut scratch_bytes = 0;
-            let mut given = |_g: u32| {
-                let level = job.as_ref().and_then(|_| receive.recv().ok());
+            // The helper sends the deviations a level at a time (if it
+            // panicked, the pass computes the rest and the join below passes
+            // the panic on). On one thread, levels 1 and 2 are swept whole
+            // before the pass comes to them (eight vertices a step), and
+            // each unsegmented half of the coarser levels is scanned as the
+            // pass comes to it.
+            // The sweep's planes, on whichever thread, and the levels' deviations.
+            let mut scratch_bytes = small_half_sweep::scratch_bytes(grid);
+            let mut second = None;
+            let mut given = |g: u32| {
+                let level = match (&job, g) {
+                    (Some(_), _) => receive.recv().ok(),
+                    (None, 1) => {
+                        let out = [1, 2].map(|g| Vec::with_capacity(split_count(grid, g)));
+                        let [one, two] = small_deviations(grid, z, out);
+                        second = Some(two);
+                        Some(one)
+                    }
+                    (None, 2) => second.take(),
+                    (None, _) => None,
+                };
                 scratch_bytes += level.as_ref().map_or(0, |d: &Vec<[f32; 2]>| d.capacity() * 8);
                 level
             };

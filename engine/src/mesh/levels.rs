@@ -2,10 +2,13 @@
 //! finest first: flags, own and saturated errors and nested radii of every
 //! split vertex (DMesh Sec. 4.2 and 5.3; what each term is, is documented in
 //! `hierarchy.rs`). It reads the depths and writes flags, errors and radii
-//! only, so the normals can be computed beside it; the exact deviations of
-//! the levels above the finest, which need the depths alone, can be computed
-//! on another thread ([`coarse_deviations`]), level by level, while this
-//! pass builds the finest level and the levels below.
+//! only, so the normals can be computed beside it; the deviations of the
+//! levels above the finest, which need the depths alone, can be computed on
+//! another thread ([`small_deviations`] for levels 1 and 2,
+//! [`coarse_deviations`] for each level above), while this pass builds the
+//! finest level and the levels below. On one thread levels 1 and 2 are
+//! swept before the pass reaches them, and each coarser unsegmented half is
+//! scanned as the pass comes to it.
 //!
 //! Every level runs in straight loops per kind of vertex (edge midpoints
 //! along rows, along columns, centres) and row, with the rows a kind's
@@ -15,14 +18,12 @@
 //! against it. The finest level's loops are in `finest.rs`.
 
 use super::backproject::BackProject;
-use super::deviation::{
-    half_rows, max_deviation, same_shape, small_half_deviation, small_half_deviation_from, small_half_deviation_x4,
-    SmallHalf,
-};
+use super::deviation::{half_rows, max_deviation};
 use super::deviation_f32::max_deviation_f32;
 use super::error_metric::{norm_bound, point_line_2d_sq, point_line_3d_sq};
 use super::flags::{Flags, Half};
 use super::grid::{half_of, Grid, Pt};
+use super::small_half_sweep::{small_half_deviation2, small_level_deviations, Shape};
 use crate::camera::Camera;
 use glam::DVec3;
 
@@ -120,8 +121,28 @@ pub(super) struct Split {
 
 impl Split {
     /// Half the length of the bisected edge along the grid axes.
+    #[cfg(test)]
     fn h(&self) -> u32 {
         self.a.0.abs_diff(self.b.0).max(self.a.1.abs_diff(self.b.1)) / 2
+    }
+
+    /// Its half with apex `apex` as a shape around `v`.
+    pub(super) fn small_shape(&self, apex: Pt) -> Shape {
+        let toward = |from: u32, to: u32| if to < from { -1 } else { 1 };
+        match self.bisects {
+            Bisects::Row => Shape::Edge {
+                along_row: true,
+                dir: toward(self.v.1, apex.1),
+            },
+            Bisects::Column => Shape::Edge {
+                along_row: false,
+                dir: toward(self.v.0, apex.0),
+            },
+            Bisects::Diagonal => Shape::Centre {
+                sx: toward(self.v.0, apex.0),
+                sy: toward(self.v.1, apex.1),
+            },
+        }
     }
 }
 
@@ -178,9 +199,9 @@ pub(super) fn for_each_split(grid: Grid, levels: std::ops::Range<u32>, mut f: im
 }
 
 crate::simd::dispatch! {
-    /// The exact depth deviation of each half of every split vertex of
-    /// level `g` (at least 1), squared and rounded up (0 where a half does
-    /// not exist), in the order [`Levels::run_coarse`] takes them. It reads
+    /// The depth deviation of each half of every split vertex of level `g`
+    /// (at least 3: levels 1 and 2 come from [`small_deviations`]), squared
+    /// and rounded up (0 where a half does not exist), in the order [`Levels::run_coarse`] takes them. It reads
     /// only the depths, so it can run on another thread, a level ahead of
     /// the pass. Halves that turn out segmented get a value too, which the
     /// pass ignores (it is finite: invalid samples are 0). With AVX2 where
@@ -188,6 +209,21 @@ crate::simd::dispatch! {
     /// The deviations go into `out` (whatever it holds), so a build on two
     /// threads can hand the helper memory the calling thread has used.
     pub(crate) fn coarse_deviations(grid: Grid, z: &[f32], g: u32, out: Vec<[f32; 2]>) -> Vec<[f32; 2]> = coarse_deviations_body;
+}
+
+crate::simd::dispatch! {
+    /// The deviations of levels 1 and 2 as [`coarse_deviations`] gives
+    /// them, both from one set of phase planes (`small_half_sweep.rs`),
+    /// into `out` (whatever they hold; empty where the grid has no such
+    /// level). With AVX2 where the CPU has it.
+    pub(crate) fn small_deviations(grid: Grid, z: &[f32], out: [Vec<[f32; 2]>; 2]) -> [Vec<[f32; 2]>; 2] = small_deviations_body;
+}
+
+#[inline(always)]
+fn small_deviations_body(grid: Grid, z: &[f32], out: [Vec<[f32; 2]>; 2]) -> [Vec<[f32; 2]>; 2] {
+    let [mut one, mut two] = out;
+    small_level_deviations(grid, z, [&mut one, &mut two]);
+    [one, two]
 }
 
 /// How many halves' pairs [`coarse_deviations`] gives for level `g`: the
@@ -205,82 +241,23 @@ fn coarse_deviations_body(grid: Grid, z: &[f32], g: u32, mut out: Vec<[f32; 2]>)
     let gw = grid.gw() as usize;
     out.clear();
     out.reserve(split_count(grid, g));
-    // The splits of one row of one kind, taken together.
-    let mut row: Vec<Split> = Vec::new();
+    debug_assert!(g >= 3, "levels 1 and 2 are swept: small_deviations");
+    let h = 1 << g;
     for_each_split(
         grid,
         g..g + 1,
         #[inline(always)]
         |s| {
-            if row.last().is_some_and(|r| r.v.1 != s.v.1 || r.bisects != s.bisects) {
-                row_deviations(z, gw, &row, &mut out);
-                row.clear();
+            let mut pair = [0f32; 2];
+            for (d, apex) in pair.iter_mut().zip(s.apex) {
+                if let Some(apex) = apex {
+                    *d = half_deviation2(z, gw, s, h, apex);
+                }
             }
-            row.push(s);
+            out.push(pair);
         },
     );
-    row_deviations(z, gw, &row, &mut out);
     out
-}
-
-/// Appends to `out` the squared deviations, rounded up, of the halves of
-/// `row` (splits of one kind on one row of a level), in order: each pair
-/// as [`half_deviation2`] gives it (0 where a half does not exist). The
-/// small halves (half-size 2 or 4) go four of the same shape at a time
-/// where their apexes exist ([`small_half_deviation_x4`], the same bits).
-#[inline(always)]
-fn row_deviations(z: &[f32], gw: usize, row: &[Split], out: &mut Vec<[f32; 2]>) {
-    let Some(first) = row.first() else { return };
-    let h = first.h();
-    // A function, not a closure: a closure the compiler keeps apart is
-    // compiled without the caller's AVX2 (`crate::simd`).
-    #[inline(always)]
-    fn one(z: &[f32], gw: usize, s: &Split, h: u32) -> [f32; 2] {
-        let mut pair = [0f32; 2];
-        for (d, apex) in pair.iter_mut().zip(s.apex) {
-            if let Some(apex) = apex {
-                *d = half_deviation2(z, gw, *s, h, apex);
-            }
-        }
-        pair
-    }
-    let start = out.len();
-    out.resize(start + row.len(), [0.0; 2]);
-    let out = &mut out[start..];
-    // A centre's diagonal turns from one to the next, so the same shapes
-    // are two apart.
-    let stride = if first.bisects == Bisects::Diagonal { 2 } else { 1 };
-    let block = 4 * stride;
-    let whole = if h <= 4 { row.len() / block * block } else { 0 };
-    for b in (0..whole).step_by(block) {
-        for phase in 0..stride {
-            let idx: [usize; 4] = std::array::from_fn(|l| b + phase + l * stride);
-            let shapes = |half: usize| -> Option<[SmallHalf; 4]> {
-                let mut shapes = [SmallHalf::Centre { apex: 0, su: 0, sw: 0 }; 4];
-                for (shape, &i) in shapes.iter_mut().zip(&idx) {
-                    *shape = small_half(gw, row[i], row[i].apex[half]?);
-                }
-                same_shape(&shapes).then_some(shapes)
-            };
-            if let (Some(s0), Some(s1)) = (shapes(0), shapes(1)) {
-                let (d0, d1) = if h == 2 {
-                    (small_half_deviation_x4::<2>(z, s0), small_half_deviation_x4::<2>(z, s1))
-                } else {
-                    (small_half_deviation_x4::<4>(z, s0), small_half_deviation_x4::<4>(z, s1))
-                };
-                for (l, &i) in idx.iter().enumerate() {
-                    out[i] = [round_up(d0[l] * d0[l]), round_up(d1[l] * d1[l])];
-                }
-            } else {
-                for i in idx {
-                    out[i] = one(z, gw, &row[i], h);
-                }
-            }
-        }
-    }
-    for i in whole..row.len() {
-        out[i] = one(z, gw, &row[i], h);
-    }
 }
 
 /// Where the pass over the levels above the finest gets each level's
@@ -289,51 +266,22 @@ fn row_deviations(z: &[f32], gw: usize, row: &[Split], out: &mut Vec<[f32; 2]>) 
 pub(crate) type DeviationSource<'a> = &'a mut dyn FnMut(u32) -> Option<Vec<[f32; 2]>>;
 
 /// The squared deviation of the half of `s` with apex `apex`, rounded up:
-/// exact in straight code for the two levels just above the finest (nine
-/// in ten of these halves), by rows in f32 within a stated margin above
-/// the exact value for the coarser ones (`deviation_f32.rs`). The finest
-/// level's halves (only the tests' general kernel scans them) by rows, exact.
+/// in f32 within a stated margin above the exact value, for the two levels
+/// just above the finest in straight code (`small_half_sweep.rs`, nine in
+/// ten of these halves), for the coarser ones by rows
+/// (`deviation_f32.rs`); the finest level's halves (only the tests' general
+/// kernel scans them) exact, by rows.
 #[inline(always)]
 fn half_deviation2(z: &[f32], gw: usize, s: Split, h: u32, apex: Pt) -> f32 {
     let rows = || half_rows(s.v, h, apex, s.bisects == Bisects::Row, s.bisects == Bisects::Diagonal);
+    let v = s.v.1 as usize * gw + s.v.0 as usize;
     let dev = match h {
         1 => max_deviation(z, gw, [s.a, s.b, apex], rows()),
-        2 => small_half_deviation::<2>(z, small_half(gw, s, apex)),
-        4 => small_half_deviation::<4>(z, small_half(gw, s, apex)),
+        2 => return small_half_deviation2::<2>(z, gw, v, s.small_shape(apex)),
+        4 => return small_half_deviation2::<4>(z, gw, v, s.small_shape(apex)),
         _ => max_deviation_f32(z, gw, [s.a, s.b, apex], rows()),
     };
     round_up(dev * dev)
-}
-
-/// The half of `s` with apex `apex` as flat indices and steps.
-#[inline(always)]
-fn small_half(gw: usize, s: Split, apex: Pt) -> SmallHalf {
-    let gw = gw as isize;
-    let at = |p: Pt| p.1 as isize * gw + p.0 as isize;
-    let toward = |from: u32, to: u32| if to < from { -1 } else { 1 };
-    match s.bisects {
-        Bisects::Row => SmallHalf::Edge {
-            v: at(s.v),
-            along: 1,
-            across: toward(s.v.1, apex.1) * gw,
-            apex: at(apex),
-        },
-        Bisects::Column => SmallHalf::Edge {
-            v: at(s.v),
-            along: gw,
-            across: toward(s.v.0, apex.0),
-            apex: at(apex),
-        },
-        Bisects::Diagonal => {
-            // The corner on the apex's row, and the one on its column.
-            let (p1, p2) = if s.a.1 == apex.1 { (s.a, s.b) } else { (s.b, s.a) };
-            SmallHalf::Centre {
-                apex: at(apex),
-                su: toward(apex.0, p1.0),
-                sw: toward(apex.1, p2.1) * gw,
-            }
-        }
-    }
 }
 
 crate::simd::dispatch! {
@@ -454,9 +402,6 @@ impl Levels<'_> {
             let mut bits = flag_row[xi].cell_only();
             let mut own = 0f64;
             let mut own_dev2 = 0f32;
-            // Without given deviations: the unflagged halves' largest
-            // (`max` commutes with `round_up`).
-            let mut own_dev = 0f64;
             let mut err = 0f32;
             let mut radius = 0f64;
             let mut eq12_done = false;
@@ -486,21 +431,10 @@ impl Levels<'_> {
                 let flagged = flagged.unwrap_or(Half::ABSENT);
                 bits.set_half(half, flagged);
                 if flagged.unflagged() {
-                    match dev2 {
-                        Some(dv) => own_dev2 = own_dev2.max(dv[half]),
-                        None if h <= 4 && bisects != Bisects::Diagonal => {
-                            // A small edge midpoint's halves share the
-                            // samples on its edge: a second unflagged half
-                            // (one came before: `eq12_done`) skips them.
-                            let (shape, first) = (small_half(gw as usize, s, c), isize::from(eq12_done));
-                            own_dev = own_dev.max(if h == 2 {
-                                small_half_deviation_from::<2>(z, shape, first)
-                            } else {
-                                small_half_deviation_from::<4>(z, shape, first)
-                            });
-                        }
-                        None => own_dev2 = own_dev2.max(half_deviation2(z, gw as usize, s, h, c)),
-                    }
+                    own_dev2 = own_dev2.max(match dev2 {
+                        Some(dv) => dv[half],
+                        None => half_deviation2(z, gw as usize, s, h, c),
+                    });
                     if !eq12_done {
                         eq12_done = true;
                         let (pa, pb) = (
@@ -515,7 +449,7 @@ impl Levels<'_> {
                 }
             }
             flag_row[xi] = bits;
-            err_row[xi] = err.max(round_up(own)).max(own_dev2).max(round_up(own_dev * own_dev));
+            err_row[xi] = err.max(round_up(own)).max(own_dev2);
             rad_row[xi] = round_up(radius);
         }
     }

@@ -138,7 +138,13 @@ fn coarse_three_ways(n: u32, z: &[f32], cells: &[u8]) -> [State; 3] {
     let fx = Fixture::new(n, z);
     let (grid, zmax) = (fx.grid, fx.zmax);
     let finest = fx.run(&fx.start(cells), &|l, flags| run_finest(l, flags, zmax));
-    let levels: Vec<_> = (1..grid.k).map(|g| coarse_deviations(grid, z, g, Vec::new())).collect();
+    let small = small_deviations(grid, z, [Vec::new(), Vec::new()]);
+    let levels: Vec<_> = (1..grid.k)
+        .map(|g| match g {
+            1 | 2 => small[g as usize - 1].clone(),
+            _ => coarse_deviations(grid, z, g, Vec::new()),
+        })
+        .collect();
     [
         fx.run(&finest, &|l, flags| run_coarse(l, flags, zmax, &mut |_| None)),
         fx.run(&finest, &|l, flags| {

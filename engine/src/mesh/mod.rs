@@ -45,6 +45,7 @@ pub mod reach;
 pub mod segmentation;
 pub mod segmentation_spec;
 mod select;
+mod small_half_sweep;
 pub mod strips;
 mod surface_side;
 

@@ -1,0 +1,501 @@
+//! The depth deviations of the halves of levels 1 and 2 (half-size `H` = 2
+//! and 4: nine in ten of the halves a build scans), a level at a time in
+//! f32, eight split vertices per step, within `deviation_f32.rs`'s margin
+//! above the exact f64 scan (`deviation.rs`'s [`small_half_deviation`], the
+//! oracle in the tests and the fallback for extreme depths).
+//!
+//! The vertices of one kind on one row of a level lie `2H` apart, so their
+//! samples at one offset are a strided gather in the depth rows. The sweep
+//! first splits each row into 16 *phase planes*, plane `m` holding the
+//! samples whose column is `m` modulo 16 (one set for both levels, about
+//! four bytes per grid vertex, held while the sweep runs); the vertices of
+//! a row whose index is one class modulo `16 / 2H` then find their samples
+//! at one offset in eight consecutive values of one plane row, and eight
+//! vertices are one vector step. The classes also make each step's centres
+//! one shape: a centre's diagonal turns from one to the next.
+//!
+//! The lanes' code is plain loops over arrays and `#[inline(always)]`
+//! functions, no closures or `std::array::from_fn`: inside the AVX2
+//! dispatch (`crate::simd`) whatever the compiler keeps apart runs without
+//! the features, which cost this sweep half its speed when it did.
+//!
+//! Each lane does [`half_worst`]'s arithmetic, the same the general kernel
+//! runs on one half at a time (`N = 1`, [`small_half_deviation_f32`]), so
+//! the pass gets the same bits with or without the sweep. The interpolant
+//! is all f32: for an edge midpoint's half `mid + r rise + k g` (`mid = (z_a
+//! + z_b) / 2`, `g = (z_b - z_a) / 2H`, `rise = (z_c - mid) / H`, row `r` from
+//! the edge, `k` along it), for a centre's `z_c + w g_w + u g_u` (legs `u`,
+//! `w` from the apex). Divisions are by powers of two. With `u = 2^-24` and
+//! `Z` the largest corner depth, an edge's interpolant is off by at most
+//! `u Z` (`mid`) + `u Z` (`g` times `k <= H`) + `3 u Z` (`rise`, through
+//! `mid`, times `r <= H`) + `2 u Z` + `u Z` (the product `r rise` and the
+//! sum) + `u Z` + `u Z` (`k g` and the sum): `10 u Z`; a centre's by
+//! `2 + 2` (the two gradients times legs up to `2H`) `+ 2 + 1 + 2 + 1`: also
+//! `10 u Z`, within the margin's `16 u Z`. Level corners give an exact
+//! interpolant (`mid = z`, `g = rise = 0`).
+
+use super::deviation::{small_half_deviation, SmallHalf};
+use super::deviation_f32::{in_f32_range, widen};
+use super::grid::Grid;
+use super::levels::round_up;
+
+/// A half of levels 1 and 2 around its split vertex `v`, as offsets
+/// `(dy, dx)` from `v`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Shape {
+    /// An edge midpoint's half: the bisected edge along a row
+    /// (`along_row`) or a column, the apex `H` away across it on the side
+    /// `dir` (-1 or 1).
+    Edge { along_row: bool, dir: isize },
+    /// A centre's half: the apex (its right angle) at `(sy H, sx H)`.
+    Centre { sx: isize, sy: isize },
+}
+
+impl Shape {
+    /// The same half in `deviation.rs`'s terms, for the split vertex at
+    /// flat index `v` of rows `gw` long.
+    fn small_half<const H: isize>(self, gw: isize, v: isize) -> SmallHalf {
+        match self {
+            Shape::Edge { along_row, dir } => {
+                let (along, across) = if along_row { (1, dir * gw) } else { (gw, dir) };
+                SmallHalf::Edge {
+                    v,
+                    along,
+                    across,
+                    apex: v + H * across,
+                }
+            }
+            Shape::Centre { sx, sy } => SmallHalf::Centre {
+                apex: v + H * (sy * gw + sx),
+                su: -sx,
+                sw: -sy * gw,
+            },
+        }
+    }
+}
+
+/// The largest of `worst` and `|s - lin|`, lane by lane.
+#[inline(always)]
+fn visit<const N: usize>(worst: &mut [f32; N], s: [f32; N], lin: [f32; N]) {
+    for l in 0..N {
+        let d = (s[l] - lin[l]).abs();
+        worst[l] = if d > worst[l] { d } else { worst[l] };
+    }
+}
+
+/// `a + t * b`, lane by lane.
+#[inline(always)]
+fn along<const N: usize>(a: [f32; N], t: isize, b: [f32; N]) -> [f32; N] {
+    let mut out = a;
+    for l in 0..N {
+        out[l] = a[l] + t as f32 * b[l];
+    }
+    out
+}
+
+/// `(b - a) / d`, lane by lane (`d` a power of two).
+#[inline(always)]
+fn slope<const N: usize>(a: [f32; N], b: [f32; N], d: isize) -> [f32; N] {
+    let mut out = a;
+    for l in 0..N {
+        out[l] = (b[l] - a[l]) / d as f32;
+    }
+    out
+}
+
+/// The f32 scan of a half of half-size `H` in `N` lanes, `at(dy, dx)`
+/// giving each lane's depth at that offset from its split vertex: the
+/// largest `|z - z_lin|` and the three corner depths, per lane. Plain
+/// loops and functions, no closures: this runs inside the AVX2 dispatch,
+/// where a closure the compiler keeps apart loses the features
+/// (`crate::simd`).
+#[inline(always)]
+pub(crate) fn half_worst<const H: isize, const N: usize>(
+    shape: Shape,
+    at: impl Fn(isize, isize) -> [f32; N],
+) -> ([f32; N], [[f32; N]; 3]) {
+    let mut worst = [0f32; N];
+    match shape {
+        Shape::Edge { along_row, dir } => {
+            // Row `r` from the edge, `k` along it.
+            let (sr, sk) = if along_row {
+                ((dir, 0), (0, 1))
+            } else {
+                ((0, dir), (1, 0))
+            };
+            #[inline(always)]
+            fn pos((sr, sk): ((isize, isize), (isize, isize)), r: isize, k: isize) -> (isize, isize) {
+                (r * sr.0 + k * sk.0, r * sr.1 + k * sk.1)
+            }
+            let pos = |r, k| pos((sr, sk), r, k);
+            let (a, b, c) = (pos(0, -H), pos(0, H), pos(H, 0));
+            let (za, zb, zc) = (at(a.0, a.1), at(b.0, b.1), at(c.0, c.1));
+            let mut mid = za;
+            for l in 0..N {
+                mid[l] = 0.5 * (za[l] + zb[l]);
+            }
+            let g = slope(za, zb, 2 * H);
+            let rise = slope(mid, zc, H);
+            for r in 0..H + 1 {
+                let base = along(mid, r, rise);
+                for k in r - H..H - r + 1 {
+                    let (dy, dx) = pos(r, k);
+                    visit(&mut worst, at(dy, dx), along(base, k, g));
+                }
+            }
+            (worst, [za, zb, zc])
+        }
+        Shape::Centre { sx, sy } => {
+            // The apex, the corner on its row and the one on its column.
+            let (zc, z1, z2) = (at(sy * H, sx * H), at(sy * H, -sx * H), at(-sy * H, sx * H));
+            let gu = slope(zc, z1, 2 * H);
+            let gw = slope(zc, z2, 2 * H);
+            for w in 0..2 * H + 1 {
+                let base = along(zc, w, gw);
+                for u in 0..2 * H - w + 1 {
+                    visit(&mut worst, at(sy * (H - w), sx * (H - u)), along(base, u, gu));
+                }
+            }
+            (worst, [zc, z1, z2])
+        }
+    }
+}
+
+/// The squared deviations, rounded up, of `N` lanes' halves from the f32
+/// scan's `worst` and corner depths, widened by the margin; `None` for a
+/// lane whose corners are out of f32's range, which the caller scans in f64
+/// ([`in_f64`]). Straight code over the lanes, so it widens too.
+#[inline(always)]
+fn squared<const N: usize>(worst: [f32; N], corners: [[f32; N]; 3]) -> [Option<f32>; N] {
+    let mut out = [None; N];
+    for l in 0..N {
+        let lane = [corners[0][l], corners[1][l], corners[2][l]];
+        let d = widen(worst[l], lane);
+        out[l] = in_f32_range(lane).then_some(round_up(d * d));
+    }
+    out
+}
+
+/// The squared exact deviation, rounded up, of the half `shape` of the
+/// split vertex at flat index `v`, scanned in f64.
+fn in_f64<const H: isize>(z: &[f32], gw: usize, v: usize, shape: Shape) -> f32 {
+    let d = small_half_deviation::<H>(z, shape.small_half::<H>(gw as isize, v as isize));
+    round_up(d * d)
+}
+
+/// The squared deviation, rounded up, of the half `shape` of the split
+/// vertex at flat index `v`: one lane of the sweep.
+#[inline(always)]
+pub(crate) fn small_half_deviation2<const H: isize>(z: &[f32], gw: usize, v: usize, shape: Shape) -> f32 {
+    let (vi, gwi) = (v as isize, gw as isize);
+    let (worst, corners) = half_worst::<H, 1>(
+        shape,
+        #[inline(always)]
+        |dy, dx| [z[(vi + dy * gwi + dx) as usize]],
+    );
+    squared(worst, corners)[0].unwrap_or_else(|| in_f64::<H>(z, gw, v, shape))
+}
+
+/// The squared deviations, rounded up, of both halves of every split
+/// vertex of levels 1 and 2 (those the grid has), in [`super::levels`]'s
+/// order (`for_each_split`), into `out[0]` and `out[1]` (whatever they
+/// held): 0 where a half does not exist. Halves with invalid samples get a
+/// finite value too, which the pass ignores.
+#[inline(always)]
+pub(crate) fn small_level_deviations(grid: Grid, z: &[f32], out: [&mut Vec<[f32; 2]>; 2]) {
+    let planes = Planes::new(grid, z);
+    let [one, two] = out;
+    one.clear();
+    two.clear();
+    if grid.k > 1 {
+        sweep::<2>(&planes, grid, z, one);
+    }
+    if grid.k > 2 {
+        sweep::<4>(&planes, grid, z, two);
+    }
+}
+
+/// Bytes of scratch [`small_level_deviations`] holds while it runs.
+pub(crate) fn scratch_bytes(grid: Grid) -> usize {
+    if grid.k > 1 {
+        Planes::bytes(grid)
+    } else {
+        0
+    }
+}
+
+/// Columns apart of the values in one phase plane: a multiple of both
+/// levels' `4H`, so one set of planes serves both.
+const BIG: usize = 16;
+
+/// The phase planes of the depths (see the module doc): plane `m` (of
+/// [`BIG`]) of row `y` at `((y * BIG + m) * width + 1 + j)` holds column
+/// `m + BIG j`, with a zero before and zeros after.
+struct Planes {
+    values: Vec<f32>,
+    width: usize,
+}
+
+impl Planes {
+    /// Values in a plane row: its columns, a zero before, and room for the
+    /// last step's eight lanes (a step starts at a multiple of eight below
+    /// the columns and reads up to two columns on).
+    fn width(grid: Grid) -> usize {
+        let columns = (grid.gw() as usize - 1) / BIG + 1;
+        (columns - 1) / 8 * 8 + 10
+    }
+
+    /// Bytes the planes of `grid` take.
+    fn bytes(grid: Grid) -> usize {
+        grid.gh() as usize * BIG * Self::width(grid) * std::mem::size_of::<f32>()
+    }
+
+    #[inline(always)]
+    fn new(grid: Grid, z: &[f32]) -> Self {
+        let (gw, gh) = (grid.gw() as usize, grid.gh() as usize);
+        let width = Self::width(grid);
+        let mut values = vec![0f32; gh * BIG * width];
+        for (y, row) in z.chunks_exact(gw).enumerate().take(gh) {
+            for m in 0..BIG.min(gw) {
+                let plane = &mut values[(y * BIG + m) * width + 1..][..width - 1];
+                for (d, &s) in plane.iter_mut().zip(row[m..].iter().step_by(BIG)) {
+                    *d = s;
+                }
+            }
+        }
+        Self { values, width }
+    }
+
+    /// The eight values from vertex `j0` of the vertices at columns
+    /// `x0 + BIG j`, at offset `dx` and row `y`.
+    #[inline(always)]
+    fn load(&self, y: usize, x0: usize, dx: isize, j0: usize) -> [f32; 8] {
+        let c = x0 as isize + dx;
+        let big = BIG as isize;
+        let (m, off) = (c.rem_euclid(big) as usize, (c.div_euclid(big) + 1) as usize);
+        let start = (y * BIG + m) * self.width + j0 + off;
+        self.values[start..start + 8].try_into().unwrap_or([0.0; 8])
+    }
+}
+
+/// One row of split vertices of a kind, for [`sweep`].
+struct Row {
+    /// Its grid row.
+    y: usize,
+    /// Vertices on it.
+    n: usize,
+    /// Column of the first; the others `2H` apart.
+    x: usize,
+    /// Each half's shape, for even and for odd vertices.
+    shapes: [[Shape; 2]; 2],
+    /// Whether each half can exist on this row (an edge along a row's
+    /// halves above and below).
+    rows: [bool; 2],
+    /// Whether each half exists at the first and the last vertex (an edge
+    /// along a column's halves left and right).
+    ends: [bool; 2],
+}
+
+/// One level (half-size `H`, 2 or 4) into `out`.
+#[inline(always)]
+fn sweep<const H: isize>(planes: &Planes, grid: Grid, z: &[f32], out: &mut Vec<[f32; 2]>) {
+    let (gw, gh) = (grid.gw() as usize, grid.gh() as usize);
+    let (h, s) = (H as usize, 2 * H as usize);
+    let edge = |along_row, dir| Shape::Edge { along_row, dir };
+    let (along_rows, along_columns) = ((gw - 1) / s, (gw - 1) / s + 1);
+    // Edge midpoints along rows, along columns, then centres, as the pass
+    // takes them.
+    for y in (0..gh).step_by(s) {
+        let shapes = [edge(true, -1), edge(true, 1)];
+        let row = Row {
+            y,
+            n: along_rows,
+            x: h,
+            shapes: [shapes; 2],
+            rows: [y >= h, y + h < gh],
+            ends: [true; 2],
+        };
+        emit::<H>(planes, z, gw, out, row);
+    }
+    for y in (h..gh).step_by(s) {
+        let shapes = [edge(false, -1), edge(false, 1)];
+        let row = Row {
+            y,
+            n: along_columns,
+            x: 0,
+            shapes: [shapes; 2],
+            rows: [true; 2],
+            ends: [false; 2],
+        };
+        emit::<H>(planes, z, gw, out, row);
+    }
+    for y in (h..gh).step_by(s) {
+        // A centre's diagonal runs along the main diagonal where its
+        // column's and row's parities (in steps of 2H) agree: the apexes
+        // are then at lower left and upper right, else upper left and
+        // lower right (half 0 is the one with the smaller x).
+        let main = [Shape::Centre { sx: -1, sy: 1 }, Shape::Centre { sx: 1, sy: -1 }];
+        let anti = [Shape::Centre { sx: -1, sy: -1 }, Shape::Centre { sx: 1, sy: 1 }];
+        let odd_row = ((y - h) / s) % 2 == 1;
+        let row = Row {
+            y,
+            n: along_rows,
+            x: h,
+            shapes: if odd_row { [anti, main] } else { [main, anti] },
+            rows: [true; 2],
+            ends: [true; 2],
+        };
+        emit::<H>(planes, z, gw, out, row);
+    }
+}
+
+/// Appends one row's pairs to `out`: the vertices of each class (their
+/// index modulo `BIG / 2H`) eight at a time, class by class.
+#[inline(always)]
+fn emit<const H: isize>(planes: &Planes, z: &[f32], gw: usize, out: &mut Vec<[f32; 2]>, row: Row) {
+    let start = out.len();
+    out.resize(start + row.n, [0.0; 2]);
+    let out = &mut out[start..];
+    let s = 2 * H as usize;
+    let classes = BIG / s;
+    for class in 0..classes {
+        let count = (row.n + classes - 1 - class) / classes;
+        let x0 = row.x + s * class;
+        for j0 in (0..count).step_by(8) {
+            let mut pairs = [[0f32; 2]; 8];
+            for half in 0..2 {
+                if !row.rows[half] {
+                    continue;
+                }
+                let shape = row.shapes[class % 2][half];
+                let (worst, corners) = half_worst::<H, 8>(
+                    shape,
+                    #[inline(always)]
+                    |dy, dx| planes.load((row.y as isize + dy) as usize, x0, dx, j0),
+                );
+                let wide = squared(worst, corners);
+                for (l, pair) in pairs.iter_mut().enumerate().take(count - j0) {
+                    let j = classes * (j0 + l) + class;
+                    let at_end = if half == 0 { j == 0 } else { j + 1 == row.n };
+                    if at_end && !row.ends[half] {
+                        continue;
+                    }
+                    let v = row.y * gw + row.x + s * j;
+                    pair[half] = wide[l].unwrap_or_else(|| in_f64::<H>(z, gw, v, shape));
+                }
+            }
+            for (l, pair) in pairs.into_iter().enumerate().take(count - j0) {
+                out[classes * (j0 + l) + class] = pair;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(128))]
+
+        /// One half at a time (`N = 1`), the f32 scan is never below the
+        /// exact f64 scan and above it by at most the margin, for every
+        /// shape of both levels, over ramps with noise, jumps and depths
+        /// from 1e-25 to 1e25.
+        #[test]
+        fn a_small_half_in_f32_bounds_the_f64_scan_within_the_margin(
+            seed in any::<u64>(),
+            scale in -25i32..25,
+            slope in -3.0f64..3.0,
+            noise in prop::sample::select(vec![0.0f64, 1e-7, 1e-3, 0.3]),
+            jump in prop::sample::select(vec![0.0f64, 0.5, 100.0]),
+        ) {
+            use super::super::deviation_f32::tests::rough_depths;
+            use super::super::deviation_f32::{MARGIN, RELATIVE};
+            let gw = 17usize;
+            let z = rough_depths(gw, seed, scale, slope, noise, jump);
+            let v = 8 * gw + 8;
+            let shapes = [
+                Shape::Edge { along_row: true, dir: -1 },
+                Shape::Edge { along_row: true, dir: 1 },
+                Shape::Edge { along_row: false, dir: -1 },
+                Shape::Edge { along_row: false, dir: 1 },
+                Shape::Centre { sx: -1, sy: -1 },
+                Shape::Centre { sx: -1, sy: 1 },
+                Shape::Centre { sx: 1, sy: -1 },
+                Shape::Centre { sx: 1, sy: 1 },
+            ];
+            for shape in shapes {
+                for (fast, exact, corners) in [
+                    (
+                        small_half_deviation2::<2>(&z, gw, v, shape),
+                        small_half_deviation::<2>(&z, shape.small_half::<2>(gw as isize, v as isize)),
+                        corners::<2>(&z, gw, v, shape),
+                    ),
+                    (
+                        small_half_deviation2::<4>(&z, gw, v, shape),
+                        small_half_deviation::<4>(&z, shape.small_half::<4>(gw as isize, v as isize)),
+                        corners::<4>(&z, gw, v, shape),
+                    ),
+                ] {
+                    let zmax = f64::from(corners.into_iter().fold(0f32, f32::max));
+                    prop_assert!(fast.is_finite());
+                    // Squared and rounded up to f32, as the build stores
+                    // them (which loses the smallest depths' deviations to
+                    // f32's range, upwards).
+                    prop_assert!(fast >= round_up(exact * exact), "{:?}: {} below {}", shape, fast, exact);
+                    let bound = exact * (1.0 + 2.0 * RELATIVE) + 2.0 * MARGIN * zmax;
+                    prop_assert!(fast <= round_up(bound * bound), "{:?}: {} against {}", shape, fast, exact);
+                }
+            }
+        }
+    }
+
+    /// The three corner depths of a half.
+    fn corners<const H: isize>(z: &[f32], gw: usize, v: usize, shape: Shape) -> [f32; 3] {
+        let (vi, gwi) = (v as isize, gw as isize);
+        half_worst::<H, 1>(shape, |dy, dx| [z[(vi + dy * gwi + dx) as usize]])
+            .1
+            .map(|c| c[0])
+    }
+
+    /// The sweep gives, for every half of both levels, the bits of the
+    /// one-half scan, on grids padded or not, with holes.
+    #[test]
+    fn the_sweep_gives_each_halfs_bits() {
+        for (w, h) in [(33u32, 33u32), (40, 17), (3, 7), (70, 45), (257, 130), (300, 21)] {
+            let grid = Grid::for_image(w, h);
+            let (gw, gh) = (grid.gw() as usize, grid.gh() as usize);
+            let z: Vec<f32> = (0..gw * gh)
+                .map(|i| {
+                    let (x, y) = ((i % gw) as f32, (i / gw) as f32);
+                    if (x as u32 + 3 * y as u32) % 11 == 0 || x as u32 >= w || y as u32 >= h {
+                        0.0
+                    } else {
+                        2.0 + 0.3 * (0.7 * x).sin() + 0.01 * y * y
+                    }
+                })
+                .collect();
+            let (mut level1, mut level2) = (Vec::new(), Vec::new());
+            small_level_deviations(grid, &z, [&mut level1, &mut level2]);
+            for (g, swept) in (1..grid.k.min(3)).zip([level1, level2]) {
+                let mut one = Vec::new();
+                super::super::levels::for_each_split(grid, g..g + 1, |s| {
+                    let v = s.v.1 as usize * gw + s.v.0 as usize;
+                    let pair = s.apex.map(|a| {
+                        a.map_or(0.0, |apex| {
+                            if g == 1 {
+                                small_half_deviation2::<2>(&z, gw, v, s.small_shape(apex))
+                            } else {
+                                small_half_deviation2::<4>(&z, gw, v, s.small_shape(apex))
+                            }
+                        })
+                    });
+                    one.push(pair);
+                });
+                assert_eq!(swept, one, "{w} x {h}, level {g}");
+            }
+        }
+    }
+}
