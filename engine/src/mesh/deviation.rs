@@ -11,10 +11,10 @@
 //! the compiler keeps tight. The halves of the two levels just above the
 //! finest (nine in ten of those scanned, of 9 to 45 samples) are read at
 //! fixed offsets instead ([`small_half_deviation`]), where setting up their
-//! few short rows cost more than the samples. The build scans the halves
-//! of the coarser levels (half-size 8 and up) in f32 within a stated
-//! margin above this scan (`deviation_f32.rs`); this one is its oracle in
-//! the tests and its fallback for extreme depths.
+//! few short rows cost more than the samples. The build scans all halves
+//! above the finest level in f32 within a stated margin above these exact
+//! scans (`deviation_f32.rs`, `small_half_sweep.rs`); these are the oracle
+//! in the tests and the fallback for extreme depths.
 
 use super::grid::Pt;
 
