@@ -7,8 +7,9 @@
 //! The vertices of one kind on one row of a level lie `2H` apart, so their
 //! samples at one offset are a strided gather in the depth rows. The sweep
 //! first splits each row into 16 *phase planes*, plane `m` holding the
-//! samples whose column is `m` modulo 16 (one set for both levels, about
-//! four bytes per grid vertex, held while the sweep runs); the vertices of
+//! samples whose column is `m` modulo 16 (one set for both levels, built
+//! for a band of 32 rows and a halo at a time, so the band's depths are
+//! still in cache when its vertices read them); the vertices of
 //! a row whose index is one class modulo `16 / 2H` then find their samples
 //! at one offset in eight consecutive values of one plane row, and eight
 //! vertices are one vector step. The classes also make each step's centres
@@ -200,25 +201,43 @@ pub(crate) fn small_half_deviation2<const H: isize>(z: &[f32], gw: usize, v: usi
 /// vertex of levels 1 and 2 (those the grid has), in [`super::levels`]'s
 /// order (`for_each_split`), into `out[0]` and `out[1]` (whatever they
 /// held): 0 where a half does not exist. Halves with invalid samples get a
-/// finite value too, which the pass ignores.
+/// finite value too, which the pass ignores. Band by band of [`BAND`]
+/// rows, both levels from one band's planes while its depths are in cache.
 #[inline(always)]
 pub(crate) fn small_level_deviations(grid: Grid, z: &[f32], out: [&mut Vec<[f32; 2]>; 2]) {
-    let planes = Planes::new(grid, z);
     let [one, two] = out;
-    one.clear();
-    two.clear();
-    if grid.k > 1 {
-        sweep::<2>(&planes, grid, z, one);
+    let levels = grid.k.saturating_sub(1).min(2);
+    for (g, out) in (1..=2).zip([&mut *one, &mut *two]) {
+        out.clear();
+        if g <= levels {
+            out.resize(super::levels::split_count(grid, g), [0.0; 2]);
+        }
     }
-    if grid.k > 2 {
-        sweep::<4>(&planes, grid, z, two);
+    if levels == 0 {
+        return;
+    }
+    let gh = grid.gh() as usize;
+    let mut planes = Planes::with_capacity(grid);
+    for y0 in (0..gh).step_by(BAND) {
+        planes.fill(grid, z, y0);
+        sweep::<2>(&planes, grid, z, y0, one);
+        if levels == 2 {
+            sweep::<4>(&planes, grid, z, y0, two);
+        }
     }
 }
+
+/// Grid rows per band: a multiple of both levels' row steps (4 and 8).
+const BAND: usize = 32;
+
+/// Rows a band's planes hold beyond it on either side: the largest
+/// half-size.
+const HALO: usize = 4;
 
 /// Bytes of scratch [`small_level_deviations`] holds while it runs.
 pub(crate) fn scratch_bytes(grid: Grid) -> usize {
     if grid.k > 1 {
-        Planes::bytes(grid)
+        (BAND + 2 * HALO) * BIG * Planes::width(grid) * std::mem::size_of::<f32>()
     } else {
         0
     }
@@ -228,12 +247,14 @@ pub(crate) fn scratch_bytes(grid: Grid) -> usize {
 /// levels' `4H`, so one set of planes serves both.
 const BIG: usize = 16;
 
-/// The phase planes of the depths (see the module doc): plane `m` (of
-/// [`BIG`]) of row `y` at `((y * BIG + m) * width + 1 + j)` holds column
-/// `m + BIG j`, with a zero before and zeros after.
+/// The phase planes of one band of the depths (see the module doc): plane
+/// `m` (of [`BIG`]) of grid row `y` at `(((y - first) * BIG + m) * width + 1
+/// + j)` holds column `m + BIG j`, with a zero before and zeros after.
 struct Planes {
     values: Vec<f32>,
     width: usize,
+    /// The grid row of the first row held.
+    first: usize,
 }
 
 impl Planes {
@@ -245,35 +266,40 @@ impl Planes {
         (columns - 1) / 8 * 8 + 10
     }
 
-    /// Bytes the planes of `grid` take.
-    fn bytes(grid: Grid) -> usize {
-        grid.gh() as usize * BIG * Self::width(grid) * std::mem::size_of::<f32>()
+    fn with_capacity(grid: Grid) -> Self {
+        let width = Self::width(grid);
+        Self {
+            values: vec![0f32; (BAND + 2 * HALO) * BIG * width],
+            width,
+            first: 0,
+        }
     }
 
+    /// Holds the rows of the band from grid row `y0`, with its halo.
     #[inline(always)]
-    fn new(grid: Grid, z: &[f32]) -> Self {
+    fn fill(&mut self, grid: Grid, z: &[f32], y0: usize) {
         let (gw, gh) = (grid.gw() as usize, grid.gh() as usize);
-        let width = Self::width(grid);
-        let mut values = vec![0f32; gh * BIG * width];
-        for (y, row) in z.chunks_exact(gw).enumerate().take(gh) {
+        self.first = y0.saturating_sub(HALO);
+        let last = (y0 + BAND + HALO).min(gh);
+        let width = self.width;
+        for (y, row) in z.chunks_exact(gw).enumerate().take(last).skip(self.first) {
             for m in 0..BIG.min(gw) {
-                let plane = &mut values[(y * BIG + m) * width + 1..][..width - 1];
+                let plane = &mut self.values[((y - self.first) * BIG + m) * width + 1..][..width - 1];
                 for (d, &s) in plane.iter_mut().zip(row[m..].iter().step_by(BIG)) {
                     *d = s;
                 }
             }
         }
-        Self { values, width }
     }
 
     /// The eight values from vertex `j0` of the vertices at columns
-    /// `x0 + BIG j`, at offset `dx` and row `y`.
+    /// `x0 + BIG j`, at offset `dx` and grid row `y`.
     #[inline(always)]
     fn load(&self, y: usize, x0: usize, dx: isize, j0: usize) -> [f32; 8] {
         let c = x0 as isize + dx;
         let big = BIG as isize;
         let (m, off) = (c.rem_euclid(big) as usize, (c.div_euclid(big) + 1) as usize);
-        let start = (y * BIG + m) * self.width + j0 + off;
+        let start = ((y - self.first) * BIG + m) * self.width + j0 + off;
         self.values[start..start + 8].try_into().unwrap_or([0.0; 8])
     }
 }
@@ -296,40 +322,45 @@ struct Row {
     ends: [bool; 2],
 }
 
-/// One level (half-size `H`, 2 or 4) into `out`.
+/// The rows of one level (half-size `H`, 2 or 4) in the band from grid row
+/// `y0`, each written where `for_each_split` puts it in `out`: edge
+/// midpoints along rows, along columns, then centres.
 #[inline(always)]
-fn sweep<const H: isize>(planes: &Planes, grid: Grid, z: &[f32], out: &mut Vec<[f32; 2]>) {
+fn sweep<const H: isize>(planes: &Planes, grid: Grid, z: &[f32], y0: usize, out: &mut [[f32; 2]]) {
     let (gw, gh) = (grid.gw() as usize, grid.gh() as usize);
     let (h, s) = (H as usize, 2 * H as usize);
+    let end = (y0 + BAND).min(gh);
     let edge = |along_row, dir| Shape::Edge { along_row, dir };
     let (along_rows, along_columns) = ((gw - 1) / s, (gw - 1) / s + 1);
-    // Edge midpoints along rows, along columns, then centres, as the pass
-    // takes them.
-    for y in (0..gh).step_by(s) {
-        let shapes = [edge(true, -1), edge(true, 1)];
+    // Rows of each kind, and where each kind's pairs start.
+    let (edge_rows, other_rows) = ((gh - 1) / s + 1, (gh - 1) / s);
+    let columns_at = edge_rows * along_rows;
+    let centres_at = columns_at + other_rows * along_columns;
+    for y in (y0..end).step_by(s) {
         let row = Row {
             y,
             n: along_rows,
             x: h,
-            shapes: [shapes; 2],
+            shapes: [[edge(true, -1), edge(true, 1)]; 2],
             rows: [y >= h, y + h < gh],
             ends: [true; 2],
         };
-        emit::<H>(planes, z, gw, out, row);
+        let at = y / s * along_rows;
+        emit::<H>(planes, z, gw, &mut out[at..at + along_rows], row);
     }
-    for y in (h..gh).step_by(s) {
-        let shapes = [edge(false, -1), edge(false, 1)];
+    for y in (y0 + h..end).step_by(s) {
         let row = Row {
             y,
             n: along_columns,
             x: 0,
-            shapes: [shapes; 2],
+            shapes: [[edge(false, -1), edge(false, 1)]; 2],
             rows: [true; 2],
             ends: [false; 2],
         };
-        emit::<H>(planes, z, gw, out, row);
+        let at = columns_at + (y - h) / s * along_columns;
+        emit::<H>(planes, z, gw, &mut out[at..at + along_columns], row);
     }
-    for y in (h..gh).step_by(s) {
+    for y in (y0 + h..end).step_by(s) {
         // A centre's diagonal runs along the main diagonal where its
         // column's and row's parities (in steps of 2H) agree: the apexes
         // are then at lower left and upper right, else upper left and
@@ -345,17 +376,15 @@ fn sweep<const H: isize>(planes: &Planes, grid: Grid, z: &[f32], out: &mut Vec<[
             rows: [true; 2],
             ends: [true; 2],
         };
-        emit::<H>(planes, z, gw, out, row);
+        let at = centres_at + (y - h) / s * along_rows;
+        emit::<H>(planes, z, gw, &mut out[at..at + along_rows], row);
     }
 }
 
-/// Appends one row's pairs to `out`: the vertices of each class (their
-/// index modulo `BIG / 2H`) eight at a time, class by class.
+/// One row's pairs into `out`: the vertices of each class (their index
+/// modulo `BIG / 2H`) eight at a time, class by class.
 #[inline(always)]
-fn emit<const H: isize>(planes: &Planes, z: &[f32], gw: usize, out: &mut Vec<[f32; 2]>, row: Row) {
-    let start = out.len();
-    out.resize(start + row.n, [0.0; 2]);
-    let out = &mut out[start..];
+fn emit<const H: isize>(planes: &Planes, z: &[f32], gw: usize, out: &mut [[f32; 2]], row: Row) {
     let s = 2 * H as usize;
     let classes = BIG / s;
     for class in 0..classes {
