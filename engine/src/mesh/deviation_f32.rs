@@ -34,7 +34,7 @@
 //! Corner depths outside `[2^-60, 2^60]`, where subnormal or overflowing
 //! intermediates could void these bounds, are scanned in f64.
 
-use super::deviation::{for_each_row, max_deviation, HalfRows};
+use super::deviation::{for_each_row, gradient, max_deviation, HalfRows};
 use super::grid::Pt;
 
 /// f32's unit roundoff.
@@ -80,18 +80,12 @@ pub(crate) fn max_deviation_f32(z: &[f32], gw: usize, corners: [Pt; 3], rows: Ha
     if !in_f32_range([za, zb, zc]) {
         return max_deviation(z, gw, corners, rows);
     }
-    let (za64, zb64, zc64) = (f64::from(za), f64::from(zb), f64::from(zc));
-    let (ax, ay) = (f64::from(a.0), f64::from(a.1));
-    let (ux, uy) = (f64::from(b.0) - ax, f64::from(b.1) - ay);
-    let (vx, vy) = (f64::from(c.0) - ax, f64::from(c.1) - ay);
-    let det = ux * vy - uy * vx;
-    if det == 0.0 {
-        return 0.0;
-    }
     // The gradient as the f64 scan has it; the interpolant from corner `a`,
     // so its terms stay within a few `Z` (see the module doc).
-    let gx = ((zb64 - za64) * vy - uy * (zc64 - za64)) / det;
-    let gy = (ux * (zc64 - za64) - (zb64 - za64) * vx) / det;
+    let Some((gx, gy)) = gradient(z, gw, corners) else {
+        return 0.0;
+    };
+    let (za64, ax, ay) = (f64::from(za), f64::from(a.0), f64::from(a.1));
     let step = gx as f32;
     let mut worst = 0f32;
     for_each_row(
@@ -154,6 +148,7 @@ fn row_max_deviation_f32(row: &[f32], base: f32, step: f32) -> f32 {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::super::deviation::half_rows;
+    use super::super::deviation::tests::halves_around;
     use super::*;
     use proptest::prelude::*;
 
@@ -183,22 +178,20 @@ pub(crate) mod tests {
     /// Every half of level `h` of a `gw x gw` grid around its centre.
     fn halves(gw: u32, h: u32) -> Vec<([Pt; 3], HalfRows)> {
         let v = (gw / 2, gw / 2);
-        let mut out = Vec::new();
-        for c in [(v.0, v.1 - h), (v.0, v.1 + h)] {
-            out.push(([(v.0 - h, v.1), (v.0 + h, v.1), c], half_rows(v, h, c, true, false)));
-        }
-        for c in [(v.0 - h, v.1), (v.0 + h, v.1)] {
-            out.push(([(v.0, v.1 - h), (v.0, v.1 + h), c], half_rows(v, h, c, false, false)));
-        }
-        for (p, q) in [
-            ((v.0 - h, v.1 - h), (v.0 + h, v.1 + h)),
-            ((v.0 + h, v.1 - h), (v.0 - h, v.1 + h)),
-        ] {
-            for c in [(p.0, q.1), (q.0, p.1)] {
-                out.push(([p, q, c], half_rows(v, h, c, false, true)));
-            }
-        }
-        out
+        (halves_around(v, h).into_iter())
+            .map(|(corners, along_row, diagonal)| (corners, half_rows(v, h, corners[2], along_row, diagonal)))
+            .collect()
+    }
+
+    /// Parameters for [`rough_depths`]: seed, scale, slope, noise, jump.
+    pub(crate) fn rough() -> impl Strategy<Value = (u64, i32, f64, f64, f64)> {
+        (
+            any::<u64>(),
+            -25i32..25,
+            -3.0f64..3.0,
+            prop::sample::select(vec![0.0f64, 1e-7, 1e-3, 0.3]),
+            prop::sample::select(vec![0.0f64, 0.5, 100.0]),
+        )
     }
 
     #[test]
@@ -223,12 +216,8 @@ pub(crate) mod tests {
         /// from 1e-25 to 1e25 (beyond `[2^-60, 2^60]` the f64 scan itself).
         #[test]
         fn the_f32_scan_bounds_the_f64_scan_within_its_margin(
-            seed in any::<u64>(),
-            scale in -25i32..25,
+            (seed, scale, slope, noise, jump) in rough(),
             h in prop::sample::select(vec![8u32, 16, 32]),
-            slope in -3.0f64..3.0,
-            noise in prop::sample::select(vec![0.0f64, 1e-7, 1e-3, 0.3]),
-            jump in prop::sample::select(vec![0.0f64, 0.5, 100.0]),
         ) {
             let gw = 4 * h as usize + 1;
             let z = rough_depths(gw, seed, scale, slope, noise, jump);

@@ -263,8 +263,8 @@ impl Passes {
             // the panic on). On one thread, levels 1 and 2 are swept whole
             // before the pass comes to them (eight vertices a step), and
             // each unsegmented half of the coarser levels is scanned as the
-            // pass comes to it.
-            // The sweep's planes, on whichever thread, and the levels' deviations.
+            // pass comes to it. Scratch: the sweep's planes, on whichever
+            // thread, and the levels' deviations.
             let mut scratch_bytes = small_half_sweep::scratch_bytes(grid);
             let mut second = None;
             let mut given = |g: u32| {

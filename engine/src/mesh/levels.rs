@@ -201,11 +201,11 @@ pub(super) fn for_each_split(grid: Grid, levels: std::ops::Range<u32>, mut f: im
 crate::simd::dispatch! {
     /// The depth deviation of each half of every split vertex of level `g`
     /// (at least 3: levels 1 and 2 come from [`small_deviations`]), squared
-    /// and rounded up (0 where a half does not exist), in the order [`Levels::run_coarse`] takes them. It reads
-    /// only the depths, so it can run on another thread, a level ahead of
-    /// the pass. Halves that turn out segmented get a value too, which the
-    /// pass ignores (it is finite: invalid samples are 0). With AVX2 where
-    /// the CPU has it.
+    /// and rounded up (0 where a half does not exist), in the order
+    /// [`Levels::run_coarse`] takes them. It reads only the depths, so it
+    /// can run on another thread, a level ahead of the pass. Halves that
+    /// turn out segmented get a value too, which the pass ignores (it is
+    /// finite: invalid samples are 0). With AVX2 where the CPU has it.
     /// The deviations go into `out` (whatever it holds), so a build on two
     /// threads can hand the helper memory the calling thread has used.
     pub(crate) fn coarse_deviations(grid: Grid, z: &[f32], g: u32, out: Vec<[f32; 2]>) -> Vec<[f32; 2]> = coarse_deviations_body;

@@ -434,11 +434,7 @@ mod tests {
         /// from 1e-25 to 1e25.
         #[test]
         fn a_small_half_in_f32_bounds_the_f64_scan_within_the_margin(
-            seed in any::<u64>(),
-            scale in -25i32..25,
-            slope in -3.0f64..3.0,
-            noise in prop::sample::select(vec![0.0f64, 1e-7, 1e-3, 0.3]),
-            jump in prop::sample::select(vec![0.0f64, 0.5, 100.0]),
+            (seed, scale, slope, noise, jump) in super::super::deviation_f32::tests::rough(),
         ) {
             use super::super::deviation_f32::tests::rough_depths;
             use super::super::deviation_f32::{MARGIN, RELATIVE};
