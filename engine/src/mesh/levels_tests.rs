@@ -101,7 +101,7 @@ struct State {
 /// centres of both start from the loops' edges, so a difference is the
 /// stage's own. Returns the two results of each stage.
 fn stages(n: u32, z: &[f32], cells: &[u8]) -> [[State; 2]; 2] {
-    let fx = Fixture::new(n, z);
+    let fx = Fixture::new(n, n, z);
     let (grid, zmax) = (fx.grid, fx.zmax);
     let general = |diagonal: bool| {
         move |l: &mut Levels<'_>, flags: &mut [Flags]| {
@@ -134,8 +134,8 @@ fn stages(n: u32, z: &[f32], cells: &[u8]) -> [[State; 2]; 2] {
 /// The levels above the finest, from the same finest level, by the row
 /// loops of [`Levels::run_coarse`] (scanning, and given the helper's
 /// deviations) and by the general kernel.
-fn coarse_three_ways(n: u32, z: &[f32], cells: &[u8]) -> [State; 3] {
-    let fx = Fixture::new(n, z);
+fn coarse_three_ways((w, h): (u32, u32), z: &[f32], cells: &[u8]) -> [State; 3] {
+    let fx = Fixture::new(w, h, z);
     let (grid, zmax) = (fx.grid, fx.zmax);
     let finest = fx.run(&fx.start(cells), &|l, flags| run_finest(l, flags, zmax));
     let small = small_deviations(grid, z, [Vec::new(), Vec::new()]);
@@ -156,14 +156,14 @@ fn coarse_three_ways(n: u32, z: &[f32], cells: &[u8]) -> [State; 3] {
     ]
 }
 
-/// Leaf flags of an `n x n` grid as segmentation sets them: a cell
+/// Leaf flags of a `w x h` grid as segmentation sets them: a cell
 /// touching an invalid sample has both its triangles flagged, the
 /// others take `random`.
-fn leaf_cells(n: usize, depths: &[f32], random: &[u8]) -> Vec<u8> {
-    let z = |x: usize, y: usize| depths[y.min(n - 1) * n + x.min(n - 1)];
-    (0..n * n)
+fn leaf_cells((w, h): (usize, usize), depths: &[f32], random: &[u8]) -> Vec<u8> {
+    let z = |x: usize, y: usize| depths[y.min(h - 1) * w + x.min(w - 1)];
+    (0..w * h)
         .map(|i| {
-            let (x, y) = (i % n, i / n);
+            let (x, y) = (i % w, i / w);
             let touches = [z(x, y), z(x + 1, y), z(x, y + 1), z(x + 1, y + 1)].contains(&0.0);
             if touches {
                 3
@@ -174,8 +174,8 @@ fn leaf_cells(n: usize, depths: &[f32], random: &[u8]) -> Vec<u8> {
         .collect()
 }
 
-/// An `n x n` grid of depths `z` seen by a perspective camera, and
-/// passes run on copies of a state.
+/// A `w x h` grid of depths `z` seen by a perspective camera, and passes
+/// run on copies of a state.
 struct Fixture<'z> {
     grid: Grid,
     camera: Camera,
@@ -185,10 +185,10 @@ struct Fixture<'z> {
 }
 
 impl<'z> Fixture<'z> {
-    fn new(n: u32, z: &'z [f32]) -> Self {
-        let grid = Grid::for_image(n, n);
-        let f = 0.8 * f64::from(n);
-        let camera = Camera::perspective(n, n, f, f, 0.5 * f64::from(n), 0.5 * f64::from(n)).unwrap();
+    fn new(w: u32, h: u32, z: &'z [f32]) -> Self {
+        let grid = Grid::for_image(w, h);
+        let f = 0.8 * f64::from(w);
+        let camera = Camera::perspective(w, h, f, f, 0.5 * f64::from(w), 0.5 * f64::from(h)).unwrap();
         let bp = BackProject::new(&camera, grid.gw(), grid.gh());
         let zmax = z.iter().copied().fold(0f32, f32::max);
         Self {
@@ -230,7 +230,7 @@ impl<'z> Fixture<'z> {
 /// (`deviation.rs`), the oracle the f32 scans of the coarser levels are
 /// held to.
 fn coarse_against_exact(n: u32, z: &[f32], cells: &[u8]) -> [State; 2] {
-    let fx = Fixture::new(n, z);
+    let fx = Fixture::new(n, n, z);
     let (grid, zmax) = (fx.grid, fx.zmax);
     let gw = grid.gw() as usize;
     let finest = fx.run(&fx.start(cells), &|l, flags| run_finest(l, flags, zmax));
@@ -262,13 +262,34 @@ proptest! {
         cells in proptest::collection::vec(prop_oneof![6 => Just(0u8), 1 => 0u8..4], 33 * 33),
     ) {
         prop_assume!(Grid::for_image(33, 33).len() == depths.len());
-        let cells = leaf_cells(33, &depths, &cells);
-        let [rows, given, general] = coarse_three_ways(33, &depths, &cells);
+        let cells = leaf_cells((33, 33), &depths, &cells);
+        let [rows, given, general] = coarse_three_ways((33, 33), &depths, &cells);
         prop_assert_eq!(&rows.flags, &general.flags);
         prop_assert_eq!(&rows.radius, &general.radius);
         prop_assert_eq!(&rows.err2, &general.err2);
         prop_assert_eq!(&given.err2, &general.err2);
         prop_assert_eq!(&given.flags, &general.flags);
+    }
+
+    /// The same on a grid of two root quads by one, not square: edge
+    /// midpoints with one half (on the grid's border) and with two (on
+    /// the edge between the roots), on rows and columns of different
+    /// lengths.
+    #[test]
+    fn the_coarse_row_loops_match_the_general_kernel_across_roots(
+        depths in proptest::collection::vec(prop_oneof![1 => Just(0.0f32), 9 => 0.5f32..4.0], 33 * 17),
+        cells in proptest::collection::vec(prop_oneof![6 => Just(0u8), 1 => 0u8..4], 33 * 17),
+    ) {
+        let grid = Grid::for_image(33, 17);
+        prop_assert_eq!((grid.len(), grid.m, grid.n), (depths.len(), 2, 1));
+        let cells = leaf_cells((33, 17), &depths, &cells);
+        let [rows, given, general] = coarse_three_ways((33, 17), &depths, &cells);
+        prop_assert_eq!(&rows.flags, &general.flags);
+        prop_assert_eq!(&rows.radius, &general.radius);
+        prop_assert_eq!(&rows.err2, &general.err2);
+        prop_assert_eq!(&given.err2, &general.err2);
+        prop_assert_eq!(&given.flags, &general.flags);
+        prop_assert_eq!(&given.radius, &general.radius);
     }
 
     /// The pass's errors are never below those from the exact f64
@@ -288,7 +309,7 @@ proptest! {
         } else {
             depths
         };
-        let cells = leaf_cells(33, &depths, &cells);
+        let cells = leaf_cells((33, 33), &depths, &cells);
         let [pass, exact] = coarse_against_exact(33, &depths, &cells);
         prop_assert_eq!(&pass.flags, &exact.flags);
         prop_assert_eq!(&pass.radius, &exact.radius);
@@ -311,7 +332,7 @@ proptest! {
         cells in proptest::collection::vec(0u8..4, 17 * 17),
     ) {
         prop_assume!(Grid::for_image(17, 17).len() == depths.len());
-        let cells = leaf_cells(17, &depths, &cells);
+        let cells = leaf_cells((17, 17), &depths, &cells);
         for [fast, general] in stages(17, &depths, &cells) {
             prop_assert_eq!(&fast.flags, &general.flags);
             prop_assert_eq!(&fast.radius, &general.radius);
