@@ -31,7 +31,7 @@ use glam::DVec3;
 /// `point_line_2d_sq` computes it (the same operations in the same order,
 /// both branches evaluated and one selected, so the loop has none).
 #[inline(always)]
-fn eq2(sa: f64, za: f64, sv: f64, zv: f64, sb: f64, zb: f64) -> f64 {
+pub(super) fn eq2(sa: f64, za: f64, sv: f64, zv: f64, sb: f64, zb: f64) -> f64 {
     let (ds, dz) = (sb - sa, zb - za);
     let (ps, pz) = (sv - sa, zv - za);
     let len2 = ds * ds + dz * dz;
@@ -54,7 +54,7 @@ fn detail2(za: f64, zv: f64, zb: f64) -> f64 {
 
 /// Eq. 1, squared, as `point_line_3d_sq` computes it, without branches.
 #[inline(always)]
-fn eq1(p: DVec3, a: DVec3, b: DVec3) -> f64 {
+pub(super) fn eq1(p: DVec3, a: DVec3, b: DVec3) -> f64 {
     let ab = b - a;
     let ap = p - a;
     let len2 = ab.length_squared();

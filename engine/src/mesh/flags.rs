@@ -97,6 +97,28 @@ impl Flags {
         }
     }
 
+    /// Half `h`'s flags as bits for straight loops: "any" in bit 0, "all"
+    /// in bit 2 (so two halves join as `(a | b) & 1 | a & b & 4`).
+    #[inline(always)]
+    pub const fn half_bits(self, h: usize) -> u8 {
+        (self.0 >> h) & 5
+    }
+
+    /// The cell's flags with both halves' set from their bits (as
+    /// [`Self::half_bits`] gives them).
+    #[inline(always)]
+    pub const fn with_halves(self, halves: [u8; 2]) -> Self {
+        Self(self.0 & 0xf0 | halves[0] | halves[1] << 1)
+    }
+
+    /// Whether some half is unflagged, and whether some is partly
+    /// segmented ([`Half::unflagged`], [`Half::partial`]).
+    #[inline(always)]
+    pub const fn halves_unflagged_partial(self) -> (bool, bool) {
+        let (h0, h1) = (self.half_bits(0), self.half_bits(1));
+        (h0 & 1 == 0 || h1 & 1 == 0, h0 == 1 || h1 == 1)
+    }
+
     /// Sets half `h`'s flags (on flags whose half `h` is clear).
     pub fn set_half(&mut self, h: usize, half: Half) {
         debug_assert_eq!(self.0 & (Self::any_bit(h) | Self::all_bit(h)), 0, "half {h} set twice");

@@ -55,7 +55,7 @@ use super::levels::{coarse_deviations, run_coarse, run_finest, small_deviations,
 use super::normals::{normals_and_quality, normals_and_quality_in};
 use super::outline::{OutlineCache, DEPTHS};
 use super::segmentation::{leaf_flags, Method, Samples, Segmentation};
-use super::small_half_sweep;
+use super::{coarse_rows, small_half_sweep};
 use crate::camera::Camera;
 use crate::error::{Error, Result};
 use crate::image::DepthImage;
@@ -264,8 +264,8 @@ impl Passes {
             // before the pass comes to them (eight vertices a step), and
             // each unsegmented half of the coarser levels is scanned as the
             // pass comes to it. Scratch: the sweep's planes, on whichever
-            // thread, and the levels' deviations.
-            let mut scratch_bytes = small_half_sweep::scratch_bytes(grid);
+            // thread, the levels' deviations, and the pass's kept rows.
+            let mut scratch_bytes = small_half_sweep::scratch_bytes(grid) + coarse_rows::scratch_bytes(grid);
             let mut second = None;
             let mut given = |g: u32| {
                 let level = match (&job, g) {

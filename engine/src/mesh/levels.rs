@@ -10,14 +10,16 @@
 //! swept before the pass reaches them, and each coarser unsegmented half is
 //! scanned as the pass comes to it.
 //!
-//! Every level runs in straight loops per kind of vertex (edge midpoints
-//! along rows, along columns, centres) and row, with the rows a kind's
-//! children lie on sliced once beside the row it writes. A general kernel
+//! Every level runs per kind of vertex (edge midpoints along rows, along
+//! columns, centres) and row: the vertices with both halves in the straight
+//! loops of `coarse_rows.rs`, the grid's border one by one, with the rows
+//! a kind's children lie on sliced once beside the row it writes. A general kernel
 //! per split vertex, `split_vertex`, states the same computation once for
 //! any vertex; the tests (`levels_tests.rs`, which holds it) check the loops
 //! against it. The finest level's loops are in `finest.rs`.
 
 use super::backproject::BackProject;
+use super::coarse_rows::{Child, Grids, Kept, Plane, Row, RowTask, Scratch};
 use super::deviation::{half_rows, max_deviation};
 use super::deviation_f32::max_deviation_f32;
 use super::error_metric::{norm_bound, point_line_2d_sq, point_line_3d_sq};
@@ -30,7 +32,7 @@ use glam::DVec3;
 /// Which edge a split vertex bisects: Eq. 1 for diagonals, Eq. 2 in the
 /// x,z-plane for an edge along a row and in the y,z-plane along a column.
 #[derive(Clone, Copy, PartialEq, Eq)]
-enum Bisects {
+pub(super) enum Bisects {
     Diagonal,
     Row,
     Column,
@@ -319,41 +321,179 @@ impl Levels<'_> {
     /// in the order of [`for_each_split`].
     #[inline(always)]
     pub(crate) fn run_coarse(&mut self, flags: &mut [Flags], zmax: f32, deviations: DeviationSource<'_>) {
-        let gh = self.grid.gh();
+        let (gw, gh) = (self.grid.gw(), self.grid.gh());
+        let mut scratch = Scratch::default();
+        // Each kind's results, kept for the kind that reads them as
+        // children (`coarse_rows.rs`): the level below's centres, this
+        // level's edge midpoints along rows and along columns, its centres.
+        let [mut below, mut row_edges, mut column_edges, mut centres] = [(); 4].map(|()| Plane::default());
         for g in 1..self.grid.k {
             let given = deviations(g);
-            let mut next = given.as_deref().map(|d| d.iter());
+            let mut next = given.as_deref();
             let h = 1u32 << g;
             let step = 2 * h as usize;
-            for y in (0..gh).step_by(step) {
-                self.coarse_row(flags, zmax, Bisects::Row, h, y, &mut next);
+            // Vertices per row (centres, and edge midpoints along rows; one
+            // more along columns) and rows per kind (one more along rows).
+            let (nx, ny) = ((gw as usize - 1) / step, (gh as usize - 1) / step);
+            row_edges.reset(ny + 1, nx);
+            column_edges.reset(ny, nx + 1);
+            centres.reset(ny, nx);
+            // Each kind's vertices with both halves go through the sweep:
+            // the edge midpoints along rows off the first and last rows,
+            // those along columns off the first and last columns, every
+            // centre. An edge midpoint's children are the centres of the
+            // level below around it, at twice its lane (`Row::offset`'s
+            // order: left above, right above, left below, right below).
+            // Lane `j` of row `r` of the level below's centres; on level 1
+            // the finest centres, in the grid at `(2j + 1, 2r + 1)`.
+            let two = |below, row: usize, first: usize| match g {
+                1 => Child {
+                    kept: Kept::Grid,
+                    row: 2 * row + 1,
+                    first: 2 * first + 1,
+                    stride: 4,
+                },
+                _ => Child {
+                    kept: Kept::Plane(below),
+                    row,
+                    first,
+                    stride: 2,
+                },
+            };
+            let row = Row {
+                bisects: Bisects::Row,
+                h,
+                x0: h,
+                y: h,
+            };
+            scratch.columns.gather(self.bp, row, 0..nx);
+            for (r, y) in (0..gh).step_by(step).enumerate() {
+                let lanes = if r == 0 || r == ny { 0..0 } else { 0..nx };
+                // (Unread on the first and last rows, which have no lanes.)
+                let above = (2 * r).saturating_sub(1);
+                let children = [
+                    two(&below, above, 0),
+                    two(&below, above, 1),
+                    two(&below, 2 * r, 0),
+                    two(&below, 2 * r, 1),
+                ];
+                let task = RowTask {
+                    row: Row { y, ..row },
+                    lanes,
+                    children,
+                    out: &mut row_edges,
+                    r,
+                };
+                self.coarse_row(flags, zmax, task, &mut next, &mut scratch);
             }
-            for y in (h..gh).step_by(step) {
-                self.coarse_row(flags, zmax, Bisects::Column, h, y, &mut next);
+            let row = Row {
+                bisects: Bisects::Column,
+                h,
+                x0: 0,
+                y: h,
+            };
+            scratch.columns.gather(self.bp, row, 1..nx);
+            for (r, y) in (h..gh).step_by(step).enumerate() {
+                let children = [
+                    two(&below, 2 * r, 1),
+                    two(&below, 2 * r, 2),
+                    two(&below, 2 * r + 1, 1),
+                    two(&below, 2 * r + 1, 2),
+                ];
+                let task = RowTask {
+                    row: Row { y, ..row },
+                    lanes: 1..nx,
+                    children,
+                    out: &mut column_edges,
+                    r,
+                };
+                self.coarse_row(flags, zmax, task, &mut next, &mut scratch);
             }
-            for y in (h..gh).step_by(step) {
-                self.coarse_row(flags, zmax, Bisects::Diagonal, h, y, &mut next);
+            // A centre's children are its level's edge midpoints: along
+            // columns on its row at its lane and the next, along rows
+            // above and below at its lane.
+            let row = Row {
+                bisects: Bisects::Diagonal,
+                h,
+                x0: h,
+                y: h,
+            };
+            scratch.columns.gather(self.bp, row, 0..nx);
+            for (r, y) in (h..gh).step_by(step).enumerate() {
+                let one = |plane, row, first| Child {
+                    kept: Kept::Plane(plane),
+                    row,
+                    first,
+                    stride: 1,
+                };
+                let children = [
+                    one(&column_edges, r, 0),
+                    one(&column_edges, r, 1),
+                    one(&row_edges, r, 0),
+                    one(&row_edges, r + 1, 0),
+                ];
+                let task = RowTask {
+                    row: Row { y, ..row },
+                    lanes: 0..nx,
+                    children,
+                    out: &mut centres,
+                    r,
+                };
+                self.coarse_row(flags, zmax, task, &mut next, &mut scratch);
             }
-            debug_assert!(next.is_none_or(|mut it| it.next().is_none()), "deviations left over");
+            std::mem::swap(&mut below, &mut centres);
+            debug_assert!(next.is_none_or(<[_]>::is_empty), "deviations left over");
         }
     }
 
-    /// The split vertices of one kind (`bisects`) on row `y` of the level of
-    /// half-size `h`: `split_vertex`'s results (`levels_tests.rs`), with the rows its
-    /// children lie on sliced once (read) beside the row it writes, and the
-    /// children and their halves found by the kind's fixed geometry.
+    /// The split vertices of one kind on one row (`row`):
+    /// `split_vertex`'s results (`levels_tests.rs`). Those in `lanes`,
+    /// which have both halves, in the sweep of `coarse_rows.rs`, then per
+    /// vertex only for what is rare or costly there (a partly segmented
+    /// half's footprint, a deviation not given); the others (on the grid's
+    /// border) one by one, with the rows their children lie on sliced once
+    /// beside the row written, and the children and their halves found by
+    /// the kind's fixed geometry.
     #[inline(always)]
     fn coarse_row(
         &mut self,
         flags: &mut [Flags],
         zmax: f32,
-        bisects: Bisects,
-        h: u32,
-        y: u32,
-        next: &mut Option<std::slice::Iter<'_, [f32; 2]>>,
+        task: RowTask<'_>,
+        next: &mut Option<&[[f32; 2]]>,
+        scratch: &mut Scratch,
     ) {
+        let RowTask {
+            row,
+            lanes,
+            children,
+            out,
+            r,
+        } = task;
         let (gw, gh) = (self.grid.gw(), self.grid.gh());
         let (bp, camera, z) = (self.bp, self.camera, self.z);
+        let Row { bisects, h, y, .. } = row;
+        let xs = match bisects {
+            Bisects::Row | Bisects::Diagonal => (h..gw).step_by(2 * h as usize),
+            Bisects::Column => (0..gw).step_by(2 * h as usize),
+        };
+        // This row's deviations, if given.
+        let given = next.as_mut().map(|rest| {
+            let (now, later) = rest.split_at(xs.len().min(rest.len()));
+            *rest = later;
+            now
+        });
+        if !lanes.is_empty() {
+            let grids = Grids {
+                gw: gw as usize,
+                z,
+                radius: self.radius,
+                err2: self.err2,
+                flags,
+            };
+            scratch.samples.gather(&grids, row, lanes.clone(), children);
+            scratch.sweep(bp, row, lanes.start, given.and_then(|d| d.get(lanes.clone())));
+        }
         let q = h / 2;
         // Children lie `d` rows above and below (and, for centres, on the
         // row itself).
@@ -365,12 +505,23 @@ impl Levels<'_> {
         let point = BackProject::point_from;
         let at = |p: Pt| p.1 as usize * gw as usize + p.0 as usize;
         let row_factor = factor(y);
-        let xs = match bisects {
-            Bisects::Row | Bisects::Diagonal => (h..gw).step_by(2 * h as usize),
-            Bisects::Column => (0..gw).step_by(2 * h as usize),
-        };
-        for x in xs {
+        for (i, x) in xs.enumerate() {
             let v = (x, y);
+            let xi = x as usize;
+            let dev2 = given.map(|d| d[i]);
+            let k = i.wrapping_sub(lanes.start);
+            if k < lanes.len() {
+                let bits = scratch.swept.flags[k];
+                let (unflagged, partial) = bits.halves_unflagged_partial();
+                if !partial && (dev2.is_some() || !unflagged) {
+                    let (err, rad) = (scratch.swept.err2[k], scratch.swept.radius[k]);
+                    flag_row[xi] = bits;
+                    err_row[xi] = err;
+                    rad_row[xi] = rad;
+                    out.set(r, i, z[y as usize * gw as usize + xi], err, rad, bits);
+                    continue;
+                }
+            }
             let (a, b, apex) = match bisects {
                 Bisects::Row => (
                     (x - h, y),
@@ -394,10 +545,30 @@ impl Levels<'_> {
                     ((px, py), (qx, qy), apex.map(Some))
                 }
             };
-            let dev2 = next.as_mut().and_then(|it| it.next().copied());
-            debug_assert!(next.is_none() || dev2.is_some(), "deviations ran short");
+            let s = Split { v, a, b, apex, bisects };
+            let corners = |c: Pt| [z[at(a)], z[at(b)], z[at(v)], z[at(c)]];
+            if k < lanes.len() {
+                let swept = &scratch.swept;
+                let bits = swept.flags[k];
+                let mut err = swept.err2[k];
+                for (half, apex) in apex.into_iter().enumerate() {
+                    let (flagged, Some(c)) = (bits.half(half), apex) else {
+                        continue;
+                    };
+                    if flagged.unflagged() && dev2.is_none() {
+                        err = err.max(half_deviation2(z, gw as usize, s, h, c));
+                    } else if flagged.partial() {
+                        let len = bisects.hypotenuse(h);
+                        err = err.max(round_up(footprint2(camera, len, corners(c), zmax)));
+                    }
+                }
+                flag_row[xi] = bits;
+                err_row[xi] = err;
+                rad_row[xi] = swept.radius[k];
+                out.set(r, i, z[at(v)], err, swept.radius[k], bits);
+                continue;
+            }
             let (za, zb, zv) = (z[at(a)], z[at(b)], z[at(v)]);
-            let xi = x as usize;
             let pv = point(bp.col(xi), row_factor, zv);
             let mut bits = flag_row[xi].cell_only();
             let mut own = 0f64;
@@ -405,7 +576,6 @@ impl Levels<'_> {
             let mut err = 0f32;
             let mut radius = 0f64;
             let mut eq12_done = false;
-            let s = Split { v, a, b, apex, bisects };
             for half in 0..2 {
                 let Some(c) = apex[half] else {
                     bits.set_half(half, Half::ABSENT);
@@ -445,12 +615,13 @@ impl Levels<'_> {
                     }
                 } else if flagged.partial() {
                     let len = bisects.hypotenuse(h);
-                    own = own.max(footprint2(camera, len, [za, zb, zv, z[at(c)]], zmax));
+                    own = own.max(footprint2(camera, len, corners(c), zmax));
                 }
             }
             flag_row[xi] = bits;
             err_row[xi] = err.max(round_up(own)).max(own_dev2);
             rad_row[xi] = round_up(radius);
+            out.set(r, i, zv, err_row[xi], rad_row[xi], bits);
         }
     }
 }

@@ -28,6 +28,7 @@
 mod backproject;
 pub mod border;
 pub mod budget;
+mod coarse_rows;
 pub mod derived_normals;
 mod deviation;
 mod deviation_f32;
