@@ -31,8 +31,9 @@
 //!   view-dependent test of Eq. 4 monotone.
 //!
 //! The pass itself is in `levels.rs`, in straight loops per kind of vertex
-//! and row (the finest level, three quarters of all vertices, in loops of
-//! its own). The deviations of the levels above it (levels 1 and 2 swept a
+//! and row (the finest level, three quarters of all vertices, in those of
+//! `finest.rs`; the levels above, with each kind's results kept for the
+//! kind that reads them, in those of `coarse_rows.rs`). The deviations of the levels above it (levels 1 and 2 swept a
 //! level at a time, eight vertices a step, on one thread too) and the
 //! normals and quality read only the depths, so with
 //! [`Threads::Parallel`] a helper thread computes them meanwhile (the
