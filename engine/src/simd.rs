@@ -2,7 +2,7 @@
 //! Sec. 4.2's per-vertex passes, issue 27): the one module of the engine
 //! with `unsafe` code.
 //!
-//! [`dispatch`] defines a function that runs its body compiled for the
+//! `dispatch!` defines a function that runs its body compiled for the
 //! `x86-64-v3` features (AVX2, FMA, BMI1/2, LZCNT) when the CPU has them,
 //! and as it is otherwise. The `unsafe` call it expands to is written here
 //! once. The results are the same bits either way: Rust never
@@ -63,7 +63,7 @@ pub fn force_portable(portable: bool) {
     PORTABLE.store(portable, std::sync::atomic::Ordering::Relaxed);
 }
 
-/// Whether [`dispatch`]ed functions run the AVX2 code now: the CPU has it
+/// Whether functions defined by `dispatch!` run the AVX2 code now: the CPU has it
 /// and [`force_portable`] is not set.
 pub fn avx2_in_use() -> bool {
     #[cfg(target_arch = "x86_64")]

@@ -19,7 +19,7 @@ impl Hierarchy {
     }
 
     /// The finest level of detail whose mesh, extracted dropping outlines
-    /// ([`Outlines::Dropped`](crate::mesh::Outlines::Dropped)), has at most
+    /// ([`crate::mesh::Outlines::Dropped`]), has at most
     /// `max_triangles` triangles, for the requesting camera `view`
     /// (view-dependent) or none (static), from the error statistics
     /// gathered at build time (`budget.rs`): `Tau` for `view` or `Epsilon`,
