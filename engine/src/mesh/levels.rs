@@ -343,9 +343,10 @@ impl Levels<'_> {
             // those along columns off the first and last columns, every
             // centre. An edge midpoint's children are the centres of the
             // level below around it, at twice its lane (`Row::offset`'s
-            // order: left above, right above, left below, right below).
-            // Lane `j` of row `r` of the level below's centres; on level 1
-            // the finest centres, in the grid at `(2j + 1, 2r + 1)`.
+            // order: left above, right above, left below, right below):
+            // lane `j` of row `r` of the level below's centres, which on
+            // level 1 are the finest centres, in the grid at `(2j + 1,
+            // 2r + 1)`.
             let two = |below, row: usize, first: usize| match g {
                 1 => Child {
                     kept: Kept::Grid,
@@ -511,6 +512,8 @@ impl Levels<'_> {
             let dev2 = given.map(|d| d[i]);
             let k = i.wrapping_sub(lanes.start);
             if k < lanes.len() {
+                // Swept; done here unless a half is partly segmented or a
+                // deviation must be scanned.
                 let bits = scratch.swept.flags[k];
                 let (unflagged, partial) = bits.halves_unflagged_partial();
                 if !partial && (dev2.is_some() || !unflagged) {
