@@ -420,13 +420,13 @@ impl Levels<'_> {
                 y: h,
             };
             scratch.columns.gather(self.bp, row, 0..nx);
+            let one = |plane, row, first| Child {
+                kept: Kept::Plane(plane),
+                row,
+                first,
+                stride: 1,
+            };
             for (r, y) in (h..gh).step_by(step).enumerate() {
-                let one = |plane, row, first| Child {
-                    kept: Kept::Plane(plane),
-                    row,
-                    first,
-                    stride: 1,
-                };
                 let children = [
                     one(&column_edges, r, 0),
                     one(&column_edges, r, 1),

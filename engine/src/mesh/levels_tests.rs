@@ -251,6 +251,23 @@ fn coarse_against_exact(n: u32, z: &[f32], cells: &[u8]) -> [State; 2] {
     ]
 }
 
+/// The pass's row loops, scanning and given the helper's deviations, give
+/// the general kernel's flags, radii and errors on a `w x h` grid.
+fn coarse_rows_match_the_general_kernel(
+    (w, h): (usize, usize),
+    depths: &[f32],
+    random: &[u8],
+) -> Result<(), TestCaseError> {
+    let cells = leaf_cells((w, h), depths, random);
+    let [rows, given, general] = coarse_three_ways((w as u32, h as u32), depths, &cells);
+    for pass in [&rows, &given] {
+        prop_assert_eq!(&pass.flags, &general.flags);
+        prop_assert_eq!(&pass.radius, &general.radius);
+        prop_assert_eq!(&pass.err2, &general.err2);
+    }
+    Ok(())
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(64))]
 
@@ -262,13 +279,7 @@ proptest! {
         cells in proptest::collection::vec(prop_oneof![6 => Just(0u8), 1 => 0u8..4], 33 * 33),
     ) {
         prop_assume!(Grid::for_image(33, 33).len() == depths.len());
-        let cells = leaf_cells((33, 33), &depths, &cells);
-        let [rows, given, general] = coarse_three_ways((33, 33), &depths, &cells);
-        prop_assert_eq!(&rows.flags, &general.flags);
-        prop_assert_eq!(&rows.radius, &general.radius);
-        prop_assert_eq!(&rows.err2, &general.err2);
-        prop_assert_eq!(&given.err2, &general.err2);
-        prop_assert_eq!(&given.flags, &general.flags);
+        coarse_rows_match_the_general_kernel((33, 33), &depths, &cells)?;
     }
 
     /// The same on a grid of two root quads by one, not square: edge
@@ -282,14 +293,7 @@ proptest! {
     ) {
         let grid = Grid::for_image(33, 17);
         prop_assert_eq!((grid.len(), grid.m, grid.n), (depths.len(), 2, 1));
-        let cells = leaf_cells((33, 17), &depths, &cells);
-        let [rows, given, general] = coarse_three_ways((33, 17), &depths, &cells);
-        prop_assert_eq!(&rows.flags, &general.flags);
-        prop_assert_eq!(&rows.radius, &general.radius);
-        prop_assert_eq!(&rows.err2, &general.err2);
-        prop_assert_eq!(&given.err2, &general.err2);
-        prop_assert_eq!(&given.flags, &general.flags);
-        prop_assert_eq!(&given.radius, &general.radius);
+        coarse_rows_match_the_general_kernel((33, 17), &depths, &cells)?;
     }
 
     /// The pass's errors are never below those from the exact f64
