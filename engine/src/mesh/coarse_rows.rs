@@ -24,7 +24,8 @@
 //!
 //! What stays per vertex (`levels.rs`) is rare or costly: the footprint of
 //! a partly segmented half, and a deviation not given, which is scanned
-//! only for a half found unsegmented. Only vertices with both halves come
+//! only for a half found unsegmented, and only where the bound from its
+//! children's kept deviations (`deviation_bound.rs`) leaves it open. Only vertices with both halves come
 //! here (every centre, and the edge midpoints off the grid's border); the
 //! results are bit for bit those of the general kernel (`levels_tests.rs`),
 //! which the tests check.
@@ -61,6 +62,21 @@ impl Row {
     #[inline(always)]
     fn odd_row(self) -> bool {
         (self.y - self.h) / (2 * self.h) % 2 == 1
+    }
+
+    /// The two children (in the order of [`Self::offset`]) of half `half`
+    /// of the `i`-th vertex, as the sweep joins their flags: an edge
+    /// midpoint's above or left of it in half 0; a centre's left one and,
+    /// as its diagonal turns, the one above or below in half 0.
+    #[inline(always)]
+    pub(super) fn half_children(self, half: usize, i: usize) -> [usize; 2] {
+        let pairs = match self.bisects {
+            Bisects::Row => [[0, 1], [2, 3]],
+            Bisects::Column => [[0, 2], [1, 3]],
+            Bisects::Diagonal if (i % 2 == 1) == self.odd_row() => [[0, 3], [1, 2]],
+            Bisects::Diagonal => [[0, 2], [1, 3]],
+        };
+        pairs[half]
     }
 
     /// Where role `role` of the `i`-th vertex lies, as offsets from it.
@@ -149,33 +165,56 @@ pub(super) struct Plane {
     err2: Vec<f32>,
     radius: Vec<f32>,
     flags: Vec<Flags>,
+    /// Each half's squared deviation, or an upper bound of it
+    /// (`deviation_bound.rs`); 0 for a segmented half. Kept from level 2
+    /// on, where a level's deviations may be scanned as the pass comes.
+    dev2: Vec<[f32; 2]>,
 }
 
 impl Plane {
-    /// Room for `rows` rows of `lanes` (the values are overwritten).
-    pub(super) fn reset(&mut self, rows: usize, lanes: usize) {
+    /// Room for `rows` rows of `lanes` (the values are overwritten), with
+    /// the halves' deviations if `deviations`.
+    pub(super) fn reset(&mut self, rows: usize, lanes: usize, deviations: bool) {
         self.lanes = lanes;
         let n = rows * lanes;
         self.z.resize(n, 0.0);
         self.err2.resize(n, 0.0);
         self.radius.resize(n, 0.0);
         self.flags.resize(n, Flags::default());
+        self.dev2.clear();
+        if deviations {
+            self.dev2.resize(n, [0.0; 2]);
+        }
     }
 
     /// The results of vertex `j` of row `r`.
     #[inline(always)]
-    pub(super) fn set(&mut self, r: usize, j: usize, z: f32, err2: f32, radius: f32, flags: Flags) {
+    pub(super) fn set(&mut self, r: usize, j: usize, v: Results) {
         let at = r * self.lanes + j;
-        self.z[at] = z;
-        self.err2[at] = err2;
-        self.radius[at] = radius;
-        self.flags[at] = flags;
+        self.z[at] = v.z;
+        self.err2[at] = v.err2;
+        self.radius[at] = v.radius;
+        self.flags[at] = v.flags;
+        if let Some(d) = self.dev2.get_mut(at) {
+            *d = v.dev2;
+        }
     }
+}
+
+/// What a [`Plane`] keeps of one vertex: its depth, saturated error,
+/// nested radius, flags, and its halves' squared deviations (or bounds).
+pub(super) struct Results {
+    pub z: f32,
+    pub err2: f32,
+    pub radius: f32,
+    pub flags: Flags,
+    pub dev2: [f32; 2],
 }
 
 /// Bytes of the planes the pass above the finest level holds at once, at
 /// most: level 1's three kinds and level 2's centres (the buffers are
-/// reused from level to level, so the first are the largest).
+/// reused from level to level, so the first are the largest), and the
+/// halves' deviations from level 2 on.
 pub(crate) fn scratch_bytes(grid: Grid) -> usize {
     let per_vertex = 3 * std::mem::size_of::<f32>() + std::mem::size_of::<Flags>();
     let (gw, gh) = (grid.gw() as usize, grid.gh() as usize);
@@ -186,8 +225,9 @@ pub(crate) fn scratch_bytes(grid: Grid) -> usize {
         [ny * nx, (ny + 1) * nx, ny * (nx + 1)]
     };
     let level_1: usize = if grid.k > 1 { kinds(1).iter().sum() } else { 0 };
+    let level_2: usize = if grid.k > 2 { kinds(2).iter().sum() } else { 0 };
     let centres_2 = if grid.k > 2 { kinds(2)[0] } else { 0 };
-    (level_1 + centres_2) * per_vertex
+    (level_1 + centres_2) * per_vertex + (level_2 + centres_2) * std::mem::size_of::<[f32; 2]>()
 }
 
 /// One row of the pass above the finest level: its vertices (`row`), those
@@ -221,6 +261,17 @@ pub(super) struct Child<'a> {
 }
 
 impl Child<'_> {
+    /// The kept squared deviation (or bound) of the half of this child of
+    /// the row's `k`-th swept lane that holds the vertex, the child being
+    /// the `c`-th ([`Row::offset`]); `None` where it is not kept.
+    #[inline(always)]
+    pub(super) fn dev2(self, k: usize, c: usize) -> Option<f32> {
+        let Kept::Plane(p) = self.kept else { return None };
+        let d = p.dev2.get(self.row * p.lanes + self.first + self.stride * k)?;
+        // Children 0 and 2 lie before the vertex.
+        Some(d[if c % 2 == 0 { 1 } else { 0 }])
+    }
+
     /// `out` holds `f` of the child's `values` (rows `width` long) for
     /// `n` lanes.
     #[inline(always)]

@@ -264,7 +264,8 @@ impl Passes {
             // the panic on). On one thread, levels 1 and 2 are swept whole
             // before the pass comes to them (eight vertices a step), and
             // each unsegmented half of the coarser levels is scanned as the
-            // pass comes to it. Scratch: the sweep's planes, on whichever
+            // pass comes to it, where its children's bound leaves the
+            // vertex's error open (`deviation_bound.rs`). Scratch: the sweep's planes, on whichever
             // thread, the levels' deviations, and the pass's kept rows.
             let mut scratch_bytes = small_half_sweep::scratch_bytes(grid) + coarse_rows::scratch_bytes(grid);
             let mut second = None;

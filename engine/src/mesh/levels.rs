@@ -8,7 +8,9 @@
 //! [`coarse_deviations`] for each level above), while this pass builds the
 //! finest level and the levels below. On one thread levels 1 and 2 are
 //! swept before the pass reaches them, and each coarser unsegmented half is
-//! scanned as the pass comes to it.
+//! scanned as the pass comes to it, unless the bound from its children's
+//! deviations (`deviation_bound.rs`) shows the scan cannot change the
+//! vertex's error: the results are the same bits either way.
 //!
 //! Every level runs per kind of vertex (edge midpoints along rows, along
 //! columns, centres) and row: the vertices with both halves in the straight
@@ -19,8 +21,9 @@
 //! against it. The finest level's loops are in `finest.rs`.
 
 use super::backproject::BackProject;
-use super::coarse_rows::{Child, Grids, Kept, Plane, Row, RowTask, Scratch};
+use super::coarse_rows::{Child, Grids, Kept, Plane, Results, Row, RowTask, Scratch};
 use super::deviation::{half_rows, max_deviation};
+use super::deviation_bound;
 use super::deviation_f32::max_deviation_f32;
 use super::error_metric::{norm_bound, point_line_2d_sq, point_line_3d_sq};
 use super::flags::{Flags, Half};
@@ -335,9 +338,11 @@ impl Levels<'_> {
             // Vertices per row (centres, and edge midpoints along rows; one
             // more along columns) and rows per kind (one more along rows).
             let (nx, ny) = ((gw as usize - 1) / step, (gh as usize - 1) / step);
-            row_edges.reset(ny + 1, nx);
-            column_edges.reset(ny, nx + 1);
-            centres.reset(ny, nx);
+            // The halves' deviations are kept from level 2 on: the first
+            // that may be scanned as the pass comes is level 3.
+            row_edges.reset(ny + 1, nx, g >= 2);
+            column_edges.reset(ny, nx + 1, g >= 2);
+            centres.reset(ny, nx, g >= 2);
             // Each kind's vertices with both halves go through the sweep:
             // the edge midpoints along rows off the first and last rows,
             // those along columns off the first and last columns, every
@@ -484,6 +489,7 @@ impl Levels<'_> {
             *rest = later;
             now
         });
+        let kids = children;
         if !lanes.is_empty() {
             let grids = Grids {
                 gw: gw as usize,
@@ -521,7 +527,18 @@ impl Levels<'_> {
                     flag_row[xi] = bits;
                     err_row[xi] = err;
                     rad_row[xi] = rad;
-                    out.set(r, i, z[y as usize * gw as usize + xi], err, rad, bits);
+                    let kept = dev2.unwrap_or_default();
+                    out.set(
+                        r,
+                        i,
+                        Results {
+                            z: z[y as usize * gw as usize + xi],
+                            err2: err,
+                            radius: rad,
+                            flags: bits,
+                            dev2: kept,
+                        },
+                    );
                     continue;
                 }
             }
@@ -554,28 +571,61 @@ impl Levels<'_> {
                 let swept = &scratch.swept;
                 let bits = swept.flags[k];
                 let mut err = swept.err2[k];
+                // The footprints first, so a deviation is scanned only if
+                // it could still raise the error (`deviation_bound.rs`).
                 for (half, apex) in apex.into_iter().enumerate() {
-                    let (flagged, Some(c)) = (bits.half(half), apex) else {
-                        continue;
-                    };
-                    if flagged.unflagged() && dev2.is_none() {
-                        err = err.max(half_deviation2(z, gw as usize, s, h, c));
-                    } else if flagged.partial() {
+                    if let (true, Some(c)) = (bits.half(half).partial(), apex) {
                         let len = bisects.hypotenuse(h);
                         err = err.max(round_up(footprint2(camera, len, corners(c), zmax)));
                     }
                 }
+                let mut kept = dev2.unwrap_or_default();
+                for (half, apex) in apex.into_iter().enumerate() {
+                    let (true, None, Some(c)) = (bits.half(half).unflagged(), dev2, apex) else {
+                        continue;
+                    };
+                    let [c0, c1] = row.half_children(half, i);
+                    let bound = kids[c0]
+                        .dev2(k, c0)
+                        .zip(kids[c1].dev2(k, c1))
+                        .map(|(d0, d1)| deviation_bound::bound2([d0, d1], z[at(a)], z[at(b)], z[at(v)], zmax));
+                    kept[half] = match bound {
+                        Some(bound) if bound <= err => {
+                            #[cfg(test)]
+                            tests::SKIPPED.with(|n| n.set(n.get() + 1));
+                            bound
+                        }
+                        _ => {
+                            #[cfg(test)]
+                            if bound.is_some() {
+                                tests::SCANNED.with(|n| n.set(n.get() + 1));
+                            }
+                            half_deviation2(z, gw as usize, s, h, c)
+                        }
+                    };
+                    err = err.max(kept[half]);
+                }
                 flag_row[xi] = bits;
                 err_row[xi] = err;
                 rad_row[xi] = swept.radius[k];
-                out.set(r, i, z[at(v)], err, swept.radius[k], bits);
+                out.set(
+                    r,
+                    i,
+                    Results {
+                        z: z[at(v)],
+                        err2: err,
+                        radius: swept.radius[k],
+                        flags: bits,
+                        dev2: kept,
+                    },
+                );
                 continue;
             }
             let (za, zb, zv) = (z[at(a)], z[at(b)], z[at(v)]);
             let pv = point(bp.col(xi), row_factor, zv);
             let mut bits = flag_row[xi].cell_only();
             let mut own = 0f64;
-            let mut own_dev2 = 0f32;
+            let mut kept = [0f32; 2];
             let mut err = 0f32;
             let mut radius = 0f64;
             let mut eq12_done = false;
@@ -604,10 +654,10 @@ impl Levels<'_> {
                 let flagged = flagged.unwrap_or(Half::ABSENT);
                 bits.set_half(half, flagged);
                 if flagged.unflagged() {
-                    own_dev2 = own_dev2.max(match dev2 {
+                    kept[half] = match dev2 {
                         Some(dv) => dv[half],
                         None => half_deviation2(z, gw as usize, s, h, c),
-                    });
+                    };
                     if !eq12_done {
                         eq12_done = true;
                         let (pa, pb) = (
@@ -622,9 +672,19 @@ impl Levels<'_> {
                 }
             }
             flag_row[xi] = bits;
-            err_row[xi] = err.max(round_up(own)).max(own_dev2);
+            err_row[xi] = err.max(round_up(own)).max(kept[0]).max(kept[1]);
             rad_row[xi] = round_up(radius);
-            out.set(r, i, zv, err_row[xi], rad_row[xi], bits);
+            out.set(
+                r,
+                i,
+                Results {
+                    z: zv,
+                    err2: err_row[xi],
+                    radius: rad_row[xi],
+                    flags: bits,
+                    dev2: kept,
+                },
+            );
         }
     }
 }

@@ -8,6 +8,14 @@ use super::super::grid::cell_half;
 use super::*;
 use proptest::prelude::*;
 
+thread_local! {
+    /// Deviation scans the pass skipped on this thread
+    /// (`deviation_bound.rs`).
+    pub(super) static SKIPPED: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+    /// Those it scanned though it had the bound.
+    pub(super) static SCANNED: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+}
+
 /// Calls `f` on every split vertex above level 0 in the order the pass
 /// needs them: level by level from fine to coarse, and within a level the
 /// edge midpoints (which depend on the centres of the level below) before
@@ -251,6 +259,41 @@ fn coarse_against_exact(n: u32, z: &[f32], cells: &[u8]) -> [State; 2] {
     ]
 }
 
+/// Depths on a 65 x 65 grid: a paraboloid of curvature `curve` around
+/// `centre` plus `amplitude` times `noise`.
+fn noisy_paraboloid(curve: f32, noise: &[f32], amplitude: f32, (cx, cy): (f32, f32)) -> Vec<f32> {
+    (0..65 * 65)
+        .map(|i| {
+            let (x, y) = ((i % 65) as f32 - cx, (i / 65) as f32 - cy);
+            2.0 + curve * (x * x + y * y) / 4096.0 + amplitude * noise[i]
+        })
+        .collect()
+}
+
+/// Where noise dominates the errors, the pass skips a fifth or more of the
+/// scans of the levels it scans as it comes (3 and up; 68 of 226 here),
+/// and the results stay the general kernel's.
+#[test]
+fn the_pass_skips_the_scans_the_bound_shows_needless() {
+    // A fixed pseudo-random noise (a linear congruential sequence).
+    let mut state = 12345u32;
+    let noise: Vec<f32> = (0..65 * 65)
+        .map(|_| {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (state >> 8) as f32 / (1u32 << 24) as f32 * 2.0 - 1.0
+        })
+        .collect();
+    let depths = noisy_paraboloid(0.5, &noise, 0.2, (20.0, 40.0));
+    let count = || [SKIPPED.with(std::cell::Cell::get), SCANNED.with(std::cell::Cell::get)];
+    let before = count();
+    coarse_rows_match_the_general_kernel((65, 65), &depths, &[0; 65 * 65]).unwrap();
+    let [skipped, scanned] = [0, 1].map(|k| count()[k] - before[k]);
+    assert!(
+        5 * skipped >= skipped + scanned,
+        "{skipped} scans skipped, {scanned} scanned"
+    );
+}
+
 /// The pass's row loops, scanning and given the helper's deviations, give
 /// the general kernel's flags, radii and errors on a `w x h` grid.
 fn coarse_rows_match_the_general_kernel(
@@ -294,6 +337,21 @@ proptest! {
         let grid = Grid::for_image(33, 17);
         prop_assert_eq!((grid.len(), grid.m, grid.n), (depths.len(), 2, 1));
         coarse_rows_match_the_general_kernel((33, 17), &depths, &cells)?;
+    }
+
+    /// On smooth, fully valid surfaces with noise (a paraboloid's
+    /// deviations grow fourfold a level, the noise's do not), where the
+    /// pass skips some scans by the children's bound and scans others, it
+    /// still gives the general kernel's results, which scan every half.
+    #[test]
+    fn skipped_scans_change_no_error(
+        curve in 0.0f32..2.0,
+        noise in proptest::collection::vec(-1.0f32..1.0, 65 * 65),
+        amplitude in prop_oneof![Just(0.0f32), 0.0f32..0.05, 0.0f32..1.0],
+        centre in (0.0f32..64.0, 0.0f32..64.0),
+    ) {
+        let depths = noisy_paraboloid(curve, &noise, amplitude, centre);
+        coarse_rows_match_the_general_kernel((65, 65), &depths, &[0; 65 * 65])?;
     }
 
     /// The pass's errors are never below those from the exact f64

@@ -31,6 +31,7 @@ pub mod budget;
 mod coarse_rows;
 pub mod derived_normals;
 mod deviation;
+mod deviation_bound;
 mod deviation_f32;
 pub mod error_metric;
 pub mod extract;
