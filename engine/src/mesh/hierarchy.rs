@@ -180,7 +180,10 @@ impl Passes {
     /// needs them first (connectedness compares normals across triangle legs).
     fn run(grid: &Grid, camera: &Camera, bp: &BackProject, z: &[f32], seg: &Segmentation, threads: Threads) -> Self {
         let grid = *grid;
-        let zmax = z.iter().copied().fold(0f32, f32::max);
+        // The depths are finite and non-negative (`grid_depths`), where the
+        // order of the bit patterns is that of the values: an integer
+        // maximum, which the compiler widens (`f32::max` stays one chain).
+        let zmax = f32::from_bits(z.iter().map(|v| v.to_bits()).max().unwrap_or(0));
         let mut err2 = vec![0f32; grid.len()];
         let mut radius = vec![0f32; grid.len()];
         let helper = threads == Threads::Parallel;
