@@ -55,7 +55,7 @@ use super::grid::{Grid, Pt};
 use super::levels::{coarse_deviations, run_coarse, run_finest, small_deviations, split_count, Levels};
 use super::normals::{normals_and_quality, normals_and_quality_in};
 use super::outline::{OutlineCache, DEPTHS};
-use super::segmentation::{leaf_flags, Method, Samples, Segmentation};
+use super::segmentation::{leaf_flag_rows, leaf_flags, rows_split, Method, Samples, Segmentation};
 use super::{coarse_rows, small_half_sweep};
 use crate::camera::Camera;
 use crate::error::{Error, Result};
@@ -116,8 +116,11 @@ pub struct Stages {
 pub enum Threads {
     /// Everything on the calling thread.
     Single,
-    /// A helper thread computes the exact deviations of the levels above
-    /// the finest while the calling thread builds the finest level, then
+    /// A helper thread flags the cells of the lower half of the rows
+    /// (where the segmentation reads the depths alone) while the calling
+    /// thread flags the upper half, then computes the exact deviations of
+    /// the levels above the finest while the calling thread builds the
+    /// finest level, then
     /// the normals and quality (unless the segmentation needs them first:
     /// connectedness) while the calling thread builds the rest.
     Parallel,
@@ -188,8 +191,18 @@ impl Passes {
         let mut radius = vec![0f32; grid.len()];
         let helper = threads == Threads::Parallel;
         let normals_first = !helper || matches!(seg.method, Method::Connectedness { .. });
+        // With a helper and a segmentation that reads the depths alone, the
+        // helper flags the cells of the lower rows first (`split..`) and
+        // this thread the upper ones.
+        let gw = grid.gw() as usize;
+        let split = if helper && rows_split(seg) {
+            grid.gh() - grid.gh() * HELPER_SHARE.0 / HELPER_SHARE.1
+        } else {
+            grid.gh()
+        };
         std::thread::scope(|scope| {
             let (send, receive) = mpsc::channel();
+            let (send_band, receive_band) = mpsc::channel();
             let job = helper.then(|| {
                 // The helper's arrays are allocated here: this thread's
                 // allocator hands out memory it has used before, where a new
@@ -198,7 +211,19 @@ impl Passes {
                     (1..grid.k).map(|g| Vec::with_capacity(split_count(grid, g))).collect();
                 let buffers =
                     (!normals_first).then(|| (Vec::with_capacity(grid.len()), Vec::with_capacity(grid.len())));
+                let mut band = vec![0u8; (grid.gh() - split) as usize * gw];
                 scope.spawn(move || {
+                    if split < grid.gh() {
+                        let samples = Samples {
+                            grid: &grid,
+                            camera,
+                            bp,
+                            z,
+                            normals: &[],
+                        };
+                        leaf_flag_rows(&samples, seg, split..grid.gh(), &mut band);
+                        let _ = send_band.send(band);
+                    }
                     // Level by level, so the pass can start on one while
                     // the next is computed. The receiver outlives this
                     // thread: sending cannot fail.
@@ -225,16 +250,27 @@ impl Passes {
                 stages.normals_ms = ms(t);
             }
             let t = Instant::now();
-            let cells = leaf_flags(
-                &Samples {
-                    grid: &grid,
-                    camera,
-                    bp,
-                    z,
-                    normals: early.as_ref().map_or(&[][..], |(n, _)| n),
-                },
-                seg,
-            );
+            let samples = Samples {
+                grid: &grid,
+                camera,
+                bp,
+                z,
+                normals: early.as_ref().map_or(&[][..], |(n, _)| n),
+            };
+            let cells = if split < grid.gh() {
+                let mut cells = vec![0u8; grid.len()];
+                let (upper, lower) = cells.split_at_mut(split as usize * gw);
+                leaf_flag_rows(&samples, seg, 0..split, upper);
+                // If the helper panicked, the rows are flagged here (and the
+                // join below passes the panic on).
+                match receive_band.recv() {
+                    Ok(band) => lower.copy_from_slice(&band),
+                    Err(_) => leaf_flag_rows(&samples, seg, split..grid.gh(), lower),
+                }
+                cells
+            } else {
+                leaf_flags(&samples, seg)
+            };
             let cells_per_row = grid.width as usize - 1;
             let segmented: usize = (0..grid.height - 1)
                 .map(|y| {
@@ -268,9 +304,13 @@ impl Passes {
             // before the pass comes to them (eight vertices a step), and
             // each unsegmented half of the coarser levels is scanned as the
             // pass comes to it, where its children's bound leaves the
-            // vertex's error open (`deviation_bound.rs`). Scratch: the sweep's planes, on whichever
-            // thread, the levels' deviations, and the pass's kept rows.
-            let mut scratch_bytes = small_half_sweep::scratch_bytes(grid) + coarse_rows::scratch_bytes(grid);
+            // vertex's error open (`deviation_bound.rs`). Scratch: the
+            // sweep's planes, on whichever thread, the levels' deviations,
+            // the pass's kept rows, and the helper's band of leaf flags
+            // (counted as if held as long).
+            let mut scratch_bytes = small_half_sweep::scratch_bytes(grid)
+                + coarse_rows::scratch_bytes(grid)
+                + (grid.gh() - split) as usize * gw;
             let mut second = None;
             let mut given = |g: u32| {
                 let level = match (&job, g) {
@@ -311,6 +351,11 @@ impl Passes {
         })
     }
 }
+
+/// The share of the leaf flags' rows the helper thread takes (it then
+/// computes the deviations and the normals, while this thread builds the
+/// finest level and the rest): measured with `profile_build`.
+const HELPER_SHARE: (u32, u32) = (1, 2);
 
 /// Figures of a built hierarchy.
 #[derive(Clone, Copy, Debug, PartialEq)]

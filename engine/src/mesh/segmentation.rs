@@ -114,16 +114,31 @@ pub(crate) struct Samples<'a> {
     pub normals: &'a [[u8; 2]],
 }
 
+/// Flags the two finest triangles of every unit cell: bit `h` of the
+/// returned byte per cell (indexed like its min corner) is half `h`.
+pub(crate) fn leaf_flags(s: &Samples<'_>, seg: &Segmentation) -> Vec<u8> {
+    let mut out = vec![0u8; s.grid.len()];
+    leaf_flag_rows(s, seg, 0..s.grid.gh(), &mut out);
+    out
+}
+
+/// Whether [`leaf_flag_rows`] of a band of rows reads only the depths (and
+/// no marks computed over the whole image, nor normals): whether the rows
+/// can be split between threads.
+pub(crate) fn rows_split(seg: &Segmentation) -> bool {
+    matches!(seg.method, Method::None | Method::Orthogonality { .. })
+}
+
 crate::simd::dispatch! {
-    /// Flags the two finest triangles of every unit cell: bit `h` of the
-    /// returned byte per cell (indexed like its min corner) is half `h`.
-    pub(crate) fn leaf_flags(s: &Samples<'_>, seg: &Segmentation) -> Vec<u8> = leaf_flags_body;
+    /// [`leaf_flags`] of the cells of the grid rows `rows` (the last grid
+    /// row has none: 0), into `out`, which holds those rows.
+    pub(crate) fn leaf_flag_rows(s: &Samples<'_>, seg: &Segmentation, rows: std::ops::Range<u32>, out: &mut [u8]) -> () = leaf_flag_rows_body;
 }
 
 #[inline(always)]
-fn leaf_flags_body(s: &Samples<'_>, seg: &Segmentation) -> Vec<u8> {
+fn leaf_flag_rows_body(s: &Samples<'_>, seg: &Segmentation, rows: std::ops::Range<u32>, out: &mut [u8]) {
     let grid = s.grid;
-    let (gw, gh) = (grid.gw(), grid.gh());
+    let gw = grid.gw();
     let disparity_marks = match seg.method {
         Method::Disparity { sigma } => Some(disparity_discontinuities(s, sigma)),
         _ => None,
@@ -132,13 +147,14 @@ fn leaf_flags_body(s: &Samples<'_>, seg: &Segmentation) -> Vec<u8> {
         Method::Orthogonality { omega_deg } => omega_deg.to_radians().sin().powi(2),
         _ => 0.0,
     };
-    let mut out = vec![0u8; grid.len()];
     let (w, lambda) = (gw as usize, seg.lambda);
+    let first = grid.index((0, rows.start));
+    out[..rows.len() * w].fill(0);
     // Per row, first the cells whose four corners are valid and span too
     // little depth for Eq. 11 (both triangles unsegmented: most cells), in
     // a branch-free loop over whole rows that vectorises; then the rest.
     let mut quiet = vec![false; w - 1];
-    for y in 0..gh - 1 {
+    for y in rows.start..rows.end.min(grid.gh() - 1) {
         let i0 = grid.index((0, y));
         let (top, bottom) = (&s.z[i0..i0 + w], &s.z[i0 + w..i0 + 2 * w]);
         for ((q, t), b) in quiet.iter_mut().zip(top.windows(2)).zip(bottom.windows(2)) {
@@ -184,10 +200,9 @@ fn leaf_flags_body(s: &Samples<'_>, seg: &Segmentation) -> Vec<u8> {
                     bits |= 1 << half;
                 }
             }
-            out[grid.index((x, y))] = bits;
+            out[grid.index((x, y)) - first] = bits;
         }
     }
-    out
 }
 
 /// Eq. 11: the triangle spans enough depth to be a discontinuity at all.
