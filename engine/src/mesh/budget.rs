@@ -43,6 +43,8 @@ use crate::error::{Error, Result};
 const SHIFT: u32 = 19;
 /// Buckets of non-negative finite f32 values (and one past them).
 const BUCKETS: usize = (0x7f80_0000u32 >> SHIFT) as usize + 1;
+/// Vertices from which the histogram is counted on two threads.
+const MANY: usize = 1 << 20;
 /// Frontier vertices aimed at.
 const FRONTIER: usize = 1024;
 
@@ -79,6 +81,21 @@ fn boundary(k: usize) -> f64 {
     f64::from(f32::from_bits((k as u32) << SHIFT))
 }
 
+/// The bucket counts of the squared errors `err2[range]` but the
+/// `forced`, and how many are forced.
+fn histogram(err2: &[f32], range: std::ops::Range<usize>, forced: &impl Fn(usize) -> bool) -> (Vec<u32>, u64) {
+    let mut all = vec![0u32; BUCKETS];
+    let mut forced_count = 0u64;
+    for (i, &e) in err2[range.clone()].iter().enumerate() {
+        if forced(range.start + i) {
+            forced_count += 1;
+        } else {
+            all[bucket(e)] += 1;
+        }
+    }
+    (all, forced_count)
+}
+
 fn suffix(mut counts: Vec<u32>) -> Vec<u32> {
     counts.push(0);
     for k in (0..counts.len() - 1).rev() {
@@ -90,25 +107,39 @@ fn suffix(mut counts: Vec<u32>) -> Vec<u32> {
 impl ErrorStats {
     /// Gathers the statistics of a built hierarchy from its saturated
     /// squared errors: one pass over them.
-    pub(crate) fn gather(grid: Grid, err2: &[f32]) -> Self {
-        Self::gather_with(grid, err2, |i| err2[i] == FORCED)
+    /// With `two_threads`, on grids of a million vertices or more, the
+    /// histogram's second half is counted on a second thread (at 1920 x
+    /// 1080, 2.3 ms instead of 3.2 for the statistics; at 513 x 513 the
+    /// thread cost what it saved).
+    pub(crate) fn gather(grid: Grid, err2: &[f32], two_threads: bool) -> Self {
+        Self::gather_with(grid, err2, |i| err2[i] == FORCED, two_threads)
     }
 
     /// [`Self::gather`] with the vertices every mesh selects named by
     /// `forced` (the border's, and `outline.rs`'s), counted in the base.
-    pub(crate) fn gather_with(grid: Grid, err2: &[f32], forced: impl Fn(usize) -> bool) -> Self {
+    pub(crate) fn gather_with(
+        grid: Grid,
+        err2: &[f32],
+        forced: impl Fn(usize) -> bool + Sync,
+        two_threads: bool,
+    ) -> Self {
         let s = grid.side();
-        let mut all = vec![0u32; BUCKETS];
         // Vertices along a padded border are always selected (`border.rs`):
         // they belong to the base, not to any threshold's count.
-        let mut base_vertices = 0u64;
-        for (i, &e) in err2.iter().enumerate() {
-            if forced(i) {
-                base_vertices += 1;
-            } else {
-                all[bucket(e)] += 1;
-            }
-        }
+        let (mut all, mut base_vertices) = if two_threads && err2.len() >= MANY {
+            let half = err2.len() / 2;
+            std::thread::scope(|scope| {
+                let second = scope.spawn(|| histogram(err2, half..err2.len(), &forced));
+                let (mut all, forced_first) = histogram(err2, 0..half, &forced);
+                let (counts, forced_second) = second.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+                for (a, c) in all.iter_mut().zip(counts) {
+                    *a += c;
+                }
+                (all, forced_first + forced_second)
+            })
+        } else {
+            histogram(err2, 0..err2.len(), &forced)
+        };
         // Root corners are no split vertices (and never forced).
         for y in (0..grid.gh()).step_by(s as usize) {
             for x in (0..grid.gw()).step_by(s as usize) {
@@ -278,6 +309,27 @@ impl ErrorStats {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn two_threads_gather_the_statistics_of_one() {
+        let grid = Grid::for_image(1025, 1025);
+        assert!(grid.len() >= MANY, "the grid takes the two-thread path");
+        let mut state = 7u32;
+        let err2: Vec<f32> = (0..grid.len())
+            .map(|i| {
+                state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+                // Some forced vertices, in both halves.
+                if i % 997 == 0 {
+                    FORCED
+                } else {
+                    (state >> 8) as f32 / (1u32 << 24) as f32
+                }
+            })
+            .collect();
+        let [one, two] = [false, true].map(|two| format!("{:?}", ErrorStats::gather(grid, &err2, two)));
+        assert_eq!(one, two);
+        assert!(one.contains("base: "), "{}", &one[..100]);
+    }
 
     #[test]
     fn buckets_order_like_the_values_and_boundaries_start_them() {

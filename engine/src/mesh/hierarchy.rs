@@ -431,7 +431,7 @@ impl Hierarchy {
         mesh.build_peak_bytes = mesh.heap_bytes() + p.scratch_bytes;
         let t = Instant::now();
         super::border::force_border(&mesh.grid, &mut mesh.err2);
-        mesh.stats = ErrorStats::gather(mesh.grid, &mesh.err2);
+        mesh.stats = ErrorStats::gather(mesh.grid, &mesh.err2, threads == Threads::Parallel);
         mesh.stages.stats_ms = t.elapsed().as_secs_f64() * 1e3;
         mesh.build_ms = start.elapsed().as_secs_f64() * 1e3;
         tracing::debug!(ms = mesh.build_ms, segmented = mesh.segmented, "built");

@@ -127,7 +127,7 @@ impl OutlineCache {
                 .near_side
                 .then(|| &self.surface.get_or_init(|| surface_halves(grid, z, flags))[..]);
             let forced = forced_set(grid, flags, surface, DEPTHS[k]);
-            let stats = ErrorStats::gather_with(grid, err2, |i| err2[i] == FORCED || bit(&forced, i));
+            let stats = ErrorStats::gather_with(grid, err2, |i| err2[i] == FORCED || bit(&forced, i), false);
             Outline {
                 finest: DEPTHS[k],
                 near_side: rung.near_side,
