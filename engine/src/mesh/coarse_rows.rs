@@ -260,6 +260,17 @@ pub(super) struct Child<'a> {
     pub stride: usize,
 }
 
+/// The half of the `c`-th child ([`Row::offset`]) that holds the vertex:
+/// children 0 and 2 lie before it (left, or above), in their half 1.
+#[inline(always)]
+fn holding_half(c: usize) -> usize {
+    if c % 2 == 0 {
+        1
+    } else {
+        0
+    }
+}
+
 impl Child<'_> {
     /// The kept squared deviation (or bound) of the half of this child of
     /// the row's `k`-th swept lane that holds the vertex, the child being
@@ -268,8 +279,7 @@ impl Child<'_> {
     pub(super) fn dev2(self, k: usize, c: usize) -> Option<f32> {
         let Kept::Plane(p) = self.kept else { return None };
         let d = p.dev2.get(self.row * p.lanes + self.first + self.stride * k)?;
-        // Children 0 and 2 lie before the vertex.
-        Some(d[if c % 2 == 0 { 1 } else { 0 }])
+        Some(d[holding_half(c)])
     }
 
     /// `out` holds `f` of the child's `values` (rows `width` long) for
@@ -339,8 +349,7 @@ impl Samples {
             child.copy(&mut self.z[CHILD + c], z, width, n, |z| z);
             child.copy(&mut self.radius[c], radius, width, n, |r| r);
             child.copy(&mut self.err[c], err2, width, n, |e| e);
-            // Children 0 and 2 lie before the vertex (`Row::offset`).
-            let half = if c % 2 == 0 { 1 } else { 0 };
+            let half = holding_half(c);
             child.copy(&mut self.half[c], flags, width, n, |f| f.half_bits(half));
         }
     }

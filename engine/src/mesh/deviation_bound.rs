@@ -62,7 +62,7 @@ mod tests {
     }
 
     #[test]
-    fn non_finite_inputs_saturate() {
+    fn squares_past_f32_saturate() {
         assert_eq!(bound2([f32::MAX, 0.0], 1.0, 1.0, 1.0, 1.0), f32::MAX);
         assert_eq!(bound2([0.0, 0.0], 1.0, f32::MAX, 1.0, 1.0), f32::MAX);
     }

@@ -192,11 +192,12 @@ impl Passes {
         let helper = threads == Threads::Parallel;
         let normals_first = !helper || matches!(seg.method, Method::Connectedness { .. });
         // With a helper and a segmentation that reads the depths alone, the
-        // helper flags the cells of the lower rows first (`split..`) and
-        // this thread the upper ones.
+        // helper flags the cells of the lower half of the rows first
+        // (`split..`; it then computes the deviations and the normals) and
+        // this thread the upper half.
         let gw = grid.gw() as usize;
         let split = if helper && rows_split(seg) {
-            grid.gh() - grid.gh() * HELPER_SHARE.0 / HELPER_SHARE.1
+            grid.gh() / 2
         } else {
             grid.gh()
         };
@@ -351,11 +352,6 @@ impl Passes {
         })
     }
 }
-
-/// The share of the leaf flags' rows the helper thread takes (it then
-/// computes the deviations and the normals, while this thread builds the
-/// finest level and the rest): measured with `profile_build`.
-const HELPER_SHARE: (u32, u32) = (1, 2);
 
 /// Figures of a built hierarchy.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -489,7 +489,6 @@ impl Levels<'_> {
             *rest = later;
             now
         });
-        let kids = children;
         if !lanes.is_empty() {
             let grids = Grids {
                 gw: gw as usize,
@@ -585,9 +584,9 @@ impl Levels<'_> {
                         continue;
                     };
                     let [c0, c1] = row.half_children(half, i);
-                    let bound = kids[c0]
+                    let bound = children[c0]
                         .dev2(k, c0)
-                        .zip(kids[c1].dev2(k, c1))
+                        .zip(children[c1].dev2(k, c1))
                         .map(|(d0, d1)| deviation_bound::bound2([d0, d1], z[at(a)], z[at(b)], z[at(v)], zmax));
                     kept[half] = match bound {
                         Some(bound) if bound <= err => {
