@@ -43,6 +43,7 @@
 
 mod budgets;
 
+use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::{mpsc, OnceLock};
 use std::time::Instant;
 
@@ -53,7 +54,7 @@ use super::budget::ErrorStats;
 use super::flags::Flags;
 use super::grid::{Grid, Pt};
 use super::levels::{coarse_deviations, run_coarse, run_finest, small_deviations, split_count, Levels};
-use super::normals::{normals_and_quality, normals_and_quality_in};
+use super::normals::{normals_and_quality, NormalBands};
 use super::outline::{OutlineCache, DEPTHS};
 use super::segmentation::{leaf_flag_rows, leaf_flags, rows_split, Method, Samples, Segmentation};
 use super::{coarse_rows, small_half_sweep};
@@ -177,10 +178,19 @@ impl Passes {
     /// from the depths `z` on `grid`.
     ///
     /// The exact deviations of the levels above the finest and the normals
-    /// read only the depths: with [`Threads::Parallel`] a helper thread
-    /// computes the first while this thread builds the finest level, then
-    /// the second while this thread builds the rest, unless the segmentation
-    /// needs them first (connectedness compares normals across triangle legs).
+    /// read only the depths. With [`Threads::Parallel`] a helper thread
+    /// computes the deviations while this thread builds the finest level
+    /// and the levels above it, then both compute the normals, a band of
+    /// rows at a time, whichever comes first ([`NormalBands`]); with a
+    /// segmentation that needs the normals first (connectedness compares
+    /// them across triangle legs) this thread computes them at the start.
+    ///
+    /// The helper computes a level's deviations of levels 3 and up only
+    /// while the pass is at least two levels below it: otherwise the pass
+    /// would wait for it, and the pass scans each half as it comes to it
+    /// (sparing the scans its children's bound shows needless) while the
+    /// helper goes on to the normals. Either way a level's deviations are
+    /// the same bits, so the result does not depend on the schedule.
     fn run(grid: &Grid, camera: &Camera, bp: &BackProject, z: &[f32], seg: &Segmentation, threads: Threads) -> Self {
         let grid = *grid;
         // The depths are finite and non-negative (`grid_depths`), where the
@@ -201,17 +211,33 @@ impl Passes {
         } else {
             grid.gh()
         };
-        std::thread::scope(|scope| {
+        // The normals computed after the pass, shared out in bands.
+        let (mut late_normal, mut late_rho) = if normals_first {
+            (Vec::new(), Vec::new())
+        } else {
+            (vec![[0u8; 2]; grid.len()], vec![0u8; grid.len()])
+        };
+        let bands = (!normals_first).then(|| NormalBands::new(&grid, &mut late_normal, &mut late_rho));
+        // The level the pass is at, and the first coarse level (3 and up)
+        // nobody has claimed: the helper claims levels in order while the
+        // pass is two or more below, then this thread claims the rest.
+        let pass_at = AtomicU32::new(0);
+        let unclaimed = AtomicU32::new(3);
+        let claim = |g: u32| {
+            unclaimed
+                .compare_exchange(g, g + 1, Ordering::AcqRel, Ordering::Acquire)
+                .is_ok()
+        };
+        let scoped = std::thread::scope(|scope| {
             let (send, receive) = mpsc::channel();
             let (send_band, receive_band) = mpsc::channel();
+            let (bands, pass_at, claim) = (bands.as_ref(), &pass_at, &claim);
             let job = helper.then(|| {
                 // The helper's arrays are allocated here: this thread's
                 // allocator hands out memory it has used before, where a new
                 // thread's would take fresh pages and fault each one in.
                 let levels: Vec<Vec<[f32; 2]>> =
                     (1..grid.k).map(|g| Vec::with_capacity(split_count(grid, g))).collect();
-                let buffers =
-                    (!normals_first).then(|| (Vec::with_capacity(grid.len()), Vec::with_capacity(grid.len())));
                 let mut band = vec![0u8; (grid.gh() - split) as usize * gw];
                 scope.spawn(move || {
                     if split < grid.gh() {
@@ -234,12 +260,15 @@ impl Passes {
                         let _ = send.send(level);
                     }
                     for (g, out) in (3..grid.k).zip(levels) {
+                        if pass_at.load(Ordering::Acquire) + 2 > g || !claim(g) {
+                            break;
+                        }
                         let _ = send.send(coarse_deviations(grid, z, g, out));
                     }
-                    buffers.map(|buffers| {
+                    bands.map(|bands| {
                         let t = Instant::now();
-                        let done = normals_and_quality_in(&grid, camera, bp, z, buffers);
-                        (done, t.elapsed().as_secs_f64() * 1e3)
+                        bands.work(&grid, camera, bp, z);
+                        t.elapsed().as_secs_f64() * 1e3
                     })
                 })
             });
@@ -314,7 +343,10 @@ impl Passes {
                 + (grid.gh() - split) as usize * gw;
             let mut second = None;
             let mut given = |g: u32| {
+                pass_at.store(g, Ordering::Release);
                 let level = match (&job, g) {
+                    // Not claimed by the helper: scanned as the pass comes.
+                    (Some(_), 3..) if claim(g) => None,
                     (Some(_), _) => receive.recv().ok(),
                     (None, 1) => {
                         let out = [1, 2].map(|g| Vec::with_capacity(split_count(grid, g)));
@@ -330,26 +362,34 @@ impl Passes {
             };
             run_coarse(&mut levels, &mut flags, zmax, &mut given);
             stages.coarse_ms = ms(t);
-            let late = job.and_then(join).map(|(done, ms)| {
-                stages.normals_ms = ms;
-                done
-            });
-            let (normal, rho) = match (early, late) {
-                (Some(done), _) | (None, Some(done)) => done,
-                // Not reached: exactly one of the two computed them.
-                (None, None) => normals_and_quality(&grid, camera, bp, z),
-            };
-            Self {
-                normal,
-                rho,
-                flags,
-                err2,
-                radius,
-                segmented,
-                scratch_bytes,
-                stages,
+            // The normals' bands the helper has not taken: the stage's
+            // time is both threads' time in them.
+            if let Some(bands) = bands {
+                let t = Instant::now();
+                bands.work(&grid, camera, bp, z);
+                stages.normals_ms = ms(t);
             }
-        })
+            if let Some(helper_ms) = job.and_then(join) {
+                stages.normals_ms += helper_ms;
+            }
+            (early, flags, segmented, scratch_bytes, stages)
+        });
+        let (early, flags, segmented, scratch_bytes, stages) = scoped;
+        // Every band was computed: this thread took bands until none was
+        // left, and the helper finished the one it held before the scope
+        // ended (or its panic went on at the join).
+        drop(bands);
+        let (normal, rho) = early.unwrap_or((late_normal, late_rho));
+        Self {
+            normal,
+            rho,
+            flags,
+            err2,
+            radius,
+            segmented,
+            scratch_bytes,
+            stages,
+        }
     }
 }
 

@@ -140,9 +140,11 @@ fn stages(n: u32, z: &[f32], cells: &[u8]) -> [[State; 2]; 2] {
 }
 
 /// The levels above the finest, from the same finest level, by the row
-/// loops of [`Levels::run_coarse`] (scanning, and given the helper's
-/// deviations) and by the general kernel.
-fn coarse_three_ways((w, h): (u32, u32), z: &[f32], cells: &[u8]) -> [State; 3] {
+/// loops of [`Levels::run_coarse`] (scanning; given the helper's
+/// deviations; given them below level `handover` and scanning from it, as
+/// a two-thread build does when the pass overtakes the helper) and by the
+/// general kernel.
+fn coarse_ways((w, h): (u32, u32), z: &[f32], cells: &[u8], handover: u32) -> [State; 4] {
     let fx = Fixture::new(w, h, z);
     let (grid, zmax) = (fx.grid, fx.zmax);
     let finest = fx.run(&fx.start(cells), &|l, flags| run_finest(l, flags, zmax));
@@ -157,6 +159,11 @@ fn coarse_three_ways((w, h): (u32, u32), z: &[f32], cells: &[u8]) -> [State; 3] 
         fx.run(&finest, &|l, flags| run_coarse(l, flags, zmax, &mut |_| None)),
         fx.run(&finest, &|l, flags| {
             run_coarse(l, flags, zmax, &mut |g| Some(levels[g as usize - 1].clone()))
+        }),
+        fx.run(&finest, &|l, flags| {
+            run_coarse(l, flags, zmax, &mut |g| {
+                (g < handover).then(|| levels[g as usize - 1].clone())
+            })
         }),
         fx.run(&finest, &|l, flags| {
             for_each_coarse(grid, |s| l.split_vertex(flags, zmax, s, None))
@@ -271,8 +278,9 @@ fn noisy_paraboloid(curve: f32, noise: &[f32], amplitude: f32, (cx, cy): (f32, f
 }
 
 /// Where noise dominates the errors, the pass skips a fifth or more of the
-/// scans of the levels it scans as it comes (3 and up; 68 of 226 here),
-/// and the results stay the general kernel's.
+/// scans of the levels it scans as it comes (3 and up, and 4 and up where
+/// it takes over from the helper; 70 of 244 here), and the results stay
+/// the general kernel's.
 #[test]
 fn the_pass_skips_the_scans_the_bound_shows_needless() {
     // A fixed pseudo-random noise (a linear congruential sequence).
@@ -286,7 +294,7 @@ fn the_pass_skips_the_scans_the_bound_shows_needless() {
     let depths = noisy_paraboloid(0.5, &noise, 0.2, (20.0, 40.0));
     let count = || [SKIPPED.with(std::cell::Cell::get), SCANNED.with(std::cell::Cell::get)];
     let before = count();
-    coarse_rows_match_the_general_kernel((65, 65), &depths, &[0; 65 * 65]).unwrap();
+    coarse_rows_match_the_general_kernel((65, 65), &depths, &[0; 65 * 65], 4).unwrap();
     let [skipped, scanned] = [0, 1].map(|k| count()[k] - before[k]);
     assert!(
         5 * skipped >= skipped + scanned,
@@ -294,16 +302,18 @@ fn the_pass_skips_the_scans_the_bound_shows_needless() {
     );
 }
 
-/// The pass's row loops, scanning and given the helper's deviations, give
-/// the general kernel's flags, radii and errors on a `w x h` grid.
+/// The pass's row loops, scanning, given the helper's deviations, or given
+/// them below level `handover` only, give the general kernel's flags,
+/// radii and errors on a `w x h` grid.
 fn coarse_rows_match_the_general_kernel(
     (w, h): (usize, usize),
     depths: &[f32],
     random: &[u8],
+    handover: u32,
 ) -> Result<(), TestCaseError> {
     let cells = leaf_cells((w, h), depths, random);
-    let [rows, given, general] = coarse_three_ways((w as u32, h as u32), depths, &cells);
-    for pass in [&rows, &given] {
+    let [rows, given, handed_over, general] = coarse_ways((w as u32, h as u32), depths, &cells, handover);
+    for pass in [&rows, &given, &handed_over] {
         prop_assert_eq!(&pass.flags, &general.flags);
         prop_assert_eq!(&pass.radius, &general.radius);
         prop_assert_eq!(&pass.err2, &general.err2);
@@ -320,9 +330,10 @@ proptest! {
     fn the_coarse_row_loops_match_the_general_kernel(
         depths in proptest::collection::vec(prop_oneof![1 => Just(0.0f32), 9 => 0.5f32..4.0], 33 * 33),
         cells in proptest::collection::vec(prop_oneof![6 => Just(0u8), 1 => 0u8..4], 33 * 33),
+        handover in 3u32..6,
     ) {
         prop_assume!(Grid::for_image(33, 33).len() == depths.len());
-        coarse_rows_match_the_general_kernel((33, 33), &depths, &cells)?;
+        coarse_rows_match_the_general_kernel((33, 33), &depths, &cells, handover)?;
     }
 
     /// The same on a grid of two root quads by one, not square: edge
@@ -333,10 +344,11 @@ proptest! {
     fn the_coarse_row_loops_match_the_general_kernel_across_roots(
         depths in proptest::collection::vec(prop_oneof![1 => Just(0.0f32), 9 => 0.5f32..4.0], 33 * 17),
         cells in proptest::collection::vec(prop_oneof![6 => Just(0u8), 1 => 0u8..4], 33 * 17),
+        handover in 3u32..5,
     ) {
         let grid = Grid::for_image(33, 17);
         prop_assert_eq!((grid.len(), grid.m, grid.n), (depths.len(), 2, 1));
-        coarse_rows_match_the_general_kernel((33, 17), &depths, &cells)?;
+        coarse_rows_match_the_general_kernel((33, 17), &depths, &cells, handover)?;
     }
 
     /// On smooth, fully valid surfaces with noise (a paraboloid's
@@ -349,9 +361,10 @@ proptest! {
         noise in proptest::collection::vec(-1.0f32..1.0, 65 * 65),
         amplitude in prop_oneof![Just(0.0f32), 0.0f32..0.05, 0.0f32..1.0],
         centre in (0.0f32..64.0, 0.0f32..64.0),
+        handover in 3u32..7,
     ) {
         let depths = noisy_paraboloid(curve, &noise, amplitude, centre);
-        coarse_rows_match_the_general_kernel((65, 65), &depths, &[0; 65 * 65])?;
+        coarse_rows_match_the_general_kernel((65, 65), &depths, &[0; 65 * 65], handover)?;
     }
 
     /// The pass's errors are never below those from the exact f64

@@ -17,6 +17,9 @@
 //! step off (about one sample in 10,000 on the Middlebury scenes; the
 //! tests bound every interior sample against f64).
 
+use std::ops::Range;
+use std::sync::Mutex;
+
 use glam::{DVec3, Vec3};
 
 use super::backproject::BackProject;
@@ -234,32 +237,80 @@ fn interior_row(
 
 /// Computes the encoded normal and quality byte of every grid vertex.
 pub fn normals_and_quality(grid: &Grid, camera: &Camera, bp: &BackProject, z: &[f32]) -> (Vec<[u8; 2]>, Vec<u8>) {
-    normals_and_quality_in(grid, camera, bp, z, (Vec::new(), Vec::new()))
+    let (mut normals, mut rho) = (vec![OCT_FACING; grid.len()], vec![0; grid.len()]);
+    normal_rows(grid, camera, bp, z, 0..grid.gh() as usize, &mut normals, &mut rho);
+    (normals, rho)
+}
+
+/// Grid rows per band of [`NormalBands`]: about 30 bands at 1920 x 1080,
+/// so the thread that takes the last one waits little for the other.
+const BAND_ROWS: usize = 32;
+
+/// The grid's rows of normals and quality bytes cut into bands of
+/// [`BAND_ROWS`], each taken by whichever thread asks first
+/// ([`Self::work`]): two threads that come to the normals at different
+/// times finish them together. Every band is computed exactly once, and
+/// its bytes do not depend on which thread computed it.
+pub(crate) struct NormalBands<'a> {
+    left: Mutex<Vec<NormalBand<'a>>>,
+}
+
+/// One band: its first grid row and its rows of both arrays.
+type NormalBand<'a> = (usize, &'a mut [[u8; 2]], &'a mut [u8]);
+
+impl<'a> NormalBands<'a> {
+    /// The bands of `normals` and `rho`, one entry per grid vertex.
+    pub(crate) fn new(grid: &Grid, normals: &'a mut [[u8; 2]], rho: &'a mut [u8]) -> Self {
+        let band = BAND_ROWS * grid.gw() as usize;
+        let mut left: Vec<NormalBand<'a>> = normals
+            .chunks_mut(band)
+            .zip(rho.chunks_mut(band))
+            .enumerate()
+            .map(|(i, (n, r))| (i * BAND_ROWS, n, r))
+            .collect();
+        // Taken from the end: the first rows first.
+        left.reverse();
+        Self { left: Mutex::new(left) }
+    }
+
+    /// Computes bands until none is left.
+    pub(crate) fn work(&self, grid: &Grid, camera: &Camera, bp: &BackProject, z: &[f32]) {
+        let gw = grid.gw() as usize;
+        // A band is only ever moved out under the lock, so a panic
+        // elsewhere cannot leave one half taken: the queue stays usable.
+        let take = || self.left.lock().unwrap_or_else(|poisoned| poisoned.into_inner()).pop();
+        while let Some((first, normals, rho)) = take() {
+            normals.fill(OCT_FACING);
+            rho.fill(0);
+            let rows = first..first + normals.len() / gw;
+            normal_rows(grid, camera, bp, z, rows, normals, rho);
+        }
+    }
 }
 
 crate::simd::dispatch! {
-    /// [`normals_and_quality`] into `buffers` (whatever they hold), so a
-    /// build on two threads can hand the helper memory the calling thread
-    /// has used before (with AVX2 where the CPU has it: [`crate::simd`]).
-    pub fn normals_and_quality_in(grid: &Grid, camera: &Camera, bp: &BackProject, z: &[f32], buffers: (Vec<[u8; 2]>, Vec<u8>)) -> (Vec<[u8; 2]>, Vec<u8>) = normals_and_quality_body;
+    /// The encoded normals and quality bytes of grid rows `rows`, into
+    /// `normals` and `rho`, which hold those rows (from `rows.start`) and
+    /// are set to the camera-facing normal and 0 beforehand (with AVX2
+    /// where the CPU has it: [`crate::simd`]). Rows past the image are
+    /// left as they are.
+    fn normal_rows(grid: &Grid, camera: &Camera, bp: &BackProject, z: &[f32], rows: Range<usize>, normals: &mut [[u8; 2]], rho: &mut [u8]) -> () = normal_rows_body;
 }
 
 #[inline(always)]
-fn normals_and_quality_body(
+fn normal_rows_body(
     grid: &Grid,
     camera: &Camera,
     bp: &BackProject,
     z: &[f32],
-    buffers: (Vec<[u8; 2]>, Vec<u8>),
-) -> (Vec<[u8; 2]>, Vec<u8>) {
+    rows: Range<usize>,
+    normals: &mut [[u8; 2]],
+    rho: &mut [u8],
+) {
     let gw = grid.gw() as usize;
     let (w, h) = (grid.width as usize, grid.height as usize);
     let facing = OCT_FACING;
-    let (mut normals, mut rho) = buffers;
-    normals.clear();
-    normals.resize(grid.len(), facing);
-    rho.clear();
-    rho.resize(grid.len(), 0);
+    let offset = rows.start * gw;
     let ortho = camera.is_orthographic();
     let view = |p: DVec3| if ortho { DVec3::Z } else { p };
     let mut fast = vec![false; w];
@@ -290,9 +341,10 @@ fn normals_and_quality_body(
         };
         encode(n, view(p))
     };
-    for y in 0..h {
+    for y in rows.start..rows.end.min(h) {
         let row = y * gw;
-        let (nrow, rrow) = (&mut normals[row..row + w], &mut rho[row..row + w]);
+        let out = row - offset..row - offset + w;
+        let (nrow, rrow) = (&mut normals[out.clone()], &mut rho[out]);
         let zrow = &z[row..row + w];
         if y == 0 || y + 1 == h || w < 3 {
             for x in (0..w).filter(|&x| zrow[x] > 0.0) {
@@ -324,7 +376,6 @@ fn normals_and_quality_body(
             }
         }
     }
-    (normals, rho)
 }
 
 #[cfg(test)]
@@ -388,6 +439,38 @@ mod tests {
             assert_eq!(rho[centre], 255, "depth {depth}");
             assert!(oct_decode(n[centre]).dot(DVec3::NEG_Z) > 0.999, "depth {depth}");
         }
+    }
+
+    /// Bands taken by two threads at once give the bytes of one pass over
+    /// the whole grid, on an image whose rows are no multiple of a band
+    /// (the last band short, padding rows below the image) and with holes.
+    #[test]
+    fn bands_on_two_threads_give_the_bytes_of_one_pass() {
+        let (w, h) = (150, 3 * BAND_ROWS as u32 + 5);
+        let cam = Camera::perspective(w, h, 120.0, 120.0, 75.0, 50.0).unwrap();
+        let grid = Grid::for_image(w, h);
+        assert!(grid.gh() > h, "the grid has padding rows");
+        let bp = BackProject::new(&cam, grid.gw(), grid.gh());
+        let z: Vec<f32> = (0..grid.len())
+            .map(|i| {
+                let (x, y) = (i % grid.gw() as usize, i / grid.gw() as usize);
+                if (x * 7 + y * 13) % 29 == 0 {
+                    0.0
+                } else {
+                    2.0 + ((x * x + 3 * y) % 17) as f32 * 0.01
+                }
+            })
+            .collect();
+        let whole = normals_and_quality(&grid, &cam, &bp, &z);
+        let (mut normals, mut rho) = (vec![[0u8; 2]; grid.len()], vec![0u8; grid.len()]);
+        let bands = NormalBands::new(&grid, &mut normals, &mut rho);
+        std::thread::scope(|scope| {
+            scope.spawn(|| bands.work(&grid, &cam, &bp, &z));
+            bands.work(&grid, &cam, &bp, &z);
+        });
+        drop(bands);
+        assert!(whole.1.iter().any(|&r| r > 0) && whole.1.contains(&0));
+        assert_eq!((normals, rho), whole);
     }
 
     /// The f64 reference of a sample with four valid neighbours: the
