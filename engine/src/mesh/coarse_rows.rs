@@ -291,7 +291,10 @@ impl Child<'_> {
         if self.stride == 1 {
             out.extend(src[..n].iter().map(|&t| f(t)));
         } else {
-            out.extend(src.chunks(self.stride).take(n).map(|c| f(c[0])));
+            // By index: a chunked iterator's extend was compiled out of
+            // line, without AVX2 (5 % of a 513 x 513 build's samples).
+            let stride = self.stride;
+            out.extend((0..n).map(|i| f(src[i * stride])));
         }
     }
 }
