@@ -1,8 +1,12 @@
-//! Builds the synthetic scene repeatedly and prints the minimum and median
-//! time and the median of each stage, for profiling. Usage:
-//! `profile_build [SIZE | WxH] [ITERATIONS] [THREADS] [portable]` (threads
-//! 1 or 2, default as `Hierarchy::build`; `portable`: without the AVX2 code
-//! even where the CPU has it, to measure what it brings).
+//! Builds the synthetic scene (or a Middlebury scene of `../shared/data`)
+//! repeatedly and prints the minimum and median time and the median of
+//! each stage, for profiling. Usage:
+//! `profile_build [SIZE | WxH | SCENE] [ITERATIONS] [THREADS] [portable]`
+//! (threads 1 or 2, default as `Hierarchy::build`; `portable`: without the
+//! AVX2 code even where the CPU has it, to measure what it brings).
+
+#[path = "../benches/scenes.rs"]
+mod scenes;
 /// The server's allocator (see the root `Cargo.toml`), so the figures are
 /// the binary's.
 #[global_allocator]
@@ -11,13 +15,23 @@ static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
 fn main() {
     let mut args = std::env::args().skip(1);
     let size = args.next().unwrap_or_else(|| "513".into());
-    let (w, h): (u32, u32) = match size.split_once('x') {
-        Some((w, h)) => (w.parse().unwrap_or(513), h.parse().unwrap_or(513)),
-        None => {
-            let s = size.parse().unwrap_or(513);
-            (s, s)
-        }
+    let scene = if size.starts_with(|c: char| c.is_ascii_digit()) {
+        let (w, h): (u32, u32) = match size.split_once('x') {
+            Some((w, h)) => (w.parse().unwrap_or(513), h.parse().unwrap_or(513)),
+            None => {
+                let s = size.parse().unwrap_or(513);
+                (s, s)
+            }
+        };
+        Some(scenes::synthetic(w, h))
+    } else {
+        scenes::middlebury(&size)
     };
+    let Some((d, c)) = scene else {
+        eprintln!("no scene {size:?}: give a size (513, 1920x1080) or a Middlebury scene of ../shared/data");
+        std::process::exit(2);
+    };
+    let (w, h) = (d.width, d.height);
     let iterations: usize = args.next().and_then(|s| s.parse().ok()).unwrap_or(20);
     let threads = match args.next().as_deref() {
         Some("1") => dmesh_engine::mesh::Threads::Single,
@@ -26,7 +40,6 @@ fn main() {
     };
     let portable = args.next().as_deref() == Some("portable");
     dmesh_engine::simd::force_portable(portable);
-    let (d, c) = dmesh_engine::synthetic::terrain_with_boxes(w, h);
     let mut times = Vec::new();
     let mut stages = Vec::new();
     for _ in 0..iterations.max(1) {
