@@ -84,16 +84,19 @@ fn boundary(k: usize) -> f64 {
 /// The bucket counts of the squared errors `err2[range]` but the
 /// `forced`, and how many are forced.
 fn histogram(err2: &[f32], range: std::ops::Range<usize>, forced: &impl Fn(usize) -> bool) -> (Vec<u32>, u64) {
-    let mut all = vec![0u32; BUCKETS];
+    // Four counts per bucket, one per sample of each group of four, so
+    // that neighbours with the same bucket (a flat region's) do not wait
+    // for each other's increment.
+    let mut counts = vec![[0u32; 4]; BUCKETS];
     let mut forced_count = 0u64;
     for (i, &e) in err2[range.clone()].iter().enumerate() {
         if forced(range.start + i) {
             forced_count += 1;
         } else {
-            all[bucket(e)] += 1;
+            counts[bucket(e)][i % 4] += 1;
         }
     }
-    (all, forced_count)
+    (counts.iter().map(|c| c.iter().sum()).collect(), forced_count)
 }
 
 fn suffix(mut counts: Vec<u32>) -> Vec<u32> {
