@@ -211,13 +211,12 @@ impl Passes {
         } else {
             grid.gh()
         };
-        // The normals computed after the pass, shared out in bands.
-        let (mut late_normal, mut late_rho) = if normals_first {
-            (Vec::new(), Vec::new())
-        } else {
-            (vec![[0u8; 2]; grid.len()], vec![0u8; grid.len()])
-        };
-        let bands = (!normals_first).then(|| NormalBands::new(&grid, &mut late_normal, &mut late_rho));
+        // The normals computed after the pass, shared out in bands: their
+        // arrays are filled by this thread once the helper is under way
+        // (a few megabytes at 1920 x 1080, which held up its start).
+        let (mut late_normal, mut late_rho) = (Vec::new(), Vec::new());
+        let late = (&mut late_normal, &mut late_rho);
+        let bands = OnceLock::new();
         // The level the pass is at, and the first coarse level (3 and up)
         // nobody has claimed: the helper claims levels in order while the
         // pass is two or more below, then this thread claims the rest.
@@ -231,7 +230,7 @@ impl Passes {
         let scoped = std::thread::scope(|scope| {
             let (send, receive) = mpsc::channel();
             let (send_band, receive_band) = mpsc::channel();
-            let (bands, pass_at, claim) = (bands.as_ref(), &pass_at, &claim);
+            let (bands, pass_at, claim) = (&bands, &pass_at, &claim);
             let job = helper.then(|| {
                 // The helper's arrays are allocated here: this thread's
                 // allocator hands out memory it has used before, where a new
@@ -265,13 +264,20 @@ impl Passes {
                         }
                         let _ = send.send(coarse_deviations(grid, z, g, out));
                     }
-                    bands.map(|bands| {
+                    bands.get().map(|bands: &NormalBands<'_>| {
                         let t = Instant::now();
                         bands.work(&grid, camera, bp, z);
                         t.elapsed().as_secs_f64() * 1e3
                     })
                 })
             });
+            if !normals_first {
+                let (normal, rho) = late;
+                *normal = vec![[0u8; 2]; grid.len()];
+                *rho = vec![0u8; grid.len()];
+                // Set once, here: it cannot be full.
+                let _ = bands.set(NormalBands::new(&grid, normal, rho));
+            }
             let ms = |t: Instant| t.elapsed().as_secs_f64() * 1e3;
             let mut stages = Stages::default();
             let t = Instant::now();
@@ -364,7 +370,7 @@ impl Passes {
             stages.coarse_ms = ms(t);
             // The normals' bands the helper has not taken: the stage's
             // time is both threads' time in them.
-            if let Some(bands) = bands {
+            if let Some(bands) = bands.get() {
                 let t = Instant::now();
                 bands.work(&grid, camera, bp, z);
                 stages.normals_ms = ms(t);
