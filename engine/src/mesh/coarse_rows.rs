@@ -35,7 +35,8 @@ use super::error_metric::norm_bound;
 use super::finest::{eq1, eq2};
 use super::flags::Flags;
 use super::grid::Grid;
-use super::levels::{round_up, Bisects};
+use super::levels::round_up;
+use super::split_order::Bisects;
 
 /// The roles a split vertex reads, in the order of [`Columns`] and
 /// [`Samples`]: the vertex, the ends `a` and `b` of the edge it bisects,

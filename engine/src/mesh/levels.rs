@@ -28,30 +28,10 @@ use super::deviation_f32::max_deviation_f32;
 use super::error_metric::{norm_bound, point_line_2d_sq, point_line_3d_sq};
 use super::flags::{Flags, Half};
 use super::grid::{half_of, Grid, Pt};
-use super::small_half_sweep::{small_half_deviation2, small_level_deviations, Shape};
+use super::small_half_sweep::{small_half_deviation2, small_level_deviations};
+use super::split_order::{for_each_split, split_count, Bisects, Split};
 use crate::camera::Camera;
 use glam::DVec3;
-
-/// Which edge a split vertex bisects: Eq. 1 for diagonals, Eq. 2 in the
-/// x,z-plane for an edge along a row and in the y,z-plane along a column.
-#[derive(Clone, Copy, PartialEq, Eq)]
-pub(super) enum Bisects {
-    Diagonal,
-    Row,
-    Column,
-}
-
-impl Bisects {
-    /// Length in pixels of the edge a split vertex of half-size `h` bisects.
-    fn hypotenuse(self, h: u32) -> f64 {
-        f64::from(2 * h)
-            * if self == Self::Diagonal {
-                std::f64::consts::SQRT_2
-            } else {
-                1.0
-            }
-    }
-}
 
 /// `v >= 0` as f32, rounded up (an error or radius may grow, never
 /// shrink), saturated at `f32::MAX` (which NaN also gives). Without
@@ -113,96 +93,6 @@ pub(crate) struct Levels<'a> {
     pub radius: &'a mut [f32],
 }
 
-/// A split vertex above level 0: `v` bisects `a-b`; `apex` are its halves'
-/// apexes (`None` off the grid).
-#[derive(Clone, Copy)]
-pub(super) struct Split {
-    pub(super) v: Pt,
-    pub(super) a: Pt,
-    pub(super) b: Pt,
-    pub(super) apex: [Option<Pt>; 2],
-    bisects: Bisects,
-}
-
-impl Split {
-    /// Half the length of the bisected edge along the grid axes.
-    #[cfg(test)]
-    fn h(&self) -> u32 {
-        self.a.0.abs_diff(self.b.0).max(self.a.1.abs_diff(self.b.1)) / 2
-    }
-
-    /// Its half with apex `apex` as a shape around `v`.
-    pub(super) fn small_shape(&self, apex: Pt) -> Shape {
-        let toward = |from: u32, to: u32| if to < from { -1 } else { 1 };
-        match self.bisects {
-            Bisects::Row => Shape::Edge {
-                along_row: true,
-                dir: toward(self.v.1, apex.1),
-            },
-            Bisects::Column => Shape::Edge {
-                along_row: false,
-                dir: toward(self.v.0, apex.0),
-            },
-            Bisects::Diagonal => Shape::Centre {
-                sx: toward(self.v.0, apex.0),
-                sy: toward(self.v.1, apex.1),
-            },
-        }
-    }
-}
-
-/// The split vertices of the given levels (0 is the finest) in the order
-/// the pass needs them (see `for_each_coarse`).
-#[inline(always)]
-pub(super) fn for_each_split(grid: Grid, levels: std::ops::Range<u32>, mut f: impl FnMut(Split)) {
-    let (gw, gh) = (grid.gw(), grid.gh());
-    for g in levels {
-        let h = 1u32 << g;
-        let step = 2 * h as usize;
-        for y in (0..gh).step_by(step) {
-            for x in (h..gw).step_by(step) {
-                f(Split {
-                    v: (x, y),
-                    a: (x - h, y),
-                    b: (x + h, y),
-                    apex: [(y >= h).then(|| (x, y - h)), (y + h < gh).then_some((x, y + h))],
-                    bisects: Bisects::Row,
-                });
-            }
-        }
-        for y in (h..gh).step_by(step) {
-            for x in (0..gw).step_by(step) {
-                f(Split {
-                    v: (x, y),
-                    a: (x, y - h),
-                    b: (x, y + h),
-                    apex: [(x >= h).then(|| (x - h, y)), (x + h < gw).then_some((x + h, y))],
-                    bisects: Bisects::Column,
-                });
-            }
-        }
-        for y in (h..gh).step_by(step) {
-            let py = if ((y - h) / (2 * h)) % 2 == 1 { y - h } else { y + h };
-            for x in (h..gw).step_by(step) {
-                let px = if ((x - h) / (2 * h)) % 2 == 1 { x - h } else { x + h };
-                let (qx, qy) = (2 * x - px, 2 * y - py);
-                let apex = if px < qx {
-                    [(px, qy), (qx, py)]
-                } else {
-                    [(qx, py), (px, qy)]
-                };
-                f(Split {
-                    v: (x, y),
-                    a: (px, py),
-                    b: (qx, qy),
-                    apex: apex.map(Some),
-                    bisects: Bisects::Diagonal,
-                });
-            }
-        }
-    }
-}
-
 crate::simd::dispatch! {
     /// The depth deviation of each half of every split vertex of level `g`
     /// (at least 3: levels 1 and 2 come from [`small_deviations`]), squared
@@ -229,16 +119,6 @@ fn small_deviations_body(grid: Grid, z: &[f32], out: [Vec<[f32; 2]>; 2]) -> [Vec
     let [mut one, mut two] = out;
     small_level_deviations(grid, z, [&mut one, &mut two]);
     [one, two]
-}
-
-/// How many halves' pairs [`coarse_deviations`] gives for level `g`: the
-/// split vertices [`for_each_split`] visits there, counted from its ranges.
-pub(crate) fn split_count(grid: Grid, g: u32) -> usize {
-    let (gw, gh, h) = (grid.gw() as usize, grid.gh() as usize, 1usize << g);
-    // Of `start, start + 2h, ...` below `end`.
-    let steps = |start: usize, end: usize| end.saturating_sub(start).div_ceil(2 * h);
-    // Edge midpoints along rows, along columns, then centres.
-    steps(0, gh) * steps(h, gw) + steps(h, gh) * steps(0, gw) + steps(h, gh) * steps(h, gw)
 }
 
 #[inline(always)]

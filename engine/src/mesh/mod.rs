@@ -48,6 +48,7 @@ pub mod segmentation;
 pub mod segmentation_spec;
 mod select;
 mod small_half_sweep;
+mod split_order;
 pub mod strips;
 mod surface_side;
 

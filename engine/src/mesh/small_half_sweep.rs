@@ -210,7 +210,7 @@ pub(crate) fn small_level_deviations(grid: Grid, z: &[f32], out: [&mut Vec<[f32;
     for (g, out) in (1..=2).zip([&mut *one, &mut *two]) {
         out.clear();
         if g <= levels {
-            out.resize(super::levels::split_count(grid, g), [0.0; 2]);
+            out.resize(super::split_order::split_count(grid, g), [0.0; 2]);
         }
     }
     if levels == 0 {
@@ -506,7 +506,7 @@ mod tests {
             small_level_deviations(grid, &z, [&mut level1, &mut level2]);
             for (g, swept) in (1..grid.k.min(3)).zip([level1, level2]) {
                 let mut one = Vec::new();
-                super::super::levels::for_each_split(grid, g..g + 1, |s| {
+                super::super::split_order::for_each_split(grid, g..g + 1, |s| {
                     let v = s.v.1 as usize * gw + s.v.0 as usize;
                     let pair = s.apex.map(|a| {
                         a.map_or(0.0, |apex| {

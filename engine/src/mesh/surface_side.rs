@@ -21,7 +21,7 @@
 
 use super::flags::Flags;
 use super::grid::{cell_half, half_of, Grid, Pt};
-use super::levels::for_each_split;
+use super::split_order::for_each_split;
 
 /// Per grid vertex, bit `h`: half `h` of the diamond it splits holds the
 /// surface (see the module doc).
