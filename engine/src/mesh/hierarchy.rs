@@ -194,12 +194,9 @@ impl Passes {
     /// the same bits, so the result does not depend on the schedule.
     fn run(grid: &Grid, camera: &Camera, bp: &BackProject, z: &[f32], seg: &Segmentation, threads: Threads) -> Self {
         let grid = *grid;
-        // The depths are finite and non-negative (`grid_depths`), where the
-        // order of the bit patterns is that of the values: an integer
-        // maximum, which the compiler widens (`f32::max` stays one chain).
-        let zmax = f32::from_bits(z.iter().map(|v| v.to_bits()).max().unwrap_or(0));
-        let mut err2 = vec![0f32; grid.len()];
-        let mut radius = vec![0f32; grid.len()];
+        // Allocated once the helper is under way (below), as is anything
+        // it does not read.
+        let (mut err2, mut radius) = (Vec::new(), Vec::new());
         let helper = threads == Threads::Parallel;
         let normals_first = !helper || matches!(seg.method, Method::Connectedness { .. });
         // With a helper and a segmentation that reads the depths alone, the
@@ -320,6 +317,13 @@ impl Passes {
                 .sum();
             let mut flags: Vec<Flags> = cells.into_iter().map(Flags::of_cell).collect();
             stages.flags_ms = ms(t);
+            // The depths are finite and non-negative (`grid_depths`), where
+            // the order of the bit patterns is that of the values: an
+            // integer maximum, which the compiler widens (`f32::max` stays
+            // one chain).
+            let zmax = f32::from_bits(z.iter().map(|v| v.to_bits()).max().unwrap_or(0));
+            err2 = vec![0f32; grid.len()];
+            radius = vec![0f32; grid.len()];
             let mut levels = Levels {
                 grid,
                 camera,
