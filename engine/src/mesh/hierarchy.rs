@@ -349,9 +349,17 @@ impl Passes {
             // sweep's planes, on whichever thread, the levels' deviations,
             // the pass's kept rows, and the helper's band of leaf flags
             // (counted as if held as long).
+            // The helper reserves every level's deviations at its start (a
+            // level the pass takes over is freed unused), so all count.
+            let helper_levels: usize = if job.is_some() {
+                (1..grid.k).map(|g| split_count(grid, g) * 8).sum()
+            } else {
+                0
+            };
             let mut scratch_bytes = small_half_sweep::scratch_bytes(grid)
                 + coarse_rows::scratch_bytes(grid)
-                + (grid.gh() - split) as usize * gw;
+                + (grid.gh() - split) as usize * gw
+                + helper_levels;
             let mut second = None;
             let mut given = |g: u32| {
                 pass_at.store(g, Ordering::Release);
@@ -368,7 +376,9 @@ impl Passes {
                     (None, 2) => second.take(),
                     (None, _) => None,
                 };
-                scratch_bytes += level.as_ref().map_or(0, |d: &Vec<[f32; 2]>| d.capacity() * 8);
+                if job.is_none() {
+                    scratch_bytes += level.as_ref().map_or(0, |d: &Vec<[f32; 2]>| d.capacity() * 8);
+                }
                 level
             };
             run_coarse(&mut levels, &mut flags, zmax, &mut given);
