@@ -356,7 +356,7 @@ impl Levels<'_> {
             out,
             r,
         } = task;
-        let (gw, gh) = (self.grid.gw(), self.grid.gh());
+        let gw = self.grid.gw();
         let (bp, camera, z) = (self.bp, self.camera, self.z);
         let Row { bisects, h, y, .. } = row;
         let xs = match bisects {
@@ -421,30 +421,8 @@ impl Levels<'_> {
                     continue;
                 }
             }
-            let (a, b, apex) = match bisects {
-                Bisects::Row => (
-                    (x - h, y),
-                    (x + h, y),
-                    [(y >= h).then(|| (x, y - h)), (y + h < gh).then_some((x, y + h))],
-                ),
-                Bisects::Column => (
-                    (x, y - h),
-                    (x, y + h),
-                    [(x >= h).then(|| (x - h, y)), (x + h < gw).then_some((x + h, y))],
-                ),
-                Bisects::Diagonal => {
-                    let px = if ((x - h) / (2 * h)) % 2 == 1 { x - h } else { x + h };
-                    let py = if ((y - h) / (2 * h)) % 2 == 1 { y - h } else { y + h };
-                    let (qx, qy) = (2 * x - px, 2 * y - py);
-                    let apex = if px < qx {
-                        [(px, qy), (qx, py)]
-                    } else {
-                        [(qx, py), (px, qy)]
-                    };
-                    ((px, py), (qx, qy), apex.map(Some))
-                }
-            };
-            let s = Split { v, a, b, apex, bisects };
+            let s = Split::at(self.grid, v, h, bisects);
+            let Split { a, b, apex, .. } = s;
             let corners = |c: Pt| [z[at(a)], z[at(b)], z[at(v)], z[at(c)]];
             if k < lanes.len() {
                 let swept = &scratch.swept;

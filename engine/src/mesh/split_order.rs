@@ -44,6 +44,40 @@ pub(super) struct Split {
 }
 
 impl Split {
+    /// The split vertex `v` of half-size `h` that bisects an edge of kind
+    /// `bisects`: the ends of that edge and its halves' apexes (a
+    /// diagonal's ends alternate with the parity of `v`'s quad in each
+    /// axis).
+    #[inline(always)]
+    pub(super) fn at(grid: Grid, v: Pt, h: u32, bisects: Bisects) -> Self {
+        let (gw, gh) = (grid.gw(), grid.gh());
+        let (x, y) = v;
+        let (a, b, apex) = match bisects {
+            Bisects::Row => (
+                (x - h, y),
+                (x + h, y),
+                [(y >= h).then(|| (x, y - h)), (y + h < gh).then_some((x, y + h))],
+            ),
+            Bisects::Column => (
+                (x, y - h),
+                (x, y + h),
+                [(x >= h).then(|| (x - h, y)), (x + h < gw).then_some((x + h, y))],
+            ),
+            Bisects::Diagonal => {
+                let px = if ((x - h) / (2 * h)) % 2 == 1 { x - h } else { x + h };
+                let py = if ((y - h) / (2 * h)) % 2 == 1 { y - h } else { y + h };
+                let (qx, qy) = (2 * x - px, 2 * y - py);
+                let apex = if px < qx {
+                    [(px, qy), (qx, py)]
+                } else {
+                    [(qx, py), (px, qy)]
+                };
+                ((px, py), (qx, qy), apex.map(Some))
+            }
+        };
+        Self { v, a, b, apex, bisects }
+    }
+
     /// Half the length of the bisected edge along the grid axes.
     #[cfg(test)]
     pub(super) fn h(&self) -> u32 {
@@ -81,43 +115,17 @@ pub(super) fn for_each_split(grid: Grid, levels: std::ops::Range<u32>, mut f: im
         let step = 2 * h as usize;
         for y in (0..gh).step_by(step) {
             for x in (h..gw).step_by(step) {
-                f(Split {
-                    v: (x, y),
-                    a: (x - h, y),
-                    b: (x + h, y),
-                    apex: [(y >= h).then(|| (x, y - h)), (y + h < gh).then_some((x, y + h))],
-                    bisects: Bisects::Row,
-                });
+                f(Split::at(grid, (x, y), h, Bisects::Row));
             }
         }
         for y in (h..gh).step_by(step) {
             for x in (0..gw).step_by(step) {
-                f(Split {
-                    v: (x, y),
-                    a: (x, y - h),
-                    b: (x, y + h),
-                    apex: [(x >= h).then(|| (x - h, y)), (x + h < gw).then_some((x + h, y))],
-                    bisects: Bisects::Column,
-                });
+                f(Split::at(grid, (x, y), h, Bisects::Column));
             }
         }
         for y in (h..gh).step_by(step) {
-            let py = if ((y - h) / (2 * h)) % 2 == 1 { y - h } else { y + h };
             for x in (h..gw).step_by(step) {
-                let px = if ((x - h) / (2 * h)) % 2 == 1 { x - h } else { x + h };
-                let (qx, qy) = (2 * x - px, 2 * y - py);
-                let apex = if px < qx {
-                    [(px, qy), (qx, py)]
-                } else {
-                    [(qx, py), (px, qy)]
-                };
-                f(Split {
-                    v: (x, y),
-                    a: (px, py),
-                    b: (qx, qy),
-                    apex: apex.map(Some),
-                    bisects: Bisects::Diagonal,
-                });
+                f(Split::at(grid, (x, y), h, Bisects::Diagonal));
             }
         }
     }
