@@ -23,7 +23,7 @@
 use glam::DVec3;
 
 use super::backproject::BackProject;
-use super::grid::Grid;
+use super::grid::{Grid, Pt};
 use super::normals::oct_decode;
 use crate::camera::Camera;
 use crate::error::{Error, Result};
@@ -165,50 +165,58 @@ fn leaf_flag_rows_body(s: &Samples<'_>, seg: &Segmentation, rows: std::ops::Rang
         // Blocks of quiet cells are passed over whole: an `and` of the
         // block's bytes, without branches, where a test per cell costs
         // about as much as the loop above.
-        for (block, flags) in quiet.chunks(BLOCK).enumerate() {
-            if flags.iter().fold(1, |all, &q| all & q) == 1 {
+        for (block, cells) in quiet.chunks(BLOCK).enumerate() {
+            if cells.iter().fold(1, |all, &q| all & q) == 1 {
                 continue;
             }
-            for (k, _) in flags.iter().enumerate().filter(|&(_, &q)| q == 0) {
+            for (k, _) in cells.iter().enumerate().filter(|&(_, &q)| q == 0) {
                 let x = (block * BLOCK + k) as u32;
-                let mut bits = 0u8;
-                for half in 0..2 {
-                    let corners = grid.cell_triangle((x, y), half);
-                    let zs = corners.map(|(cx, cy)| s.z[grid.index((cx, cy))]);
-                    // Invalid corners always segment; the cheap gate of Eq. 11 comes
-                    // before any back-projection, since most triangles fail it.
-                    let flagged = zs.iter().any(|&zz| zz <= 0.0)
-                        || (gate(zs, seg.lambda) && {
-                            let pts = [0, 1, 2].map(|i| s.bp.point(corners[i].0, corners[i].1, zs[i]));
-                            match seg.method {
-                                Method::None => false,
-                                Method::Orthogonality { .. } => orthogonal(s.camera, pts, sin2),
-                                Method::Disparity { .. } => {
-                                    // Computed above for exactly this method.
-                                    debug_assert!(disparity_marks.is_some(), "disparity marks missing");
-                                    let marks = disparity_marks.as_deref().unwrap_or_default();
-                                    corners
-                                        .iter()
-                                        .filter(|&&c| marks.get(grid.index(c)).copied().unwrap_or(false))
-                                        .count()
-                                        >= 2
-                                }
-                                Method::Connectedness { kappa } => {
-                                    // Legs run from the apex (index 2) to each diagonal end.
-                                    let n = |i: usize| oct_decode(s.normals[grid.index(corners[i])]);
-                                    disconnected(s.camera, pts[2], pts[0], n(2), n(0), kappa)
-                                        || disconnected(s.camera, pts[2], pts[1], n(2), n(1), kappa)
-                                }
-                            }
-                        });
-                    if flagged {
-                        bits |= 1 << half;
-                    }
-                }
-                out[grid.index((x, y)) - first] = bits;
+                out[grid.index((x, y)) - first] = cell_flags(s, seg, sin2, disparity_marks.as_deref(), (x, y));
             }
         }
     }
+}
+
+/// The leaf flags of `cell`: bit `t` set where its triangle `t` is
+/// segmented (`marks`: the disparity discontinuities, for that method).
+#[inline(always)]
+fn cell_flags(s: &Samples<'_>, seg: &Segmentation, sin2: f64, marks: Option<&[bool]>, cell: Pt) -> u8 {
+    let grid = s.grid;
+    let mut bits = 0u8;
+    for half in 0..2 {
+        let corners = grid.cell_triangle(cell, half);
+        let zs = corners.map(|(cx, cy)| s.z[grid.index((cx, cy))]);
+        // Invalid corners always segment; the cheap gate of Eq. 11 comes
+        // before any back-projection, since most triangles fail it.
+        let flagged = zs.iter().any(|&zz| zz <= 0.0)
+            || (gate(zs, seg.lambda) && {
+                let pts = [0, 1, 2].map(|i| s.bp.point(corners[i].0, corners[i].1, zs[i]));
+                match seg.method {
+                    Method::None => false,
+                    Method::Orthogonality { .. } => orthogonal(s.camera, pts, sin2),
+                    Method::Disparity { .. } => {
+                        // Computed by the caller for exactly this method.
+                        debug_assert!(marks.is_some(), "disparity marks missing");
+                        let marks = marks.unwrap_or_default();
+                        corners
+                            .iter()
+                            .filter(|&&c| marks.get(grid.index(c)).copied().unwrap_or(false))
+                            .count()
+                            >= 2
+                    }
+                    Method::Connectedness { kappa } => {
+                        // Legs run from the apex (index 2) to each diagonal end.
+                        let n = |i: usize| oct_decode(s.normals[grid.index(corners[i])]);
+                        disconnected(s.camera, pts[2], pts[0], n(2), n(0), kappa)
+                            || disconnected(s.camera, pts[2], pts[1], n(2), n(1), kappa)
+                    }
+                }
+            });
+        if flagged {
+            bits |= 1 << half;
+        }
+    }
+    bits
 }
 
 /// Cells per block of [`leaf_flag_rows`]'s quiet test.
