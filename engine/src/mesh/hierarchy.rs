@@ -56,7 +56,7 @@ use super::grid::{Grid, Pt};
 use super::levels::{coarse_deviations, run_coarse, run_finest, small_deviations, Levels};
 use super::normals::{normals_and_quality, NormalBands};
 use super::outline::{OutlineCache, DEPTHS};
-use super::segmentation::{leaf_flag_rows, leaf_flags, rows_split, Method, Samples, Segmentation};
+use super::segmentation::{leaf_flag_rows, leaf_flags, rows_split, segmented_count, Method, Samples, Segmentation};
 use super::split_order::split_count;
 use super::{coarse_rows, small_half_sweep};
 use crate::camera::Camera;
@@ -146,17 +146,34 @@ fn cores() -> usize {
     *CORES.get_or_init(|| std::thread::available_parallelism().map_or(1, usize::from))
 }
 
-/// Depths on the padded grid; invalid samples and padding are 0.
-fn grid_depths(depth: &DepthImage, grid: &Grid) -> Vec<f32> {
+/// Depths on the padded grid (invalid samples and padding are 0), and the
+/// largest of them.
+fn grid_depths(depth: &DepthImage, grid: &Grid) -> (Vec<f32>, f32) {
     let mut z = vec![0f32; grid.len()];
-    let (w, gw) = (depth.width as usize, grid.gw() as usize);
-    for (row, src) in depth.z.chunks_exact(w).enumerate() {
-        let dst = row * gw;
-        for (d, &s) in z[dst..dst + w].iter_mut().zip(src) {
+    let zmax = depth_rows(&depth.z, depth.width as usize, grid.gw() as usize, &mut z);
+    (z, zmax)
+}
+
+crate::simd::dispatch! {
+    /// The rows `w` long of `src` into those `gw` long of `z`, invalid
+    /// samples 0; the largest depth. With AVX2 where the CPU has it.
+    fn depth_rows(src: &[f32], w: usize, gw: usize, z: &mut [f32]) -> f32 = depth_rows_body;
+}
+
+#[inline(always)]
+fn depth_rows_body(src: &[f32], w: usize, gw: usize, z: &mut [f32]) -> f32 {
+    // The depths written are finite and non-negative, where the order of
+    // the bit patterns is that of the values: an integer maximum, which
+    // the compiler widens (`f32::max` stays one chain).
+    let mut zmax = 0u32;
+    for (dst, src) in z.chunks_mut(gw).zip(src.chunks_exact(w)) {
+        let dst = &mut dst[..w];
+        for (d, &s) in dst.iter_mut().zip(src) {
             *d = if s.is_finite() && s > 0.0 { s } else { 0.0 };
         }
+        zmax = dst.iter().map(|v| v.to_bits()).fold(zmax, u32::max);
     }
-    z
+    f32::from_bits(zmax)
 }
 
 /// What the passes of a build compute from the depths.
@@ -176,7 +193,7 @@ struct Passes {
 
 impl Passes {
     /// Normals, leaf segmentation and the bottom-up pass over the levels,
-    /// from the depths `z` on `grid`.
+    /// from the depths `z` on `grid`, of which `zmax` is the largest.
     ///
     /// The exact deviations of the levels above the finest and the normals
     /// read only the depths. With [`Threads::Parallel`] a helper thread
@@ -192,7 +209,14 @@ impl Passes {
     /// (sparing the scans its children's bound shows needless) while the
     /// helper goes on to the normals. Either way a level's deviations are
     /// the same bits, so the result does not depend on the schedule.
-    fn run(grid: &Grid, camera: &Camera, bp: &BackProject, z: &[f32], seg: &Segmentation, threads: Threads) -> Self {
+    fn run(
+        grid: &Grid,
+        camera: &Camera,
+        bp: &BackProject,
+        (z, zmax): (&[f32], f32),
+        seg: &Segmentation,
+        threads: Threads,
+    ) -> Self {
         let grid = *grid;
         // Allocated once the helper is under way (below), as is anything
         // it does not read.
@@ -305,23 +329,9 @@ impl Passes {
             } else {
                 leaf_flags(&samples, seg)
             };
-            let cells_per_row = grid.width as usize - 1;
-            let segmented: usize = (0..grid.height - 1)
-                .map(|y| {
-                    let row = grid.index((0, y));
-                    cells[row..row + cells_per_row]
-                        .iter()
-                        .map(|c| c.count_ones() as usize)
-                        .sum::<usize>()
-                })
-                .sum();
+            let segmented = segmented_count(&grid, &cells);
             let mut flags: Vec<Flags> = cells.into_iter().map(Flags::of_cell).collect();
             stages.flags_ms = ms(t);
-            // The depths are finite and non-negative (`grid_depths`), where
-            // the order of the bit patterns is that of the values: an
-            // integer maximum, which the compiler widens (`f32::max` stays
-            // one chain).
-            let zmax = f32::from_bits(z.iter().map(|v| v.to_bits()).max().unwrap_or(0));
             err2 = vec![0f32; grid.len()];
             radius = vec![0f32; grid.len()];
             let mut levels = Levels {
@@ -461,9 +471,9 @@ impl Hierarchy {
         let bp = BackProject::new(camera, gw, gh);
 
         let t = Instant::now();
-        let z = grid_depths(depth, &grid);
+        let (z, zmax) = grid_depths(depth, &grid);
         let depths_ms = t.elapsed().as_secs_f64() * 1e3;
-        let p = Passes::run(&grid, camera, &bp, &z, seg, threads);
+        let p = Passes::run(&grid, camera, &bp, (&z, zmax), seg, threads);
         let mut mesh = Self {
             grid,
             camera: *camera,

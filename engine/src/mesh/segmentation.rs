@@ -177,6 +177,25 @@ fn leaf_flag_rows_body(s: &Samples<'_>, seg: &Segmentation, rows: std::ops::Rang
     }
 }
 
+crate::simd::dispatch! {
+    /// The full-resolution triangles of the image that the leaf flags
+    /// `cells` ([`leaf_flags`]) segment, one bit each; the padding's cells
+    /// are left out. With AVX2 where the CPU has it (without, the bytes'
+    /// bit counts are a sequence of shifts each: 2.6 ms at 1920 x 1080 on
+    /// a 2 GHz Zen 1).
+    pub(crate) fn segmented_count(grid: &Grid, cells: &[u8]) -> usize = segmented_count_body;
+}
+
+#[inline(always)]
+fn segmented_count_body(grid: &Grid, cells: &[u8]) -> usize {
+    let (gw, cells_per_row) = (grid.gw() as usize, grid.width as usize - 1);
+    cells
+        .chunks(gw)
+        .take(grid.height as usize - 1)
+        .map(|row| row[..cells_per_row].iter().map(|c| c.count_ones()).sum::<u32>() as usize)
+        .sum()
+}
+
 /// The leaf flags of `cell`: bit `t` set where its triangle `t` is
 /// segmented (`marks`: the disparity discontinuities, for that method).
 #[inline(always)]
