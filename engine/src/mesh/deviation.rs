@@ -20,7 +20,7 @@ use super::grid::Pt;
 
 /// Rows `y0 + dy * k` for `k` in `0..rows`, each the interval
 /// `[lo0 + dlo * k, hi0 + dhi * k]`: a trapezoid of samples.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub(crate) struct Trapezoid {
     y0: i64,
     dy: i64,
@@ -57,6 +57,21 @@ pub(crate) fn for_each_row((spans, count): HalfRows, mut f: impl FnMut(usize, us
             hi += t.dhi;
         }
     }
+}
+
+/// The interval `(x_lo, x_hi)` of a half's samples on grid row `y`, if it
+/// has any there ([`for_each_row`]'s, row by row).
+#[inline(always)]
+pub(crate) fn half_row((spans, count): HalfRows, y: u32) -> Option<(usize, usize)> {
+    let y = i64::from(y);
+    spans[..count].iter().find_map(|t| {
+        // Rows run one apart, up or down.
+        debug_assert!(t.dy.abs() == 1 || t.rows == 0);
+        let k = (y - t.y0) * t.dy;
+        (0..t.rows)
+            .contains(&k)
+            .then(|| ((t.lo0 + t.dlo * k) as usize, (t.hi0 + t.dhi * k) as usize))
+    })
 }
 
 /// The samples of one half of a diamond: one or two trapezoids.

@@ -105,7 +105,7 @@ pub(crate) fn max_deviation_f32(z: &[f32], gw: usize, corners: [Pt; 3], rows: Ha
 /// into two running maxima, the last eight overlapping the ones before
 /// (`max` does not mind seeing a sample twice), rows under eight one by one.
 #[inline(always)]
-fn row_max_deviation_f32(row: &[f32], base: f32, step: f32) -> f32 {
+pub(super) fn row_max_deviation_f32(row: &[f32], base: f32, step: f32) -> f32 {
     // Sample indices as f32 (a row is under 2^24 samples: exact), within
     // a group of eight.
     const LANE: [f32; 8] = [0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0];

@@ -39,6 +39,7 @@ mod finest;
 mod flags;
 pub mod grid;
 pub mod hierarchy;
+mod level_row_scan;
 mod levels;
 pub mod lod;
 pub mod normals;
