@@ -283,9 +283,19 @@ impl Planes {
         let last = (y0 + BAND + HALO).min(gh);
         let width = self.width;
         for (y, row) in z.chunks_exact(gw).enumerate().take(last).skip(self.first) {
+            // Column `m + BIG j` is value `m` of the row's `j`-th group of
+            // `BIG`: read so, the loop is a load and a store per value (a
+            // `step_by` over the row cost four times that).
+            let groups = row.chunks_exact(BIG);
+            let rest = groups.remainder();
             for m in 0..BIG.min(gw) {
                 let plane = &mut self.values[((y - self.first) * BIG + m) * width + 1..][..width - 1];
-                for (d, &s) in plane.iter_mut().zip(row[m..].iter().step_by(BIG)) {
+                let mut j = 0;
+                for (d, group) in plane.iter_mut().zip(groups.clone()) {
+                    *d = group[m];
+                    j += 1;
+                }
+                if let (Some(d), Some(&s)) = (plane.get_mut(j), rest.get(m)) {
                     *d = s;
                 }
             }
