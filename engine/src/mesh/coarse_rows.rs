@@ -309,6 +309,19 @@ fn strided<const S: usize, T: Copy, U>(out: &mut Vec<U>, src: &[T], n: usize, f:
     out.push(f(src[last * S]));
 }
 
+/// `out` holds values `first, first + step, ...` of `src`: all but the last
+/// as the first of a group of `step`, so none is checked against the
+/// slice's end.
+#[inline(always)]
+fn every<T: Copy>(src: &[T], first: usize, step: usize, out: &mut [T]) {
+    let Some(last) = out.len().checked_sub(1) else { return };
+    let src = &src[first..=first + last * step];
+    for (o, group) in out[..last].iter_mut().zip(src.chunks_exact(step)) {
+        *o = group[0];
+    }
+    out[last] = src[last * step];
+}
+
 /// What the grid holds so far, as the sweep reads it.
 pub(super) struct Grids<'a> {
     pub gw: usize,
@@ -346,13 +359,22 @@ impl Samples {
         let [z0, z1, z2, ..] = &mut self.z;
         let mut z = [&mut z0[..n], &mut z1[..n], &mut z2[..n]];
         let cell = &mut self.cell[..n];
-        for k in 0..n {
-            let i = lanes.start + k;
-            let at = |role: usize| base[role][i % 2].wrapping_add(step * i);
-            for (role, z) in z.iter_mut().enumerate() {
-                z[k] = grids.z[at(role)];
+        // A role that does not turn with the lane's parity (all but a
+        // centre's diagonal ends) is every `step`-th value from its first
+        // lane's, gathered without bounds checks (by index, they cost what
+        // the copies do).
+        let first = |role: usize| base[role][lanes.start % 2].wrapping_add(step * lanes.start);
+        let turns = |role: usize| base[role][0] != base[role][1];
+        every(grids.flags, first(V), step, cell);
+        for (role, z) in z.iter_mut().enumerate() {
+            if turns(role) {
+                for (k, z) in z.iter_mut().enumerate() {
+                    let i = lanes.start + k;
+                    *z = grids.z[base[role][i % 2].wrapping_add(step * i)];
+                }
+            } else {
+                every(grids.z, first(role), step, z);
             }
-            cell[k] = grids.flags[at(V)];
         }
         for (c, child) in children.into_iter().enumerate() {
             let (width, z, radius, err2, flags) = match child.kept {
