@@ -21,7 +21,7 @@ use super::deviation::{gradient, half_row, half_rows, HalfRows};
 use super::deviation_f32::{in_f32_range, row_max_deviation_f32, widen};
 use super::grid::{Grid, Pt};
 use super::levels::{half_deviation2, round_up};
-use super::split_order::{Bisects, Split};
+use super::split_order::{split_rows, Bisects, Split};
 
 /// One half being scanned: where its value goes (the pair's index in the
 /// row's output, and the half), how far right of its group's first half
@@ -57,43 +57,39 @@ pub(super) fn level_row_scan(grid: Grid, z: &[f32], g: u32, out: &mut Vec<[f32; 
     debug_assert!(g >= 3, "levels 1 and 2 are swept: small_half_sweep.rs");
     let (gw, gh) = (grid.gw(), grid.gh());
     let h = 1u32 << g;
-    let step = 2 * h as usize;
     // By half and by the parity of the vertex.
     let mut groups: [Group; 4] = Default::default();
-    let kinds = [(Bisects::Row, 0, h), (Bisects::Column, h, 0), (Bisects::Diagonal, h, h)];
-    for (bisects, y0, x0) in kinds {
-        for y in (y0..gh).step_by(step) {
-            let first = out.len();
-            for (i, x) in (x0..gw).step_by(step).enumerate() {
-                let s = Split::at(grid, (x, y), h, bisects);
-                let mut pair = [0f32; 2];
-                for (half, apex) in s.apex.into_iter().enumerate() {
-                    let Some(c) = apex else { continue };
-                    let mut scan = match set_up(z, gw as usize, s, h, c) {
-                        Ok(scan) => scan,
-                        Err(dev2) => {
-                            pair[half] = dev2;
-                            continue;
-                        }
-                    };
-                    let group = &mut groups[2 * half + i % 2];
-                    if group.scans.is_empty() {
-                        group.x = x;
-                        group.rows = half_rows(s.v, h, c, bisects == Bisects::Row, bisects == Bisects::Diagonal);
+    for (bisects, y, xs) in split_rows(grid, g) {
+        let first = out.len();
+        for (i, x) in xs.enumerate() {
+            let s = Split::at(grid, (x, y), h, bisects);
+            let mut pair = [0f32; 2];
+            for (half, apex) in s.apex.into_iter().enumerate() {
+                let Some(c) = apex else { continue };
+                let mut scan = match set_up(z, gw as usize, s, h, c) {
+                    Ok(scan) => scan,
+                    Err(dev2) => {
+                        pair[half] = dev2;
+                        continue;
                     }
-                    scan.slot = (out.len() - first, half);
-                    scan.dx = (x - group.x) as usize;
-                    group.scans.push(scan);
+                };
+                let group = &mut groups[2 * half + i % 2];
+                if group.scans.is_empty() {
+                    group.x = x;
+                    group.rows = half_rows(s.v, h, c, bisects == Bisects::Row, bisects == Bisects::Diagonal);
                 }
-                out.push(pair);
+                scan.slot = (out.len() - first, half);
+                scan.dx = (x - group.x) as usize;
+                group.scans.push(scan);
             }
-            scan_rows(z, gw as usize, y.saturating_sub(h)..(y + h + 1).min(gh), &mut groups);
-            for group in &mut groups {
-                for scan in group.scans.drain(..) {
-                    let (i, half) = scan.slot;
-                    let dev = widen(scan.worst, scan.corners);
-                    out[first + i][half] = round_up(dev * dev);
-                }
+            out.push(pair);
+        }
+        scan_rows(z, gw as usize, y.saturating_sub(h)..(y + h + 1).min(gh), &mut groups);
+        for group in &mut groups {
+            for scan in group.scans.drain(..) {
+                let (i, half) = scan.slot;
+                let dev = widen(scan.worst, scan.corners);
+                out[first + i][half] = round_up(dev * dev);
             }
         }
     }

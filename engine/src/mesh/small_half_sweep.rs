@@ -290,12 +290,10 @@ impl Planes {
             let rest = groups.remainder();
             for m in 0..BIG.min(gw) {
                 let plane = &mut self.values[((y - self.first) * BIG + m) * width + 1..][..width - 1];
-                let mut j = 0;
                 for (d, group) in plane.iter_mut().zip(groups.clone()) {
                     *d = group[m];
-                    j += 1;
                 }
-                if let (Some(d), Some(&s)) = (plane.get_mut(j), rest.get(m)) {
+                if let (Some(d), Some(&s)) = (plane.get_mut(groups.len()), rest.get(m)) {
                     *d = s;
                 }
             }

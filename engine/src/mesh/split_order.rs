@@ -106,29 +106,37 @@ impl Split {
 
 /// The split vertices of the given levels (0 is the finest) in the order
 /// the pass needs them: per level, the edge midpoints along rows, those
-/// along columns, then the centres, each row by row.
+/// along columns, then the centres, each row by row ([`split_rows`]).
 #[inline(always)]
 pub(super) fn for_each_split(grid: Grid, levels: std::ops::Range<u32>, mut f: impl FnMut(Split)) {
-    let (gw, gh) = (grid.gw(), grid.gh());
     for g in levels {
         let h = 1u32 << g;
-        let step = 2 * h as usize;
-        for y in (0..gh).step_by(step) {
-            for x in (h..gw).step_by(step) {
-                f(Split::at(grid, (x, y), h, Bisects::Row));
-            }
-        }
-        for y in (h..gh).step_by(step) {
-            for x in (0..gw).step_by(step) {
-                f(Split::at(grid, (x, y), h, Bisects::Column));
-            }
-        }
-        for y in (h..gh).step_by(step) {
-            for x in (h..gw).step_by(step) {
-                f(Split::at(grid, (x, y), h, Bisects::Diagonal));
+        for (bisects, y, xs) in split_rows(grid, g) {
+            for x in xs {
+                f(Split::at(grid, (x, y), h, bisects));
             }
         }
     }
+}
+
+/// The rows of split vertices of level `g` in [`for_each_split`]'s order:
+/// each row's kind, grid row and columns.
+#[inline(always)]
+pub(super) fn split_rows(
+    grid: Grid,
+    g: u32,
+) -> impl Iterator<Item = (Bisects, u32, std::iter::StepBy<std::ops::Range<u32>>)> {
+    let (gw, gh) = (grid.gw(), grid.gh());
+    let h = 1u32 << g;
+    let step = 2 * h as usize;
+    // Each kind's first row and column.
+    [(Bisects::Row, 0, h), (Bisects::Column, h, 0), (Bisects::Diagonal, h, h)]
+        .into_iter()
+        .flat_map(move |(bisects, y0, x0)| {
+            (y0..gh)
+                .step_by(step)
+                .map(move |y| (bisects, y, (x0..gw).step_by(step)))
+        })
 }
 
 /// How many split vertices [`for_each_split`] visits on level `g` (and so
