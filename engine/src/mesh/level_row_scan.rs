@@ -23,19 +23,25 @@ use super::grid::{Grid, Pt};
 use super::levels::{half_deviation2, round_up};
 use super::split_order::{split_rows, Bisects, Split};
 
-/// One half being scanned: where its value goes (the pair's index in the
-/// row's output, and the half), how far right of its group's first half
-/// it lies, the interpolant from its corner `a` (as `max_deviation_f32`
-/// has it), and the largest deviation so far.
-struct HalfScan {
-    slot: (usize, usize),
-    dx: usize,
+/// A half's interpolant from its corner `a` (as `max_deviation_f32` has
+/// it): depth `za` at `(ax, ay)`, gradient `(gx, gy)`; and its corners'
+/// depths, which bound the scan's rounding.
+struct Interpolant {
     za: f64,
     ax: f64,
     ay: f64,
     gx: f64,
     gy: f64,
     corners: [f32; 3],
+}
+
+/// One half being scanned: where its value goes (the pair's index in the
+/// row's output, and the half), how far right of its group's first half
+/// it lies, its interpolant, and the largest deviation so far.
+struct HalfScan {
+    slot: (usize, usize),
+    dx: usize,
+    plane: Interpolant,
     worst: f32,
 }
 
@@ -66,8 +72,8 @@ pub(super) fn level_row_scan(grid: Grid, z: &[f32], g: u32, out: &mut Vec<[f32; 
             let mut pair = [0f32; 2];
             for (half, apex) in s.apex.into_iter().enumerate() {
                 let Some(c) = apex else { continue };
-                let mut scan = match set_up(z, gw as usize, s, h, c) {
-                    Ok(scan) => scan,
+                let plane = match set_up(z, gw as usize, s, h, c) {
+                    Ok(plane) => plane,
                     Err(dev2) => {
                         pair[half] = dev2;
                         continue;
@@ -78,9 +84,12 @@ pub(super) fn level_row_scan(grid: Grid, z: &[f32], g: u32, out: &mut Vec<[f32; 
                     group.x = x;
                     group.rows = half_rows(s.v, h, c, bisects == Bisects::Row, bisects == Bisects::Diagonal);
                 }
-                scan.slot = (out.len() - first, half);
-                scan.dx = (x - group.x) as usize;
-                group.scans.push(scan);
+                group.scans.push(HalfScan {
+                    slot: (out.len() - first, half),
+                    dx: (x - group.x) as usize,
+                    plane,
+                    worst: 0.0,
+                });
             }
             out.push(pair);
         }
@@ -88,19 +97,18 @@ pub(super) fn level_row_scan(grid: Grid, z: &[f32], g: u32, out: &mut Vec<[f32; 
         for group in &mut groups {
             for scan in group.scans.drain(..) {
                 let (i, half) = scan.slot;
-                let dev = widen(scan.worst, scan.corners);
+                let dev = widen(scan.worst, scan.plane.corners);
                 out[first + i][half] = round_up(dev * dev);
             }
         }
     }
 }
 
-/// The scan of the half of `s` with apex `c` (its slot and offset yet to
-/// be set), or its squared deviation where no scan by rows is needed
-/// (collinear corners: 0) or possible (corners out of f32's range: scanned
-/// in f64 at once).
+/// The interpolant of the half of `s` with apex `c`, or its squared
+/// deviation where no scan by rows is needed (collinear corners: 0) or
+/// possible (corners out of f32's range: scanned in f64 at once).
 #[inline(always)]
-fn set_up(z: &[f32], gw: usize, s: Split, h: u32, c: Pt) -> Result<HalfScan, f32> {
+fn set_up(z: &[f32], gw: usize, s: Split, h: u32, c: Pt) -> Result<Interpolant, f32> {
     let at = |p: Pt| z[p.1 as usize * gw + p.0 as usize];
     let corners = [at(s.a), at(s.b), at(c)];
     if !in_f32_range(corners) {
@@ -109,16 +117,13 @@ fn set_up(z: &[f32], gw: usize, s: Split, h: u32, c: Pt) -> Result<HalfScan, f32
     let Some((gx, gy)) = gradient(z, gw, [s.a, s.b, c]) else {
         return Err(0.0);
     };
-    Ok(HalfScan {
-        slot: (0, 0),
-        dx: 0,
+    Ok(Interpolant {
         za: f64::from(corners[0]),
         ax: f64::from(s.a.0),
         ay: f64::from(s.a.1),
         gx,
         gy,
         corners,
-        worst: 0.0,
     })
 }
 
@@ -134,9 +139,9 @@ fn scan_rows(z: &[f32], gw: usize, ys: std::ops::Range<u32>, groups: &mut [Group
             };
             for scan in &mut group.scans {
                 let (lo, hi) = (lo + scan.dx, hi + scan.dx);
-                let base =
-                    (scan.za + scan.gy * (f64::from(y) - scan.ay) + scan.gx * (f64::from(lo as u32) - scan.ax)) as f32;
-                let d = row_max_deviation_f32(&z[start + lo..=start + hi], base, scan.gx as f32);
+                let p = &scan.plane;
+                let base = (p.za + p.gy * (f64::from(y) - p.ay) + p.gx * (f64::from(lo as u32) - p.ax)) as f32;
+                let d = row_max_deviation_f32(&z[start + lo..=start + hi], base, p.gx as f32);
                 scan.worst = if d > scan.worst { d } else { scan.worst };
             }
         }
