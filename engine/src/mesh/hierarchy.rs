@@ -221,9 +221,6 @@ impl Passes {
         threads: Threads,
     ) -> Self {
         let grid = *grid;
-        // Allocated once the helper is under way (below), as is anything
-        // it does not read.
-        let (mut err2, mut radius) = (Vec::new(), Vec::new());
         let helper = threads == Threads::Parallel;
         let normals_first = !helper || matches!(seg.method, Method::Connectedness { .. });
         // With a helper and a segmentation that reads the depths alone, the
@@ -318,31 +315,30 @@ impl Passes {
                 z,
                 normals: early.as_ref().map_or(&[][..], |(n, _)| n),
             };
-            let cells = if split < grid.gh() {
+            // The pass's squared errors and radii, allocated once the
+            // helper is under way, as is anything it does not read.
+            let pass_arrays = || (vec![0f32; grid.len()], vec![0f32; grid.len()]);
+            let (cells, made) = if split < grid.gh() {
                 let mut cells = vec![0u8; grid.len()];
                 let (upper, lower) = cells.split_at_mut(split as usize * gw);
                 leaf_flag_rows(&samples, seg, 0..split, upper);
-                // The pass's arrays, made while the helper (which started
-                // later) flags its rows: 2 ms of zero fill at 1920 x 1080.
-                err2 = vec![0f32; grid.len()];
-                radius = vec![0f32; grid.len()];
+                // Made while the helper (which started later) flags its
+                // rows: 2 ms of zero fill at 1920 x 1080.
+                let made = pass_arrays();
                 // If the helper panicked, the rows are flagged here (and the
                 // join below passes the panic on).
                 match receive_band.recv() {
                     Ok(band) => lower.copy_from_slice(&band),
                     Err(_) => leaf_flag_rows(&samples, seg, split..grid.gh(), lower),
                 }
-                cells
+                (cells, Some(made))
             } else {
-                leaf_flags(&samples, seg)
+                (leaf_flags(&samples, seg), None)
             };
             let segmented = segmented_count(&grid, &cells);
             let mut flags: Vec<Flags> = cells.into_iter().map(Flags::of_cell).collect();
             stages.flags_ms = ms(t);
-            if err2.is_empty() {
-                err2 = vec![0f32; grid.len()];
-                radius = vec![0f32; grid.len()];
-            }
+            let (mut err2, mut radius) = made.unwrap_or_else(pass_arrays);
             let mut levels = Levels {
                 grid,
                 camera,
@@ -412,9 +408,9 @@ impl Passes {
             if let Some(helper_ms) = job.and_then(join) {
                 stages.normals_ms += helper_ms;
             }
-            (early, flags, segmented, scratch_bytes, stages)
+            (early, flags, err2, radius, segmented, scratch_bytes, stages)
         });
-        let (early, flags, segmented, scratch_bytes, stages) = scoped;
+        let (early, flags, err2, radius, segmented, scratch_bytes, stages) = scoped;
         // Every band was computed: this thread took bands until none was
         // left, and the helper finished the one it held before the scope
         // ended (or its panic went on at the join).
