@@ -226,8 +226,8 @@ impl Levels<'_> {
             let (head, tail) = flags.split_at_mut(y * gw);
             let row = &mut tail[..gw];
             let up: &[Flags] = if y > 0 { &head[(y - 1) * gw..] } else { &[] };
+            // (Their radii stay 0, as the pass is given them.)
             let err = &mut self.err2[y * gw..(y + 1) * gw];
-            self.radius[y * gw..(y + 1) * gw].fill(0.0);
             let xs = if ROW { 1 } else { 0 };
             for (i, x) in (xs..gw).step_by(2).enumerate() {
                 let exists = if ROW { [y > 0, y + 1 < gh] } else { [x > 0, x + 1 < gw] };

@@ -90,7 +90,8 @@ pub(crate) struct Levels<'a> {
     pub z: &'a [f32],
     /// Saturated squared errors, written.
     pub err2: &'a mut [f32],
-    /// Nested radii, written.
+    /// Nested radii, written; zero on entry (the finest edge midpoints',
+    /// which have no children, are left so).
     pub radius: &'a mut [f32],
 }
 
@@ -194,6 +195,7 @@ crate::simd::dispatch! {
 #[inline(always)]
 fn run_finest_body(levels: &mut Levels<'_>, flags: &mut [Flags], zmax: f32) {
     let gw = levels.grid.gw() as usize;
+    debug_assert!(levels.radius.iter().all(|&r| r == 0.0), "radii not zero on entry");
     let (mut geo, mut rad) = (vec![0f32; gw], vec![0f32; gw]);
     levels.finest_edges::<true>(flags, zmax, &mut geo);
     levels.finest_edges::<false>(flags, zmax, &mut geo);
