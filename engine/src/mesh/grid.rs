@@ -154,7 +154,9 @@ impl Grid {
     #[inline]
     pub fn cell_triangle(&self, c: Pt, half: usize) -> [Pt; 3] {
         let d = self.cell(c);
-        [d.a, d.b, d.apex[half]].map(|(x, y)| (x as u32, y as u32))
+        // Written out, not by `map` (see `segmentation::cell_flags`).
+        let pt = |(x, y): (_, _)| (x as u32, y as u32);
+        [pt(d.a), pt(d.b), pt(d.apex[half])]
     }
 }
 
