@@ -26,8 +26,27 @@ pub const FORCED: f32 = f32::MAX;
 /// Twice the area of the part of triangle `t` inside the image quadrant
 /// `x <= lx, y <= ly` (the triangle clipped by both lines).
 fn area2_inside(t: [(f64, f64); 3], lx: f64, ly: f64) -> f64 {
-    fn clip(poly: &[(f64, f64)], inside: impl Fn((f64, f64)) -> f64) -> Vec<(f64, f64)> {
-        let mut out = Vec::with_capacity(poly.len() + 1);
+    /// A convex polygon of at most five corners: a triangle clipped by two
+    /// lines (each cut adds at most one corner). On the stack: the border
+    /// pass clips a few thousand triangles per build.
+    struct Poly {
+        corners: [(f64, f64); 5],
+        len: usize,
+    }
+    impl Poly {
+        fn corners(&self) -> &[(f64, f64)] {
+            &self.corners[..self.len]
+        }
+        fn push(&mut self, p: (f64, f64)) {
+            self.corners[self.len] = p;
+            self.len += 1;
+        }
+    }
+    fn clip(poly: &[(f64, f64)], inside: impl Fn((f64, f64)) -> f64) -> Poly {
+        let mut out = Poly {
+            corners: [(0.0, 0.0); 5],
+            len: 0,
+        };
         for (k, &p) in poly.iter().enumerate() {
             let q = poly[(k + 1) % poly.len()];
             let (dp, dq) = (inside(p), inside(q));
@@ -42,7 +61,8 @@ fn area2_inside(t: [(f64, f64); 3], lx: f64, ly: f64) -> f64 {
         out
     }
     let poly = clip(&t, |p| lx - p.0);
-    let poly = clip(&poly, |p| ly - p.1);
+    let poly = clip(poly.corners(), |p| ly - p.1);
+    let poly = poly.corners();
     let n = poly.len();
     (0..n)
         .map(|k| {
