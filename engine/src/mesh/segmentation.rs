@@ -131,7 +131,9 @@ pub(crate) fn rows_split(seg: &Segmentation) -> bool {
 
 crate::simd::dispatch! {
     /// [`leaf_flags`] of the cells of the grid rows `rows` (the last grid
-    /// row has none: 0), into `out`, which holds those rows.
+    /// row has none: 0), into `out`, which holds those rows, zeroed (each
+    /// caller's fresh allocation: filled again here, they were written
+    /// twice).
     pub(crate) fn leaf_flag_rows(s: &Samples<'_>, seg: &Segmentation, rows: std::ops::Range<u32>, out: &mut [u8]) -> () = leaf_flag_rows_body;
 }
 
@@ -149,7 +151,7 @@ fn leaf_flag_rows_body(s: &Samples<'_>, seg: &Segmentation, rows: std::ops::Rang
     };
     let (w, lambda) = (gw as usize, seg.lambda);
     let first = grid.index((0, rows.start));
-    out[..rows.len() * w].fill(0);
+    debug_assert!(out[..rows.len() * w].iter().all(|&c| c == 0), "leaf flags written over");
     // Per row, first the cells whose four corners are valid and span too
     // little depth for Eq. 11 (both triangles unsegmented: most cells), in
     // a branch-free loop over whole rows that vectorises; then the rest.
