@@ -143,7 +143,7 @@ impl CentreSamples {
         // Centres 2m and 2m + 1 share their diagonal's `a` end, zp[4m + 2];
         // centre i's `b` end is zq[4 ceil(i / 2)].
         fill(&mut self.a, n, |i| zp[4 * (i / 2) + 2]);
-        fill(&mut self.b, n, |i| zq[4 * ((i + 1) / 2)]);
+        fill(&mut self.b, n, |i| zq[4 * i.div_ceil(2)]);
     }
 }
 
