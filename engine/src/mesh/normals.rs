@@ -297,6 +297,9 @@ crate::simd::dispatch! {
     fn normal_rows(grid: &Grid, camera: &Camera, bp: &BackProject, z: &[f32], rows: Range<usize>, normals: &mut [[u8; 2]], rho: &mut [u8]) -> () = normal_rows_body;
 }
 
+/// Samples per block of [`normal_rows`]'s pass over the fast ones.
+const FAST_BLOCK: usize = 32;
+
 #[inline(always)]
 fn normal_rows_body(
     grid: &Grid,
@@ -367,8 +370,17 @@ fn normal_rows_body(
             rows,
         };
         interior_row(&stencil, ortho, nrow, rrow, &mut fast, &mut scratch);
-        for x in (1..w - 1).filter(|&x| !fast[x]) {
-            (nrow[x], rrow[x]) = if zrow[x] > 0.0 { general(x, y) } else { (facing, 0) };
+        // Blocks of fast samples are passed over whole: an `and` of the
+        // block's bytes, without branches (a branch per sample cost a
+        // tenth of the stage, more where the code's layout fell badly).
+        for (block, fast) in fast[1..w - 1].chunks(FAST_BLOCK).enumerate() {
+            if fast.iter().fold(true, |all, &f| all & f) {
+                continue;
+            }
+            for (k, _) in fast.iter().enumerate().filter(|&(_, &f)| !f) {
+                let x = 1 + block * FAST_BLOCK + k;
+                (nrow[x], rrow[x]) = if zrow[x] > 0.0 { general(x, y) } else { (facing, 0) };
+            }
         }
         for x in [0, w - 1] {
             if zrow[x] > 0.0 {
