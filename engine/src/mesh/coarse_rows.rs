@@ -303,7 +303,7 @@ impl Child<'_> {
 /// against the slice's end (by index, the checks cost what the copies do:
 /// the level above the finest reads its children four apart).
 #[inline(always)]
-fn strided<const S: usize, T: Copy, U>(out: &mut Vec<U>, src: &[T], n: usize, f: impl Fn(T) -> U) {
+pub(super) fn strided<const S: usize, T: Copy, U>(out: &mut Vec<U>, src: &[T], n: usize, f: impl Fn(T) -> U) {
     let Some(last) = n.checked_sub(1) else { return };
     out.extend(src[..last * S].chunks_exact(S).map(|group| f(group[0])));
     out.push(f(src[last * S]));

@@ -22,6 +22,7 @@
 //! check both.
 
 use super::backproject::BackProject;
+use super::coarse_rows::strided;
 use super::error_metric::norm_bound;
 use super::flags::{Flags, Half};
 use super::levels::{footprint2, round_up, Levels};
@@ -134,12 +135,9 @@ impl CentreSamples {
         let (zp, zq) = if p_row == 0 { (up, down) } else { (down, up) };
         fill_pairs(&mut self.v, &row[1..], n);
         fill_pairs(&mut self.left, row, n);
+        fill_pairs(&mut self.right, &row[2..], n);
         fill_pairs(&mut self.up, &up[1..], n);
         fill_pairs(&mut self.down, &down[1..], n);
-        // The right neighbour is the next centre's left one; the last
-        // centre's is the row's last sample.
-        fill_pairs(&mut self.right, &row[2..], n - 1);
-        self.right.push(row[2 * n]);
         // Centres 2m and 2m + 1 share their diagonal's `a` end, zp[4m + 2];
         // centre i's `b` end is zq[4 ceil(i / 2)].
         fill(&mut self.a, n, |i| zp[4 * (i / 2) + 2]);
@@ -147,12 +145,12 @@ impl CentreSamples {
     }
 }
 
-/// `v` holds `z[0], z[2], ..., z[2 (n - 1)]`, in the memory it had (`z`
-/// at least `2n` long).
+/// `v` holds `z[0], z[2], ..., z[2 (n - 1)]`, in the memory it had, read
+/// as [`strided`] reads the coarser levels' children.
 #[inline(always)]
 fn fill_pairs(v: &mut Vec<f32>, z: &[f32], n: usize) {
     v.clear();
-    v.extend(z[..2 * n].chunks_exact(2).map(|g| g[0]));
+    strided::<2, _, _>(v, z, n, |z| z);
 }
 
 /// `v` holds `f(0), ..., f(n - 1)`, in the memory it had.
