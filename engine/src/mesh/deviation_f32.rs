@@ -55,9 +55,9 @@ const HIGH: f32 = 1.152_921_5e18;
 const LOW: f32 = 8.673_617e-19;
 
 /// Whether a half whose corners have depths `corners` may be scanned in
-/// f32: the largest within `[2^-60, 2^60]`, or all three 0 (scanned in f64
-/// instead, the halves of invalid regions and of the padding took a
-/// fortieth of a build on cones).
+/// f32: the largest within `[2^-60, 2^60]`, or all three 0 (the halves of
+/// invalid regions and of the padding, which in f64 took a fortieth of a
+/// build on cones).
 #[inline(always)]
 pub(crate) fn in_f32_range([za, zb, zc]: [f32; 3]) -> bool {
     let largest = za.abs().max(zb.abs()).max(zc.abs());
