@@ -1,9 +1,11 @@
 //! Builds the synthetic scene (or a Middlebury scene of `../shared/data`)
 //! repeatedly and prints the minimum and median time and the median of
 //! each stage, for profiling. Usage:
-//! `profile_build [SIZE | WxH | SCENE] [ITERATIONS] [THREADS] [portable]`
-//! (threads 1 or 2, default as `Hierarchy::build`; `portable`: without the
-//! AVX2 code even where the CPU has it, to measure what it brings).
+//! `profile_build [SIZE | WxH | SCENE] [ITERATIONS] [THREADS] [TIER | alternate]`
+//! (threads 1 or 2, default as `Hierarchy::build`; `portable`, `avx2` or
+//! `avx512`: no better code than that tier, to measure what each brings;
+//! `alternate`: every tier this CPU has above the portable one, build by
+//! build, so that the machine's moods fall on each alike).
 
 #[path = "../benches/scenes.rs"]
 mod scenes;
@@ -38,22 +40,49 @@ fn main() {
         Some("2") => dmesh_engine::mesh::Threads::Parallel,
         _ => dmesh_engine::mesh::Threads::available(),
     };
-    let portable = args.next().as_deref() == Some("portable");
-    dmesh_engine::simd::force_portable(portable);
-    let mut times = Vec::new();
-    let mut stages = Vec::new();
+    use dmesh_engine::simd::Tier;
+    let tiers: Vec<Tier> = match args.next().as_deref() {
+        Some("alternate") => Tier::ALL[1..].iter().copied().filter(|t| t.available()).collect(),
+        Some(name) => match Tier::ALL.into_iter().find(|t| t.name() == name) {
+            Some(t) => vec![t],
+            None => {
+                eprintln!("no tier {name:?}: give portable, avx2, avx512 or alternate");
+                std::process::exit(2);
+            }
+        },
+        None => vec![Tier::Avx512],
+    };
+    let mut times = vec![Vec::new(); tiers.len()];
+    let mut stages = vec![Vec::new(); tiers.len()];
     for _ in 0..iterations.max(1) {
-        let t = std::time::Instant::now();
-        let mesh = std::hint::black_box(
-            dmesh_engine::mesh::Hierarchy::build_with(&d, &c, &Default::default(), threads).unwrap(),
-        );
-        times.push(t.elapsed());
-        stages.push(mesh.stats().stages);
+        for (k, &tier) in tiers.iter().enumerate() {
+            dmesh_engine::simd::limit(tier);
+            let t = std::time::Instant::now();
+            let mesh = std::hint::black_box(
+                dmesh_engine::mesh::Hierarchy::build_with(&d, &c, &Default::default(), threads).unwrap(),
+            );
+            times[k].push(t.elapsed());
+            stages[k].push(mesh.stats().stages);
+        }
     }
+    for (k, _) in tiers.iter().enumerate() {
+        dmesh_engine::simd::limit(tiers[k]);
+        report(w, h, threads, &mut times[k], &stages[k]);
+    }
+}
+
+/// Prints the minimum and median build and the median of each stage.
+fn report(
+    w: u32,
+    h: u32,
+    threads: dmesh_engine::mesh::Threads,
+    times: &mut [std::time::Duration],
+    stages: &[dmesh_engine::mesh::Stages],
+) {
     times.sort();
     println!(
-        "{w}x{h} {threads:?} avx2={}: min {:?} median {:?}",
-        dmesh_engine::simd::avx2_in_use(),
+        "{w}x{h} {threads:?} {}: min {:?} median {:?}",
+        dmesh_engine::simd::tier_in_use().name(),
         times[0],
         times[times.len() / 2]
     );

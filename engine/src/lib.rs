@@ -13,7 +13,7 @@
 //!   (select, share, resolve, extract, encode), for the server and the report;
 //! - [`scene`]: reference-view selection and weights for a novel camera;
 //! - [`sim`]: the scene simulator with ground truth;
-//! - [`simd`]: run-time dispatch of the build's hot loops to AVX2;
+//! - [`simd`]: run-time dispatch of the build's hot loops to AVX2 or AVX-512;
 //! - [`synthetic`]: built-in synthetic depth maps;
 //! - [`wire`]: extracted meshes as `dmesh-proto` strip responses;
 //! - [`wire_compact`]: extracted meshes as protocol 6, the compact stream, and back.

@@ -1,5 +1,5 @@
-//! The build's AVX2 code (`dmesh_engine::simd`) and its portable fallback
-//! give the same bytes: every vertex's error, radius and flags, and the
+//! The build's AVX2 and AVX-512 code (`dmesh_engine::simd`) and its
+//! portable fallback give the same bytes: every vertex's error, radius and flags, and the
 //! meshes extracted from them with their normals and rho, on scenes with
 //! boxes, holes and noise, every segmentation method, perspective and
 //! orthographic cameras, one thread and two.
@@ -61,12 +61,18 @@ fn scenes() -> Vec<(String, DepthImage, Camera)> {
 }
 
 #[test]
-fn avx2_and_portable_builds_give_the_same_bytes() {
+fn every_tier_and_the_portable_code_give_the_same_bytes() {
+    use dmesh_engine::simd::{limit, tier_in_use, Tier};
+    check_limits();
     #[cfg(target_arch = "x86_64")]
     assert!(
-        dmesh_engine::simd::avx2_in_use(),
+        Tier::Avx2.available(),
         "this CPU has no AVX2: the comparison would be of the portable code with itself"
     );
+    // Every tier this CPU has; AVX-512 where it has it (the CPUs CI runs
+    // on do not all have it: the test names the tiers it compared).
+    let tiers: Vec<Tier> = Tier::ALL[1..].iter().copied().filter(|t| t.available()).collect();
+    eprintln!("tiers compared with the portable code: {tiers:?}");
     let methods = [
         Method::Orthogonality { omega_deg: 5.0 },
         Method::Disparity { sigma: 0.5 },
@@ -81,18 +87,36 @@ fn avx2_and_portable_builds_give_the_same_bytes() {
                 ..Default::default()
             };
             for threads in [Threads::Single, Threads::Parallel] {
-                dmesh_engine::simd::force_portable(true);
-                assert!(!dmesh_engine::simd::avx2_in_use());
+                limit(Tier::Portable);
+                assert_eq!(tier_in_use(), Tier::Portable);
                 let portable = fingerprint(&depth, &camera, &seg, threads);
-                dmesh_engine::simd::force_portable(false);
-                let fast = fingerprint(&depth, &camera, &seg, threads);
-                assert!(
-                    portable == fast,
-                    "{name}, {method:?}, {threads:?}: AVX2 and portable differ"
-                );
-                compared += 1;
+                for &tier in &tiers {
+                    limit(tier);
+                    assert_eq!(tier_in_use(), tier);
+                    let fast = fingerprint(&depth, &camera, &seg, threads);
+                    assert!(
+                        portable == fast,
+                        "{name}, {method:?}, {threads:?}: {tier:?} and portable differ"
+                    );
+                    compared += 1;
+                }
             }
         }
     }
-    assert_eq!(compared, 7 * 4 * 2);
+    limit(Tier::Avx512);
+    assert_eq!(compared, 7 * 4 * 2 * tiers.len());
+}
+
+/// No limit makes a tier run that the CPU lacks, nor one above the limit.
+/// (Called from the one test: the limit is global, and tests run side by
+/// side.)
+fn check_limits() {
+    use dmesh_engine::simd::{limit, tier_in_use, Tier};
+    for tier in Tier::ALL {
+        limit(tier);
+        let used = tier_in_use();
+        assert!(used <= tier, "limit {tier:?} ran {used:?}");
+        assert!(used.available(), "{used:?} is not on this CPU");
+    }
+    limit(Tier::Avx512);
 }
