@@ -34,7 +34,7 @@
 //! and row (the finest level, three quarters of all vertices, in those of
 //! `finest.rs`; the levels above, with each kind's results kept for the
 //! kind that reads them, in those of `coarse_rows.rs`). The deviations of the levels above it (levels 1 and 2 swept a
-//! level at a time, eight vertices a step, on one thread too) and the
+//! level at a time, sixteen vertices a step, on one thread too) and the
 //! normals and quality read only the depths, so with
 //! [`Threads::Parallel`] a helper thread computes them meanwhile (the
 //! normals first when the segmentation needs them: connectedness).
@@ -357,7 +357,7 @@ impl Passes {
             // The helper sends the deviations a level at a time (if it
             // panicked, the pass computes the rest and the join below passes
             // the panic on). On one thread, levels 1 and 2 are swept whole
-            // before the pass comes to them (eight vertices a step), and
+            // before the pass comes to them (sixteen vertices a step), and
             // each unsegmented half of the coarser levels is scanned as the
             // pass comes to it, where its children's bound leaves the
             // vertex's error open (`deviation_bound.rs`). Scratch: the

@@ -1,6 +1,6 @@
 //! The depth deviations of the halves of levels 1 and 2 (half-size `H` = 2
 //! and 4: nine in ten of the halves a build scans), a level at a time in
-//! f32, eight split vertices per step, within `deviation_f32.rs`'s margin
+//! f32, sixteen split vertices per step, within `deviation_f32.rs`'s margin
 //! above the exact f64 scan (`deviation.rs`'s [`small_half_deviation`], the
 //! oracle in the tests and the fallback for extreme depths).
 //!
@@ -11,9 +11,10 @@
 //! for a band of 32 rows and a halo at a time, so the band's depths are
 //! still in cache when its vertices read them); the vertices of
 //! a row whose index is one class modulo `16 / 2H` then find their samples
-//! at one offset in eight consecutive values of one plane row, and eight
-//! vertices are one vector step. The classes also make each step's centres
-//! one shape: a centre's diagonal turns from one to the next.
+//! at one offset in sixteen consecutive values of one plane row, and
+//! sixteen vertices are one step ([`LANES`]). The classes also make each
+//! step's centres one shape: a centre's diagonal turns from one to the
+//! next.
 //!
 //! The lanes' code is plain loops over arrays and `#[inline(always)]`
 //! functions, no closures or `std::array::from_fn`: inside the AVX2
@@ -243,6 +244,13 @@ pub(crate) fn scratch_bytes(grid: Grid) -> usize {
     }
 }
 
+/// Split vertices swept per step: sixteen, one AVX-512 vector of f32
+/// (two AVX2 vectors, which lose nothing by it). Eight, one AVX2 vector,
+/// took 0.25 ms more of the coarse stage at 513 x 513 on one thread on an
+/// AVX-512 Xeon (`profile_build 513 80 1 alternate`: 3.71 against 3.45 ms
+/// with AVX-512, 3.98 against 3.83 with AVX2).
+const LANES: usize = 16;
+
 /// Columns apart of the values in one phase plane: a multiple of both
 /// levels' `4H`, so one set of planes serves both.
 const BIG: usize = 16;
@@ -259,11 +267,11 @@ struct Planes {
 
 impl Planes {
     /// Values in a plane row: its columns, a zero before, and room for the
-    /// last step's eight lanes (a step starts at a multiple of eight below
+    /// last step's lanes (a step starts at a multiple of [`LANES`] below
     /// the columns and reads up to two columns on).
     fn width(grid: Grid) -> usize {
         let columns = (grid.gw() as usize - 1) / BIG + 1;
-        (columns - 1) / 8 * 8 + 10
+        (columns - 1) / LANES * LANES + LANES + 2
     }
 
     fn with_capacity(grid: Grid) -> Self {
@@ -300,15 +308,15 @@ impl Planes {
         }
     }
 
-    /// The eight values from vertex `j0` of the vertices at columns
+    /// The [`LANES`] values from vertex `j0` of the vertices at columns
     /// `x0 + BIG j`, at offset `dx` and grid row `y`.
     #[inline(always)]
-    fn load(&self, y: usize, x0: usize, dx: isize, j0: usize) -> [f32; 8] {
+    fn load(&self, y: usize, x0: usize, dx: isize, j0: usize) -> [f32; LANES] {
         let c = x0 as isize + dx;
         let big = BIG as isize;
         let (m, off) = (c.rem_euclid(big) as usize, (c.div_euclid(big) + 1) as usize);
         let start = ((y - self.first) * BIG + m) * self.width + j0 + off;
-        self.values[start..start + 8].try_into().unwrap_or([0.0; 8])
+        self.values[start..start + LANES].try_into().unwrap_or([0.0; LANES])
     }
 }
 
@@ -390,7 +398,7 @@ fn sweep<const H: isize>(planes: &Planes, grid: Grid, z: &[f32], y0: usize, out:
 }
 
 /// One row's pairs into `out`: the vertices of each class (their index
-/// modulo `BIG / 2H`) eight at a time, class by class.
+/// modulo `BIG / 2H`) [`LANES`] at a time, class by class.
 #[inline(always)]
 fn emit<const H: isize>(planes: &Planes, z: &[f32], gw: usize, out: &mut [[f32; 2]], row: Row) {
     let s = 2 * H as usize;
@@ -398,14 +406,14 @@ fn emit<const H: isize>(planes: &Planes, z: &[f32], gw: usize, out: &mut [[f32; 
     for class in 0..classes {
         let count = (row.n + classes - 1 - class) / classes;
         let x0 = row.x + s * class;
-        for j0 in (0..count).step_by(8) {
-            let mut pairs = [[0f32; 2]; 8];
+        for j0 in (0..count).step_by(LANES) {
+            let mut pairs = [[0f32; 2]; LANES];
             for half in 0..2 {
                 if !row.rows[half] {
                     continue;
                 }
                 let shape = row.shapes[class % 2][half];
-                let (worst, corners) = half_worst::<H, 8>(
+                let (worst, corners) = half_worst::<H, LANES>(
                     shape,
                     #[inline(always)]
                     |dy, dx| planes.load((row.y as isize + dy) as usize, x0, dx, j0),
