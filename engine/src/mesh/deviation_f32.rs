@@ -4,9 +4,9 @@
 //! [`MARGIN`] (`2^-20`) times the largest corner depth. Issue 16's decision
 //! (a) lets the stored errors move within such a margin; the extraction's
 //! guarantee (epsilon at every sample) needs only that they never fall
-//! below the exact deviation. This file scans the halves of half-size 8
+//! below the exact deviation. This file scans the halves of half-size 16
 //! and up, eight samples of a row at a time; `small_half_sweep.rs` those
-//! of half-size 2 and 4 a level at a time, within the same margin.
+//! of half-size 2, 4 and 8 a level at a time, within the same margin.
 //!
 //! Why f32: the f64 scan's interpolant is a running sum (one add's latency
 //! per four samples), and f32 lanes are twice as many. Here the interpolant

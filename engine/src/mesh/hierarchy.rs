@@ -33,9 +33,10 @@
 //! The pass itself is in `levels.rs`, in straight loops per kind of vertex
 //! and row (the finest level, three quarters of all vertices, in those of
 //! `finest.rs`; the levels above, with each kind's results kept for the
-//! kind that reads them, in those of `coarse_rows.rs`). The deviations of the levels above it (levels 1 and 2 swept a
-//! level at a time, sixteen vertices a step, on one thread too) and the
-//! normals and quality read only the depths, so with
+//! kind that reads them, in those of `coarse_rows.rs`). The deviations of
+//! the levels above it (levels 1 to 3 swept a level at a time, sixteen
+//! vertices a step, on one thread too) and the normals and quality read
+//! only the depths, so with
 //! [`Threads::Parallel`] a helper thread computes them meanwhile (the
 //! normals first when the segmentation needs them: connectedness).
 //!
@@ -206,7 +207,7 @@ impl Passes {
     /// segmentation that needs the normals first (connectedness compares
     /// them across triangle legs) this thread computes them at the start.
     ///
-    /// The helper computes a level's deviations of levels 3 and up only
+    /// The helper computes a level's deviations of levels 4 and up only
     /// while the pass is at least two levels below it: otherwise the pass
     /// would wait for it, and the pass scans each half as it comes to it
     /// (sparing the scans its children's bound shows needless) while the
@@ -239,11 +240,11 @@ impl Passes {
         let (mut late_normal, mut late_rho) = (Vec::new(), Vec::new());
         let late = (&mut late_normal, &mut late_rho);
         let bands = OnceLock::new();
-        // The level the pass is at, and the first coarse level (3 and up)
+        // The level the pass is at, and the first coarse level (4 and up)
         // nobody has claimed: the helper claims levels in order while the
         // pass is two or more below, then this thread claims the rest.
         let pass_at = AtomicU32::new(0);
-        let unclaimed = AtomicU32::new(3);
+        let unclaimed = AtomicU32::new(4);
         let claim = |g: u32| {
             unclaimed
                 .compare_exchange(g, g + 1, Ordering::AcqRel, Ordering::Acquire)
@@ -276,11 +277,11 @@ impl Passes {
                     // the next is computed. The receiver outlives this
                     // thread: sending cannot fail.
                     let mut levels = levels.into_iter();
-                    let small = [(); 2].map(|()| levels.next().unwrap_or_default());
+                    let small = [(); 3].map(|()| levels.next().unwrap_or_default());
                     for level in small_deviations(grid, z, small).into_iter().take(grid.k as usize - 1) {
                         let _ = send.send(level);
                     }
-                    for (g, out) in (3..grid.k).zip(levels) {
+                    for (g, out) in (4..grid.k).zip(levels) {
                         if pass_at.load(Ordering::Acquire) + 2 > g || !claim(g) {
                             break;
                         }
@@ -356,7 +357,7 @@ impl Passes {
             };
             // The helper sends the deviations a level at a time (if it
             // panicked, the pass computes the rest and the join below passes
-            // the panic on). On one thread, levels 1 and 2 are swept whole
+            // the panic on). On one thread, levels 1 to 3 are swept whole
             // before the pass comes to them (sixteen vertices a step), and
             // each unsegmented half of the coarser levels is scanned as the
             // pass comes to it, where its children's bound leaves the
@@ -375,20 +376,20 @@ impl Passes {
                 + coarse_rows::scratch_bytes(grid)
                 + (grid.gh() - split) as usize * gw
                 + helper_levels;
-            let mut second = None;
+            let mut later = [None, None];
             let mut given = |g: u32| {
                 pass_at.store(g, Ordering::Release);
                 let level = match (&job, g) {
                     // Not claimed by the helper: scanned as the pass comes.
-                    (Some(_), 3..) if claim(g) => None,
+                    (Some(_), 4..) if claim(g) => None,
                     (Some(_), _) => receive.recv().ok(),
                     (None, 1) => {
-                        let out = [1, 2].map(|g| Vec::with_capacity(split_count(grid, g)));
-                        let [one, two] = small_deviations(grid, z, out);
-                        second = Some(two);
+                        let out = [1, 2, 3].map(|g| Vec::with_capacity(split_count(grid, g)));
+                        let [one, two, three] = small_deviations(grid, z, out);
+                        later = [Some(two), Some(three)];
                         Some(one)
                     }
-                    (None, 2) => second.take(),
+                    (None, 2 | 3) => later[g as usize - 2].take(),
                     (None, _) => None,
                 };
                 if job.is_none() {

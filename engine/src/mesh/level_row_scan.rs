@@ -56,11 +56,11 @@ struct Group {
 }
 
 /// The squared deviations, rounded up, of both halves of every split
-/// vertex of level `g` (at least 3), appended to `out` in
+/// vertex of level `g` (at least 4), appended to `out` in
 /// `for_each_split`'s order: 0 where a half does not exist.
 #[inline(always)]
 pub(super) fn level_row_scan(grid: Grid, z: &[f32], g: u32, out: &mut Vec<[f32; 2]>) {
-    debug_assert!(g >= 3, "levels 1 and 2 are swept: small_half_sweep.rs");
+    debug_assert!(g >= 4, "levels 1 to 3 are swept: small_half_sweep.rs");
     let (gw, gh) = (grid.gw(), grid.gh());
     let h = 1u32 << g;
     // By half and by the parity of the vertex.
@@ -165,9 +165,9 @@ mod tests {
         out
     }
 
-    /// Every level from 3 up gives the bits of the scan half by half.
+    /// Every level from 4 up gives the bits of the scan half by half.
     fn matches_half_by_half(grid: Grid, z: &[f32]) -> Result<(), TestCaseError> {
-        for g in 3..grid.k {
+        for g in 4..grid.k {
             let mut rows = Vec::new();
             level_row_scan(grid, z, g, &mut rows);
             prop_assert_eq!(rows, half_by_half(grid, z, g), "level {}", g);
@@ -187,7 +187,7 @@ mod tests {
             (a, b, pad) in (1u32..5, 1u32..5, 0u32..3),
             holes in 0u32..4,
         ) {
-            // Multiples of 32 (levels 3 and 4 at least), padded or not.
+            // Multiples of 32 (levels 4 at least), padded or not.
             let (w, h) = (32 * a + 1 - pad, 32 * b + 1);
             let grid = Grid::for_image(w, h);
             prop_assert!(grid.k >= 5, "{} x {}: k = {}", w, h, grid.k);

@@ -4,9 +4,9 @@
 //! `hierarchy.rs`). It reads the depths and writes flags, errors and radii
 //! only, so the normals can be computed beside it; the deviations of the
 //! levels above the finest, which need the depths alone, can be computed on
-//! another thread ([`small_deviations`] for levels 1 and 2,
+//! another thread ([`small_deviations`] for levels 1 to 3,
 //! [`coarse_deviations`] for each level above), while this pass builds the
-//! finest level and the levels below. On one thread levels 1 and 2 are
+//! finest level and the levels below. On one thread levels 1 to 3 are
 //! swept before the pass reaches them, and each coarser unsegmented half is
 //! scanned as the pass comes to it, unless the bound from its children's
 //! deviations (`deviation_bound.rs`) shows the scan cannot change the
@@ -108,7 +108,7 @@ const ROW_SCAN_LEVELS: std::ops::Range<u32> = 4..6;
 
 crate::simd::dispatch! {
     /// The depth deviation of each half of every split vertex of level `g`
-    /// (at least 3: levels 1 and 2 come from [`small_deviations`]), squared
+    /// (at least 4: levels 1 to 3 come from [`small_deviations`]), squared
     /// and rounded up (0 where a half does not exist), in the order
     /// [`Levels::run_coarse`] takes them. It reads only the depths, so it
     /// can run on another thread, a level ahead of the pass. Halves that
@@ -121,18 +121,18 @@ crate::simd::dispatch! {
 }
 
 crate::simd::dispatch! {
-    /// The deviations of levels 1 and 2 as [`coarse_deviations`] gives
-    /// them, both from one set of phase planes (`small_half_sweep.rs`),
+    /// The deviations of levels 1 to 3 as [`coarse_deviations`] gives
+    /// them, all from one set of phase planes (`small_half_sweep.rs`),
     /// into `out` (whatever they hold; empty where the grid has no such
     /// level). With AVX2 where the CPU has it.
-    pub(crate) fn small_deviations(grid: Grid, z: &[f32], out: [Vec<[f32; 2]>; 2]) -> [Vec<[f32; 2]>; 2] = small_deviations_body;
+    pub(crate) fn small_deviations(grid: Grid, z: &[f32], out: [Vec<[f32; 2]>; 3]) -> [Vec<[f32; 2]>; 3] = small_deviations_body;
 }
 
 #[inline(always)]
-fn small_deviations_body(grid: Grid, z: &[f32], out: [Vec<[f32; 2]>; 2]) -> [Vec<[f32; 2]>; 2] {
-    let [mut one, mut two] = out;
-    small_level_deviations(grid, z, [&mut one, &mut two]);
-    [one, two]
+fn small_deviations_body(grid: Grid, z: &[f32], out: [Vec<[f32; 2]>; 3]) -> [Vec<[f32; 2]>; 3] {
+    let [mut one, mut two, mut three] = out;
+    small_level_deviations(grid, z, [&mut one, &mut two, &mut three]);
+    [one, two, three]
 }
 
 #[inline(always)]
@@ -180,6 +180,7 @@ pub(super) fn half_deviation2(z: &[f32], gw: usize, s: Split, h: u32, apex: Pt) 
         1 => max_deviation(z, gw, [s.a, s.b, apex], rows()),
         2 => return small_half_deviation2::<2>(z, gw, v, s.small_shape(apex)),
         4 => return small_half_deviation2::<4>(z, gw, v, s.small_shape(apex)),
+        8 => return small_half_deviation2::<8>(z, gw, v, s.small_shape(apex)),
         _ => max_deviation_f32(z, gw, [s.a, s.b, apex], rows()),
     };
     round_up(dev * dev)
@@ -235,8 +236,10 @@ impl Levels<'_> {
             // Vertices per row (centres, and edge midpoints along rows; one
             // more along columns) and rows per kind (one more along rows).
             let (nx, ny) = ((gw as usize - 1) / step, (gh as usize - 1) / step);
-            // The halves' deviations are kept from level 2 on: the first
-            // that may be scanned as the pass comes is level 3.
+            // The halves' deviations are kept from level 2 on, for the
+            // bound of the level above where it is scanned as the pass
+            // comes (from level 4 in a build, which is given levels 1 to
+            // 3; from level 1 in the tests' scanning paths).
             row_edges.reset(ny + 1, nx, g >= 2);
             column_edges.reset(ny, nx + 1, g >= 2);
             centres.reset(ny, nx, g >= 2);

@@ -148,10 +148,10 @@ fn coarse_ways((w, h): (u32, u32), z: &[f32], cells: &[u8], handover: u32) -> [S
     let fx = Fixture::new(w, h, z);
     let (grid, zmax) = (fx.grid, fx.zmax);
     let finest = fx.run(&fx.start(cells), &|l, flags| run_finest(l, flags, zmax));
-    let small = small_deviations(grid, z, [Vec::new(), Vec::new()]);
+    let small = small_deviations(grid, z, [Vec::new(), Vec::new(), Vec::new()]);
     let levels: Vec<_> = (1..grid.k)
         .map(|g| match g {
-            1 | 2 => small[g as usize - 1].clone(),
+            1..=3 => small[g as usize - 1].clone(),
             _ => coarse_deviations(grid, z, g, Vec::new()),
         })
         .collect();

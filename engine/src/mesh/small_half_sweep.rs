@@ -1,16 +1,16 @@
-//! The depth deviations of the halves of levels 1 and 2 (half-size `H` = 2
-//! and 4: nine in ten of the halves a build scans), a level at a time in
+//! The depth deviations of the halves of levels 1 to 3 (half-size `H` = 2,
+//! 4 and 8: 98 in 100 of the halves a build scans), a level at a time in
 //! f32, sixteen split vertices per step, within `deviation_f32.rs`'s margin
 //! above the exact f64 scan (`deviation.rs`'s [`small_half_deviation`], the
 //! oracle in the tests and the fallback for extreme depths).
 //!
 //! The vertices of one kind on one row of a level lie `2H` apart, so their
 //! samples at one offset are a strided gather in the depth rows. The sweep
-//! first splits each row into 16 *phase planes*, plane `m` holding the
-//! samples whose column is `m` modulo 16 (one set for both levels, built
-//! for a band of 32 rows and a halo at a time, so the band's depths are
-//! still in cache when its vertices read them); the vertices of
-//! a row whose index is one class modulo `16 / 2H` then find their samples
+//! first splits each row into 32 *phase planes*, plane `m` holding the
+//! samples whose column is `m` modulo 32 (one set for the three levels,
+//! built for a band of 32 rows and a halo at a time, so the band's depths
+//! are still in cache when its vertices read them); the vertices of a row
+//! whose index is one class modulo `32 / 2H` then find their samples
 //! at one offset in sixteen consecutive values of one plane row, and
 //! sixteen vertices are one step ([`LANES`]). The classes also make each
 //! step's centres one shape: a centre's diagonal turns from one to the
@@ -41,7 +41,7 @@ use super::deviation_f32::{in_f32_range, widen};
 use super::grid::Grid;
 use super::levels::round_up;
 
-/// A half of levels 1 and 2 around its split vertex `v`, as offsets
+/// A half of levels 1 to 3 around its split vertex `v`, as offsets
 /// `(dy, dx)` from `v`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Shape {
@@ -199,16 +199,17 @@ pub(crate) fn small_half_deviation2<const H: isize>(z: &[f32], gw: usize, v: usi
 }
 
 /// The squared deviations, rounded up, of both halves of every split
-/// vertex of levels 1 and 2 (those the grid has), in [`super::levels`]'s
-/// order (`for_each_split`), into `out[0]` and `out[1]` (whatever they
-/// held): 0 where a half does not exist. Halves with invalid samples get a
-/// finite value too, which the pass ignores. Band by band of [`BAND`]
-/// rows, both levels from one band's planes while its depths are in cache.
+/// vertex of levels 1 to 3 (those the grid has), in [`super::levels`]'s
+/// order (`for_each_split`), into `out[0]`, `out[1]` and `out[2]`
+/// (whatever they held): 0 where a half does not exist. Halves with
+/// invalid samples get a finite value too, which the pass ignores. Band by
+/// band of [`BAND`] rows, the three levels from one band's planes while its
+/// depths are in cache.
 #[inline(always)]
-pub(crate) fn small_level_deviations(grid: Grid, z: &[f32], out: [&mut Vec<[f32; 2]>; 2]) {
-    let [one, two] = out;
-    let levels = grid.k.saturating_sub(1).min(2);
-    for (g, out) in (1..=2).zip([&mut *one, &mut *two]) {
+pub(crate) fn small_level_deviations(grid: Grid, z: &[f32], out: [&mut Vec<[f32; 2]>; 3]) {
+    let [one, two, three] = out;
+    let levels = grid.k.saturating_sub(1).min(3);
+    for (g, out) in (1..=3).zip([&mut *one, &mut *two, &mut *three]) {
         out.clear();
         if g <= levels {
             out.resize(super::split_order::split_count(grid, g), [0.0; 2]);
@@ -222,18 +223,21 @@ pub(crate) fn small_level_deviations(grid: Grid, z: &[f32], out: [&mut Vec<[f32;
     for y0 in (0..gh).step_by(BAND) {
         planes.fill(grid, z, y0);
         sweep::<2>(&planes, grid, z, y0, one);
-        if levels == 2 {
+        if levels >= 2 {
             sweep::<4>(&planes, grid, z, y0, two);
+        }
+        if levels == 3 {
+            sweep::<8>(&planes, grid, z, y0, three);
         }
     }
 }
 
-/// Grid rows per band: a multiple of both levels' row steps (4 and 8).
+/// Grid rows per band: a multiple of the levels' row steps (4, 8 and 16).
 const BAND: usize = 32;
 
 /// Rows a band's planes hold beyond it on either side: the largest
 /// half-size.
-const HALO: usize = 4;
+const HALO: usize = 8;
 
 /// Bytes of scratch [`small_level_deviations`] holds while it runs.
 pub(crate) fn scratch_bytes(grid: Grid) -> usize {
@@ -251,9 +255,9 @@ pub(crate) fn scratch_bytes(grid: Grid) -> usize {
 /// with AVX-512, 3.98 against 3.83 with AVX2).
 const LANES: usize = 16;
 
-/// Columns apart of the values in one phase plane: a multiple of both
-/// levels' `4H`, so one set of planes serves both.
-const BIG: usize = 16;
+/// Columns apart of the values in one phase plane: a multiple of the
+/// levels' `4H`, so one set of planes serves all three.
+const BIG: usize = 32;
 
 /// The phase planes of one band of the depths (see the module doc): plane
 /// `m` (of [`BIG`]) of grid row `y` at `(((y - first) * BIG + m) * width + 1
@@ -446,7 +450,7 @@ mod tests {
 
         /// One half at a time (`N = 1`), the f32 scan is never below the
         /// exact f64 scan and above it by at most the margin, for every
-        /// shape of both levels, over ramps with noise, jumps and depths
+        /// shape of the three levels, over ramps with noise, jumps and depths
         /// from 1e-25 to 1e25; with `zero_corners`, every corner invalid
         /// (depth 0) around valid samples, which the f32 scan takes too.
         #[test]
@@ -459,7 +463,7 @@ mod tests {
             let gw = 17usize;
             let mut z = rough_depths(gw, seed, scale, slope, noise, jump);
             if zero_corners {
-                // The halves' corners lie two or four from v = (8, 8).
+                // The halves' corners lie two, four or eight from v = (8, 8).
                 for (i, z) in z.iter_mut().enumerate() {
                     if (i % gw) % 2 == 0 && (i / gw) % 2 == 0 {
                         *z = 0.0;
@@ -489,6 +493,11 @@ mod tests {
                         small_half_deviation::<4>(&z, shape.small_half::<4>(gw as isize, v as isize)),
                         corners::<4>(&z, gw, v, shape),
                     ),
+                    (
+                        small_half_deviation2::<8>(&z, gw, v, shape),
+                        small_half_deviation::<8>(&z, shape.small_half::<8>(gw as isize, v as isize)),
+                        corners::<8>(&z, gw, v, shape),
+                    ),
                 ] {
                     let zmax = f64::from(corners.into_iter().fold(0f32, f32::max));
                     prop_assert!(fast.is_finite());
@@ -511,7 +520,7 @@ mod tests {
             .map(|c| c[0])
     }
 
-    /// The sweep gives, for every half of both levels, the bits of the
+    /// The sweep gives, for every half of the three levels, the bits of the
     /// one-half scan, on grids padded or not, with holes.
     #[test]
     fn the_sweep_gives_each_halfs_bits() {
@@ -528,18 +537,19 @@ mod tests {
                     }
                 })
                 .collect();
-            let (mut level1, mut level2) = (Vec::new(), Vec::new());
-            small_level_deviations(grid, &z, [&mut level1, &mut level2]);
-            for (g, swept) in (1..grid.k.min(3)).zip([level1, level2]) {
+            let (mut level1, mut level2, mut level3) = (Vec::new(), Vec::new(), Vec::new());
+            small_level_deviations(grid, &z, [&mut level1, &mut level2, &mut level3]);
+            for (g, swept) in (1..grid.k.min(4)).zip([level1, level2, level3]) {
                 let mut one = Vec::new();
                 super::super::split_order::for_each_split(grid, g..g + 1, |s| {
                     let v = s.v.1 as usize * gw + s.v.0 as usize;
                     let pair = s.apex.map(|a| {
                         a.map_or(0.0, |apex| {
-                            if g == 1 {
-                                small_half_deviation2::<2>(&z, gw, v, s.small_shape(apex))
-                            } else {
-                                small_half_deviation2::<4>(&z, gw, v, s.small_shape(apex))
+                            let shape = s.small_shape(apex);
+                            match g {
+                                1 => small_half_deviation2::<2>(&z, gw, v, shape),
+                                2 => small_half_deviation2::<4>(&z, gw, v, shape),
+                                _ => small_half_deviation2::<8>(&z, gw, v, shape),
                             }
                         })
                     });
