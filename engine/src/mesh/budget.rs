@@ -84,16 +84,19 @@ fn boundary(k: usize) -> f64 {
 /// The bucket counts of the squared errors `err2[range]` but the
 /// `forced`, and how many are forced.
 fn histogram(err2: &[f32], range: std::ops::Range<usize>, forced: &impl Fn(usize) -> bool) -> (Vec<u32>, u64) {
-    // Four counts per bucket, one per sample of each group of four, so
-    // that neighbours with the same bucket (a flat region's) do not wait
-    // for each other's increment.
-    let mut counts = vec![[0u32; 4]; BUCKETS];
+    // Two counts per bucket, one per sample of each pair, so that
+    // neighbours with the same bucket (a flat region's) do not wait for
+    // each other's increment. Two, not four: the counts (32 KB) then stay
+    // in a 48 KB L1 cache, and the statistics stage at 1920 x 1080 took
+    // 2.56-2.62 ms against 2.73-2.80 with four (AVX-512 Xeon VM, three
+    // alternations).
+    let mut counts = vec![[0u32; 2]; BUCKETS];
     let mut forced_count = 0u64;
     for (i, &e) in err2[range.clone()].iter().enumerate() {
         if forced(range.start + i) {
             forced_count += 1;
         } else {
-            counts[bucket(e)][i % 4] += 1;
+            counts[bucket(e)][i % 2] += 1;
         }
     }
     (counts.iter().map(|c| c.iter().sum()).collect(), forced_count)
