@@ -204,6 +204,61 @@ impl ErrorStats {
         }
     }
 
+    /// These statistics (gathered with the border's vertices forced) with
+    /// the vertices of `forced` (one bit per grid vertex, as `outline.rs`
+    /// keeps them) counted in the base as well: what [`Self::gather_with`]
+    /// gives with both forced, bit for bit, from a visit of each vertex
+    /// `forced` adds instead of a pass over the grid (an outline's first
+    /// extraction took a second histogram of every vertex; on a view
+    /// without discontinuities it now takes nothing).
+    pub(crate) fn with_forced(&self, grid: Grid, err2: &[f32], forced: &[u64]) -> Self {
+        let (s, gw) = (grid.side(), grid.gw() as usize);
+        let mut out = self.clone();
+        // The buckets of the vertices moved to the base: of all of them,
+        // and per frontier of those finer than its centres.
+        let mut all = vec![0u32; BUCKETS];
+        let mut fine = vec![vec![0u32; BUCKETS]; out.frontiers.len()];
+        let mut added = 0u64;
+        for (w, &word) in forced.iter().enumerate() {
+            let mut bits = word;
+            while bits != 0 {
+                let i = w * 64 + bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                let (x, y) = ((i % gw) as u32, (i / gw) as u32);
+                // Root corners are in no count; the border's are in the base.
+                if (x % s == 0 && y % s == 0) || err2.get(i).is_none_or(|&e| e == FORCED) {
+                    continue;
+                }
+                added += 1;
+                let k = bucket(err2[i]);
+                all[k] += 1;
+                // Frontier `j` holds centres of half-side `s / 2^(j + 1)`.
+                for (j, (frontier, fine)) in out.frontiers.iter_mut().zip(&mut fine).enumerate() {
+                    let h = (s / 2) >> j;
+                    let (odd_x, odd_y) = (x % (2 * h) == h, y % (2 * h) == h);
+                    if x % h == 0 && y % h == 0 && odd_x == odd_y {
+                        frontier.coarse -= 1;
+                    } else {
+                        fine[k] += 1;
+                    }
+                }
+            }
+        }
+        let remove = |counts: &mut Vec<u32>, moved: Vec<u32>| {
+            for (c, m) in counts.iter_mut().zip(suffix(moved)) {
+                *c -= m;
+            }
+        };
+        if added > 0 {
+            remove(&mut out.all, all);
+            for (frontier, fine) in out.frontiers.iter_mut().zip(fine) {
+                remove(&mut frontier.fine, fine);
+            }
+            out.base += 2 * added;
+        }
+        out
+    }
+
     /// Bytes kept.
     pub(crate) fn heap_bytes(&self) -> usize {
         4 * self.all.capacity()
@@ -335,6 +390,43 @@ mod tests {
         let [one, two] = [false, true].map(|two| format!("{:?}", ErrorStats::gather(grid, &err2, two)));
         assert_eq!(one, two);
         assert!(one.contains("base: "), "{}", &one[..100]);
+    }
+
+    #[test]
+    fn forcing_more_vertices_gives_what_gathering_with_them_forced_gives() {
+        let mut state = 11u32;
+        let mut next = move || {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            state >> 8
+        };
+        // Square and oblong grids, several root quads.
+        for (w, h) in [(65, 65), (200, 90), (33, 130)] {
+            let grid = Grid::for_image(w, h);
+            let err2: Vec<f32> = (0..grid.len())
+                .map(|_| match next() % 50 {
+                    0 => FORCED,
+                    1 => 0.0,
+                    r => (next() as f32 / 4096.0).powi(r as i32 % 5),
+                })
+                .collect();
+            let plain = ErrorStats::gather(grid, &err2, false);
+            for density in [0, 1, 30] {
+                // Some vertices forced, roots and border vertices among them.
+                let mut forced = vec![0u64; grid.len().div_ceil(64)];
+                for i in 0..grid.len() {
+                    if next() % 100 < density {
+                        forced[i / 64] |= 1 << (i % 64);
+                    }
+                }
+                let bit = |i: usize| forced[i / 64] >> (i % 64) & 1 == 1;
+                let gathered = ErrorStats::gather_with(grid, &err2, |i| err2[i] == FORCED || bit(i), false);
+                let derived = plain.with_forced(grid, &err2, &forced);
+                assert_eq!(format!("{derived:?}"), format!("{gathered:?}"), "{w}x{h}, {density} %");
+                if density > 0 {
+                    assert!(derived.base > plain.base, "{w}x{h}: some vertices moved to the base");
+                }
+            }
+        }
     }
 
     #[test]

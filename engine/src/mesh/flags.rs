@@ -119,6 +119,13 @@ impl Flags {
         (h0 & 1 == 0 || h1 & 1 == 0, h0 == 1 || h1 == 1)
     }
 
+    /// Bit `h` set when half `h` is partly segmented ([`Half::partial`]):
+    /// "any" without "all".
+    #[inline(always)]
+    pub const fn partial_halves(self) -> u8 {
+        self.0 & !(self.0 >> 2) & 3
+    }
+
     /// Sets half `h`'s flags (on flags whose half `h` is clear).
     pub fn set_half(&mut self, h: usize, half: Half) {
         debug_assert_eq!(self.0 & (Self::any_bit(h) | Self::all_bit(h)), 0, "half {h} set twice");
@@ -151,5 +158,14 @@ mod tests {
         // The byte layout the hierarchy has always had (16 bytes per vertex).
         assert_eq!(f.0, 0b10_1011);
         assert_eq!(std::mem::size_of::<Flags>(), 1);
+    }
+
+    #[test]
+    fn partial_halves_are_the_halves_partly_segmented() {
+        for byte in 0..=u8::MAX {
+            let f = Flags(byte);
+            let expected = (0..2).fold(0, |bits, h| bits | u8::from(f.half(h).partial()) << h);
+            assert_eq!(f.partial_halves(), expected, "{byte:#010b}");
+        }
     }
 }

@@ -33,7 +33,6 @@
 
 use std::sync::OnceLock;
 
-use super::border::FORCED;
 use super::budget::ErrorStats;
 use super::flags::Flags;
 use super::grid::{Grid, Kind};
@@ -117,7 +116,15 @@ impl OutlineCache {
     /// [`DEPTHS`], at most the coarsest), on both sides of a discontinuity
     /// or on its near side only, computing it on first use from the
     /// hierarchy's grid, depths, flags and saturated errors.
-    pub(crate) fn get(&self, rung: Rung, grid: Grid, z: &[f32], flags: &[Flags], err2: &[f32]) -> &Outline {
+    /// `plain` are the hierarchy's own statistics, which the outline's
+    /// extend with its forced vertices.
+    pub(crate) fn get(
+        &self,
+        rung: Rung,
+        grid: Grid,
+        (z, flags, err2): (&[f32], &[Flags], &[f32]),
+        plain: &ErrorStats,
+    ) -> &Outline {
         let k = DEPTHS
             .iter()
             .position(|&d| d >= rung.finest)
@@ -127,7 +134,7 @@ impl OutlineCache {
                 .near_side
                 .then(|| &self.surface.get_or_init(|| surface_halves(grid, z, flags))[..]);
             let forced = forced_set(grid, flags, surface, DEPTHS[k]);
-            let stats = ErrorStats::gather_with(grid, err2, |i| err2[i] == FORCED || bit(&forced, i), false);
+            let stats = plain.with_forced(grid, err2, &forced);
             Outline {
                 finest: DEPTHS[k],
                 near_side: rung.near_side,
@@ -154,17 +161,23 @@ impl OutlineCache {
 fn forced_set(grid: Grid, flags: &[Flags], surface: Option<&[u8]>, finest: u32) -> Vec<u64> {
     let gw = grid.gw() as usize;
     let mut forced = vec![0u64; grid.len().div_ceil(64)];
-    let mut stack: Vec<usize> = (0..grid.len())
-        .filter(|&i| {
-            let f = flags[i];
-            let partial = (0..2).any(|k| f.half(k).partial() && surface.is_none_or(|holds| holds[i] >> k & 1 == 1));
-            partial
+    // Partly segmented halves are rare (along discontinuities only): the
+    // flags are first tested 64 at a time, in a loop the compiler widens.
+    let mut stack: Vec<usize> = Vec::new();
+    for (c, chunk) in flags.chunks(64).enumerate() {
+        if chunk.iter().fold(0, |any, f| any | f.partial_halves()) == 0 {
+            continue;
+        }
+        stack.extend((c * 64..c * 64 + chunk.len()).filter(|&i| {
+            let partial = flags[i].partial_halves();
+            let seeds = (0..2).any(|k| partial >> k & 1 == 1 && surface.is_none_or(|holds| holds[i] >> k & 1 == 1));
+            seeds
                 && match grid.kind(((i % gw) as u32, (i / gw) as u32)) {
                     Kind::Root => false,
                     Kind::Centre { h } | Kind::Edge { h, .. } => h >= finest,
                 }
-        })
-        .collect();
+        }));
+    }
     while let Some(v) = stack.pop() {
         if bit(&forced, v) {
             continue;

@@ -50,7 +50,8 @@ impl Hierarchy {
 
     /// The outline of one refinement (`outline.rs`), computed on first use.
     pub(crate) fn outline(&self, rung: Rung) -> &Outline {
-        self.outlines.get(rung, self.grid, &self.z, &self.flags, &self.err2)
+        let arrays = (&self.z[..], &self.flags[..], &self.err2[..]);
+        self.outlines.get(rung, self.grid, arrays, &self.stats)
     }
 
     /// Triangles of the coarsest mesh with the coarse triangles that a
