@@ -145,6 +145,9 @@ pub fn run(a: &MeshArgs) -> Result<()> {
     };
     let DecodedView { depth, color } =
         decode_view(files, &options, &camera, &limits).with_context(|| format!("view {}", a.depth.display()))?;
+    // The files' bytes are freed before the build, which then reuses their
+    // pages: a fresh process pays for every page it touches first.
+    drop((depth_bytes, mask_bytes, color_bytes));
     let seg = SegmentationSpec {
         method: a.segment,
         omega: a.omega,
