@@ -92,12 +92,12 @@ fn report(
         v[v.len() / 2]
     };
     println!(
-        "stage medians ms: depths {:.2} normals {:.2} flags {:.2} finest {:.2} coarse {:.2} stats {:.2}",
+        "stage medians ms: depths {:.2} normals {:.2} flags {:.2} finest {:.2} coarse {:.2} border {:.2}",
         median(|s| s.depths_ms),
         median(|s| s.normals_ms),
         median(|s| s.flags_ms),
         median(|s| s.finest_ms),
         median(|s| s.coarse_ms),
-        median(|s| s.stats_ms),
+        median(|s| s.border_ms),
     );
 }

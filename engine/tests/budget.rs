@@ -168,6 +168,50 @@ fn a_budget_with_room_keeps_the_outlines_and_a_tight_one_still_fits() {
 }
 
 #[test]
+fn what_budgets_add_is_counted_in_the_bound_charged_up_front() {
+    // A box in front of a wall, so that every outline forces vertices.
+    let (w, h) = (129, 97);
+    let depth = depth_from(w, h, |x, y| {
+        if (40..90).contains(&x) && (30..70).contains(&y) {
+            1.0
+        } else {
+            3.0
+        }
+    });
+    let hier = Hierarchy::build(&depth, &camera(w, h), &Segmentation::default()).unwrap();
+    let (built, bound) = (hier.heap_bytes(), hier.heap_bytes_bound());
+    // A tolerance needs no statistics.
+    hier.extract(Lod::Epsilon(0.01)).unwrap();
+    let after_tolerance = hier.heap_bytes();
+    // Every outline and its statistics, and the plain ones.
+    let mut sizes = vec![];
+    for depth in [1, 2, 4, 8, 16, 32] {
+        for outlines in [Outlines::Refined(depth), Outlines::NearSide(depth)] {
+            let max = 4 * hier.coarsest_triangles_with_outlines(outlines);
+            hier.extract_as(
+                Lod::Triangles {
+                    max: u32::try_from(max).unwrap(),
+                    view: None,
+                },
+                StripOrder::default(),
+                outlines,
+            )
+            .unwrap();
+            sizes.push(hier.heap_bytes());
+        }
+    }
+    let all = hier.heap_bytes();
+    assert!(after_tolerance > built, "the outline a tolerance keeps is added");
+    assert!(
+        all > after_tolerance + 12 * 16_000,
+        "each outline's statistics are added: {after_tolerance} -> {all}"
+    );
+    assert!(all <= bound, "{all} bytes kept, {bound} charged");
+    assert_eq!(hier.heap_bytes_bound(), bound, "the bound is constant");
+    assert!(sizes.windows(2).all(|w| w[0] <= w[1]));
+}
+
+#[test]
 fn a_budget_below_the_coarsest_mesh_is_an_error() {
     let depth = waves(65, 65);
     let h = Hierarchy::build(&depth, &camera(65, 65), &Segmentation::default()).unwrap();

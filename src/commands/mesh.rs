@@ -205,7 +205,7 @@ pub fn run(a: &MeshArgs) -> Result<()> {
                 "segmentation": stats.stages.flags_ms,
                 "finest_level": stats.stages.finest_ms,
                 "coarse_levels": stats.stages.coarse_ms,
-                "statistics": stats.stages.stats_ms,
+                "border": stats.stages.border_ms,
             },
             "extract_ms": mesh.extract_ms,
             "peak_bytes": stats.build_peak_bytes,

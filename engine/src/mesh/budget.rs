@@ -1,6 +1,6 @@
 //! Budgeted level of detail: the finest tolerance whose mesh provably has at
-//! most `max_triangles` triangles, chosen from error statistics gathered at
-//! build time (Qu et al. Sec. 3.4 keep frame times stable with a per-frame
+//! most `max_triangles` triangles, chosen from error statistics gathered on
+//! a hierarchy's first budgeted request (Qu et al. Sec. 3.4 keep frame times stable with a per-frame
 //! work budget; here the budget caps one extraction).
 //!
 //! The bound. Extraction starts from two triangles per root quad and every
@@ -48,7 +48,8 @@ const MANY: usize = 1 << 20;
 /// Frontier vertices aimed at.
 const FRONTIER: usize = 1024;
 
-/// Error statistics of a hierarchy, gathered once at build time.
+/// Error statistics of a hierarchy, gathered once, on its first budgeted
+/// request.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct ErrorStats {
     /// `all[k]`: split vertices whose squared-error bucket is `>= k`.
@@ -69,6 +70,18 @@ struct Frontier {
     coarse: u32,
     /// `fine[k]`: vertices finer than the centres whose bucket is `>= k`.
     fine: Vec<u32>,
+}
+
+/// Centres of half-side `h`: odd multiples of `h` in both coordinates.
+fn centre_count(grid: Grid, h: u32) -> usize {
+    let odd = |n: u32| if n > h { ((n - 1 - h) / (2 * h) + 1) as usize } else { 0 };
+    odd(grid.gw()) * odd(grid.gh())
+}
+
+/// True when the frontier of centres of half-side `h` is the finest kept:
+/// the finest level, or about [`FRONTIER`] centres or more.
+fn last_frontier(grid: Grid, h: u32) -> bool {
+    h == 1 || grid.len() / (h as usize * h as usize) > FRONTIER
 }
 
 #[inline]
@@ -103,6 +116,8 @@ fn histogram(err2: &[f32], range: std::ops::Range<usize>, forced: &impl Fn(usize
 }
 
 fn suffix(mut counts: Vec<u32>) -> Vec<u32> {
+    // Exactly one more, so that the heap is what `heap_bytes_for` says.
+    counts.reserve_exact(1);
     counts.push(0);
     for k in (0..counts.len() - 1).rev() {
         counts[k] += counts[k + 1];
@@ -163,7 +178,7 @@ impl ErrorStats {
         let mut h = s / 2;
         loop {
             let mut fine = all.clone();
-            let mut centres = Vec::new();
+            let mut centres = Vec::with_capacity(centre_count(grid, h));
             let mut coarse = 0;
             for y in (0..grid.gh()).step_by(h as usize) {
                 for x in (0..grid.gw()).step_by(h as usize) {
@@ -187,12 +202,13 @@ impl ErrorStats {
                     }
                 }
             }
+            debug_assert_eq!(centres.len(), centres.capacity(), "centre_count is exact");
             frontiers.push(Frontier {
                 centres,
                 coarse,
                 fine: suffix(fine),
             });
-            if h == 1 || grid.len() / (h as usize * h as usize) > FRONTIER {
+            if last_frontier(grid, h) {
                 break;
             }
             h /= 2;
@@ -257,6 +273,21 @@ impl ErrorStats {
             out.base += 2 * added;
         }
         out
+    }
+
+    /// The bytes [`Self::gather`] keeps for `grid`, known before it runs
+    /// (a cache charges them when the hierarchy arrives).
+    pub(crate) fn heap_bytes_for(grid: Grid) -> usize {
+        let counts = 4 * (BUCKETS + 1);
+        let mut bytes = counts;
+        let mut h = grid.side() / 2;
+        loop {
+            bytes += counts + 8 * centre_count(grid, h);
+            if last_frontier(grid, h) {
+                return bytes;
+            }
+            h /= 2;
+        }
     }
 
     /// Bytes kept.
@@ -370,6 +401,26 @@ impl ErrorStats {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_bytes_kept_are_known_before_the_gathering() {
+        for (w, h) in [(2, 2), (3, 700), (64, 65), (513, 513), (695, 555), (1920, 1080)] {
+            let grid = Grid::for_image(w, h);
+            let err2: Vec<f32> = (0..grid.len()).map(|i| (i % 1000) as f32).collect();
+            let stats = ErrorStats::gather(grid, &err2, false);
+            assert_eq!(stats.heap_bytes(), ErrorStats::heap_bytes_for(grid), "{w} x {h}");
+            for f in &stats.frontiers {
+                assert_eq!(
+                    f.centres.len(),
+                    f.centres.capacity(),
+                    "{w} x {h}: centres counted exactly"
+                );
+            }
+            // And an outline's, cloned from them.
+            let forced = vec![u64::MAX; grid.len().div_ceil(64)];
+            assert_eq!(stats.with_forced(grid, &err2, &forced).heap_bytes(), stats.heap_bytes());
+        }
+    }
 
     #[test]
     fn two_threads_gather_the_statistics_of_one() {

@@ -198,7 +198,10 @@ impl Hierarchy {
                         (lod, outline.map(Rung::from))
                     }
                     (_, None) => (self.lod_for_triangles(max, view)?, None),
-                    (_, Some(rung)) => (self.resolve_budget(&self.outline(rung).stats, max, view)?, Some(rung)),
+                    (_, Some(rung)) => {
+                        let stats = self.outline_stats(self.outline(rung));
+                        (self.resolve_budget(stats, max, view)?, Some(rung))
+                    }
                 };
                 return self.extract_as(lod, strips, Outlines::from(rung));
             }

@@ -56,7 +56,7 @@ use super::flags::Flags;
 use super::grid::{Grid, Pt};
 use super::levels::{coarse_deviations, run_coarse, run_finest, small_deviations, Levels};
 use super::normals::{normals_and_quality, NormalBands};
-use super::outline::{OutlineCache, DEPTHS};
+use super::outline::OutlineCache;
 use super::segmentation::{leaf_flag_rows, leaf_flags, rows_split, segmented_count, Method, Samples, Segmentation};
 use super::split_order::split_count;
 use super::{coarse_rows, small_half_sweep};
@@ -84,8 +84,11 @@ pub struct Hierarchy {
     pub(crate) rho: Vec<u8>,
     /// Segmentation flags (`flags.rs`).
     pub(crate) flags: Vec<Flags>,
-    /// Error statistics for budgeted requests.
-    pub(crate) stats: ErrorStats,
+    /// Error statistics of budgeted requests, gathered on the first one
+    /// (`Hierarchy::error_stats`).
+    pub(crate) stats: OnceLock<ErrorStats>,
+    /// The threads the build had, which the statistics use too.
+    pub(crate) threads: Threads,
     /// The outlines' forced vertices and statistics, per refinement depth,
     /// computed on first use (`outline.rs`).
     pub(crate) outlines: OutlineCache,
@@ -110,8 +113,9 @@ pub struct Stages {
     pub finest_ms: f64,
     /// The levels above it, with the exact deviations.
     pub coarse_ms: f64,
-    /// The border and the error statistics of budgets.
-    pub stats_ms: f64,
+    /// The border's forced vertices. (The error statistics of budgets are
+    /// gathered on a hierarchy's first budgeted request, not here.)
+    pub border_ms: f64,
 }
 
 /// Threads a build uses. The result does not depend on it.
@@ -490,7 +494,8 @@ impl Hierarchy {
             normal: p.normal,
             rho: p.rho,
             flags: p.flags,
-            stats: ErrorStats::default(),
+            stats: OnceLock::new(),
+            threads,
             outlines: OutlineCache::default(),
             segmented: p.segmented,
             build_peak_bytes: 0,
@@ -500,12 +505,12 @@ impl Hierarchy {
         // Everything kept was allocated before the levels ran, and the leaf
         // flags became the node flags in place: the peak is what is kept
         // plus the deviations of the coarse levels (the statistics come
-        // after).
+        // on the first budgeted request, and are counted in
+        // `heap_bytes_bound`).
         mesh.build_peak_bytes = mesh.heap_bytes() + p.scratch_bytes;
         let t = Instant::now();
         super::border::force_border(&mesh.grid, &mut mesh.err2);
-        mesh.stats = ErrorStats::gather(mesh.grid, &mesh.err2, threads == Threads::Parallel);
-        mesh.stages.stats_ms = t.elapsed().as_secs_f64() * 1e3;
+        mesh.stages.border_ms = t.elapsed().as_secs_f64() * 1e3;
         mesh.build_ms = start.elapsed().as_secs_f64() * 1e3;
         tracing::debug!(ms = mesh.build_ms, segmented = mesh.segmented, "built");
         Ok(mesh)
@@ -553,9 +558,9 @@ impl Hierarchy {
     }
 
     /// Heap bytes the hierarchy keeps: 16 per grid vertex plus the per-row
-    /// and per-column back-projection factors and the error statistics of
-    /// budgeted requests (16 kB per frontier level plus one, about 100 kB
-    /// at 513 x 513).
+    /// and per-column back-projection factors, and what requests have
+    /// added: the error statistics of budgets (16 kB per frontier level
+    /// plus one, about 100 kB at 513 x 513) and the outlines computed.
     pub fn heap_bytes(&self) -> usize {
         self.z.capacity() * 4
             + self.err2.capacity() * 4
@@ -564,17 +569,20 @@ impl Hierarchy {
             + self.rho.capacity()
             + self.flags.capacity()
             + self.bp.heap_bytes()
-            + self.stats.heap_bytes()
+            + self.stats.get().map_or(0, ErrorStats::heap_bytes)
             + self.outlines.heap_bytes()
     }
 
     /// The most heap bytes the hierarchy will keep: [`Self::heap_bytes`]
-    /// with every outline computed (`outline.rs`: one bit per grid vertex
-    /// and the budget's statistics per refinement depth), which extractions
-    /// add on first use. Constant, so a cache can charge it once.
+    /// with the budget's statistics and every outline computed (`outline.rs`:
+    /// one bit per grid vertex and the budget's statistics per refinement,
+    /// and a byte per grid vertex for the near side), which extractions add
+    /// on first use. Constant, so a cache can charge it once.
     pub fn heap_bytes_bound(&self) -> usize {
-        self.heap_bytes() - self.outlines.heap_bytes()
-            + DEPTHS.len() * (8 * self.grid.len().div_ceil(64) + self.stats.heap_bytes())
+        let stats = ErrorStats::heap_bytes_for(self.grid);
+        self.heap_bytes() - self.outlines.heap_bytes() - self.stats.get().map_or(0, ErrorStats::heap_bytes)
+            + stats
+            + OutlineCache::heap_bytes_bound(self.grid, stats)
     }
 
     /// Figures of this build.

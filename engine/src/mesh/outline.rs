@@ -82,8 +82,10 @@ pub(crate) struct Outline {
     pub near_side: bool,
     /// One bit per grid vertex: forced.
     pub forced: Vec<u64>,
-    /// The budget's statistics with the forced vertices in the base.
-    pub stats: ErrorStats,
+    /// The budget's statistics with the forced vertices in the base,
+    /// derived from the hierarchy's on the first budgeted request
+    /// (`Hierarchy::outline_stats`).
+    pub stats: OnceLock<ErrorStats>,
 }
 
 impl From<&Outline> for Rung {
@@ -115,16 +117,8 @@ impl OutlineCache {
     /// The outline of refinement depth `finest` (rounded up to one of
     /// [`DEPTHS`], at most the coarsest), on both sides of a discontinuity
     /// or on its near side only, computing it on first use from the
-    /// hierarchy's grid, depths, flags and saturated errors.
-    /// `plain` are the hierarchy's own statistics, which the outline's
-    /// extend with its forced vertices.
-    pub(crate) fn get(
-        &self,
-        rung: Rung,
-        grid: Grid,
-        (z, flags, err2): (&[f32], &[Flags], &[f32]),
-        plain: &ErrorStats,
-    ) -> &Outline {
+    /// hierarchy's grid, depths and flags.
+    pub(crate) fn get(&self, rung: Rung, grid: Grid, (z, flags): (&[f32], &[Flags])) -> &Outline {
         let k = DEPTHS
             .iter()
             .position(|&d| d >= rung.finest)
@@ -133,15 +127,20 @@ impl OutlineCache {
             let surface = rung
                 .near_side
                 .then(|| &self.surface.get_or_init(|| surface_halves(grid, z, flags))[..]);
-            let forced = forced_set(grid, flags, surface, DEPTHS[k]);
-            let stats = plain.with_forced(grid, err2, &forced);
             Outline {
                 finest: DEPTHS[k],
                 near_side: rung.near_side,
-                forced,
-                stats,
+                forced: forced_set(grid, flags, surface, DEPTHS[k]),
+                stats: OnceLock::new(),
             }
         })
+    }
+
+    /// The most heap bytes the outlines of `grid` will keep, each with its
+    /// statistics (`stats_bytes` each): every depth on both sides and on
+    /// the near side, one bit per grid vertex, and the near side's halves.
+    pub(crate) fn heap_bytes_bound(grid: Grid, stats_bytes: usize) -> usize {
+        2 * DEPTHS.len() * (8 * grid.len().div_ceil(64) + stats_bytes) + grid.len()
     }
 
     /// Heap bytes of the outlines computed so far.
@@ -149,7 +148,7 @@ impl OutlineCache {
         self.depths
             .iter()
             .filter_map(OnceLock::get)
-            .map(|o| 8 * o.forced.capacity() + o.stats.heap_bytes())
+            .map(|o| 8 * o.forced.capacity() + o.stats.get().map_or(0, ErrorStats::heap_bytes))
             .sum::<usize>()
             + self.surface.get().map_or(0, Vec::capacity)
     }

@@ -3,7 +3,7 @@
 //! within a budget, with outlines dropped or kept (Qu et al. Sec. 3.4, from
 //! the error statistics of `budget.rs`; DMesh Sec. 5.3 for the outlines).
 
-use super::Hierarchy;
+use super::{Hierarchy, Threads};
 use crate::camera::Camera;
 use crate::error::Result;
 use crate::mesh::budget::ErrorStats;
@@ -15,20 +15,37 @@ impl Hierarchy {
     /// Triangles of the coarsest mesh before segmentation: two per root quad,
     /// the smallest budget any request can be given.
     pub fn coarsest_triangles(&self) -> u64 {
-        self.stats.coarsest_triangles()
+        self.error_stats().coarsest_triangles()
+    }
+
+    /// The error statistics of budgeted requests (`budget.rs`), gathered
+    /// on the first one: one pass over the errors (6 % of a 513 x 513
+    /// build), which tolerances never need.
+    pub(crate) fn error_stats(&self) -> &ErrorStats {
+        self.stats
+            .get_or_init(|| ErrorStats::gather(self.grid, &self.err2, self.threads == Threads::Parallel))
+    }
+
+    /// An outline's statistics: the hierarchy's, with its forced vertices
+    /// moved into the base, derived on the first budgeted request that
+    /// keeps it.
+    pub(crate) fn outline_stats<'a>(&'a self, outline: &'a Outline) -> &'a ErrorStats {
+        outline
+            .stats
+            .get_or_init(|| self.error_stats().with_forced(self.grid, &self.err2, &outline.forced))
     }
 
     /// The finest level of detail whose mesh, extracted dropping outlines
     /// ([`crate::mesh::Outlines::Dropped`]), has at most
     /// `max_triangles` triangles, for the requesting camera `view`
     /// (view-dependent) or none (static), from the error statistics
-    /// gathered at build time (`budget.rs`): `Tau` for `view` or `Epsilon`,
+    /// gathered on the first such request (`budget.rs`): `Tau` for `view` or `Epsilon`,
     /// never `Triangles`. Fails when even the coarsest mesh has more, and
     /// only then does a budget given to an extraction that keeps outlines
     /// fail. Such an extraction resolves a [`Lod::Triangles`] itself, with
     /// its refinement counted.
     pub fn lod_for_triangles<'v>(&self, max_triangles: u64, view: Option<&'v Camera>) -> Result<Lod<'v>> {
-        self.resolve_budget(&self.stats, max_triangles, view)
+        self.resolve_budget(self.error_stats(), max_triangles, view)
     }
 
     /// The level of detail `stats` (the plain ones or an outline's) resolve
@@ -50,8 +67,7 @@ impl Hierarchy {
 
     /// The outline of one refinement (`outline.rs`), computed on first use.
     pub(crate) fn outline(&self, rung: Rung) -> &Outline {
-        let arrays = (&self.z[..], &self.flags[..], &self.err2[..]);
-        self.outlines.get(rung, self.grid, arrays, &self.stats)
+        self.outlines.get(rung, self.grid, (&self.z, &self.flags))
     }
 
     /// Triangles of the coarsest mesh with the coarse triangles that a
@@ -60,7 +76,7 @@ impl Hierarchy {
     /// smallest budget an extraction keeps such outlines in.
     pub fn coarsest_triangles_with_outlines(&self, outlines: Outlines) -> u64 {
         match outlines.rung() {
-            Some(rung) => self.outline(rung).stats.coarsest_triangles(),
+            Some(rung) => self.outline_stats(self.outline(rung)).coarsest_triangles(),
             None => self.coarsest_triangles(),
         }
     }
@@ -78,8 +94,9 @@ impl Hierarchy {
     ) -> Result<(Lod<'v>, Option<&Outline>)> {
         for rung in ladder() {
             let outline = self.outline(rung);
-            if outline.stats.coarsest_triangles() as f64 <= OUTLINE_SHARE * max_triangles as f64 {
-                let lod = self.resolve_budget(&outline.stats, max_triangles, view)?;
+            let stats = self.outline_stats(outline);
+            if stats.coarsest_triangles() as f64 <= OUTLINE_SHARE * max_triangles as f64 {
+                let lod = self.resolve_budget(stats, max_triangles, view)?;
                 return Ok((lod, Some(outline)));
             }
         }
