@@ -57,9 +57,10 @@ fn area2(mesh: &dmesh_engine::mesh::Mesh) -> i64 {
         .sum()
 }
 
-#[test]
-fn a_budget_with_room_keeps_the_outlines_and_a_tight_one_still_fits() {
-    // A box in front of a wall: its outline crosses coarse triangles.
+/// A box in front of a wall, 129 x 97: its outline crosses coarse
+/// triangles, so every refinement of it forces vertices. Its size, and its
+/// hierarchy.
+fn box_before_wall() -> (u32, u32, Hierarchy) {
     let (w, h) = (129, 97);
     let depth = depth_from(w, h, |x, y| {
         if (40..90).contains(&x) && (30..70).contains(&y) {
@@ -68,8 +69,16 @@ fn a_budget_with_room_keeps_the_outlines_and_a_tight_one_still_fits() {
             3.0
         }
     });
-    let cam = camera(w, h);
-    let hier = Hierarchy::build(&depth, &cam, &Segmentation::default()).unwrap();
+    (
+        w,
+        h,
+        Hierarchy::build(&depth, &camera(w, h), &Segmentation::default()).unwrap(),
+    )
+}
+
+#[test]
+fn a_budget_with_room_keeps_the_outlines_and_a_tight_one_still_fits() {
+    let (w, h, hier) = box_before_wall();
     let unsegmented: i64 = (0..w - 1)
         .flat_map(|x| (0..h - 1).map(move |y| (x, y)))
         .map(|c| (0..2).filter(|&half| !hier.cell_segmented(c, half)).count() as i64)
@@ -169,24 +178,15 @@ fn a_budget_with_room_keeps_the_outlines_and_a_tight_one_still_fits() {
 
 #[test]
 fn what_budgets_add_is_counted_in_the_bound_charged_up_front() {
-    // A box in front of a wall, so that every outline forces vertices.
-    let (w, h) = (129, 97);
-    let depth = depth_from(w, h, |x, y| {
-        if (40..90).contains(&x) && (30..70).contains(&y) {
-            1.0
-        } else {
-            3.0
-        }
-    });
-    let hier = Hierarchy::build(&depth, &camera(w, h), &Segmentation::default()).unwrap();
+    let (_, _, hier) = box_before_wall();
     let (built, bound) = (hier.heap_bytes(), hier.heap_bytes_bound());
     // A tolerance needs no statistics.
     hier.extract(Lod::Epsilon(0.01)).unwrap();
     let after_tolerance = hier.heap_bytes();
     // Every outline and its statistics, and the plain ones.
     let mut sizes = vec![];
-    for depth in [1, 2, 4, 8, 16, 32] {
-        for outlines in [Outlines::Refined(depth), Outlines::NearSide(depth)] {
+    for finest in [1, 2, 4, 8, 16, 32] {
+        for outlines in [Outlines::Refined(finest), Outlines::NearSide(finest)] {
             let max = 4 * hier.coarsest_triangles_with_outlines(outlines);
             hier.extract_as(
                 Lod::Triangles {

@@ -1,7 +1,8 @@
 //! Budgeted level of detail: the finest tolerance whose mesh provably has at
 //! most `max_triangles` triangles, chosen from error statistics gathered on
-//! a hierarchy's first budgeted request (Qu et al. Sec. 3.4 keep frame times stable with a per-frame
-//! work budget; here the budget caps one extraction).
+//! a hierarchy's first budgeted request (Qu et al. Sec. 3.4 keep frame
+//! times stable with a per-frame work budget; here the budget caps one
+//! extraction).
 //!
 //! The bound. Extraction starts from two triangles per root quad and every
 //! selected split vertex adds at most two (it splits the one or two halves of
@@ -78,10 +79,11 @@ fn centre_count(grid: Grid, h: u32) -> usize {
     odd(grid.gw()) * odd(grid.gh())
 }
 
-/// True when the frontier of centres of half-side `h` is the finest kept:
-/// the finest level, or about [`FRONTIER`] centres or more.
-fn last_frontier(grid: Grid, h: u32) -> bool {
-    h == 1 || grid.len() / (h as usize * h as usize) > FRONTIER
+/// The half-sides of the frontiers kept, coarsest first: from the root
+/// quads' centres down to the finest level or about [`FRONTIER`] centres.
+fn frontier_halves(grid: Grid) -> impl Iterator<Item = u32> {
+    let last = move |h: u32| h == 1 || grid.len() / (h as usize * h as usize) > FRONTIER;
+    std::iter::successors(Some(grid.side() / 2), move |&h| (!last(h)).then_some(h / 2))
 }
 
 #[inline]
@@ -175,8 +177,7 @@ impl ErrorStats {
         // Frontiers: centres of half-side h, from the root quads' down to
         // about FRONTIER of them.
         let mut frontiers = Vec::new();
-        let mut h = s / 2;
-        loop {
+        for h in frontier_halves(grid) {
             let mut fine = all.clone();
             let mut centres = Vec::with_capacity(centre_count(grid, h));
             let mut coarse = 0;
@@ -208,10 +209,6 @@ impl ErrorStats {
                 coarse,
                 fine: suffix(fine),
             });
-            if last_frontier(grid, h) {
-                break;
-            }
-            h /= 2;
         }
         Self {
             all: suffix(all),
@@ -279,15 +276,10 @@ impl ErrorStats {
     /// (a cache charges them when the hierarchy arrives).
     pub(crate) fn heap_bytes_for(grid: Grid) -> usize {
         let counts = 4 * (BUCKETS + 1);
-        let mut bytes = counts;
-        let mut h = grid.side() / 2;
-        loop {
-            bytes += counts + 8 * centre_count(grid, h);
-            if last_frontier(grid, h) {
-                return bytes;
-            }
-            h /= 2;
-        }
+        counts
+            + frontier_halves(grid)
+                .map(|h| counts + 8 * centre_count(grid, h))
+                .sum::<usize>()
     }
 
     /// Bytes kept.

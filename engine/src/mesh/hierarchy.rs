@@ -562,6 +562,12 @@ impl Hierarchy {
     /// added: the error statistics of budgets (16 kB per frontier level
     /// plus one, about 100 kB at 513 x 513) and the outlines computed.
     pub fn heap_bytes(&self) -> usize {
+        self.built_bytes() + self.stats.get().map_or(0, ErrorStats::heap_bytes) + self.outlines.heap_bytes()
+    }
+
+    /// Heap bytes of what the build made: the per-vertex arrays and the
+    /// back-projection factors.
+    fn built_bytes(&self) -> usize {
         self.z.capacity() * 4
             + self.err2.capacity() * 4
             + self.radius.capacity() * 4
@@ -569,8 +575,6 @@ impl Hierarchy {
             + self.rho.capacity()
             + self.flags.capacity()
             + self.bp.heap_bytes()
-            + self.stats.get().map_or(0, ErrorStats::heap_bytes)
-            + self.outlines.heap_bytes()
     }
 
     /// The most heap bytes the hierarchy will keep: [`Self::heap_bytes`]
@@ -580,9 +584,7 @@ impl Hierarchy {
     /// on first use. Constant, so a cache can charge it once.
     pub fn heap_bytes_bound(&self) -> usize {
         let stats = ErrorStats::heap_bytes_for(self.grid);
-        self.heap_bytes() - self.outlines.heap_bytes() - self.stats.get().map_or(0, ErrorStats::heap_bytes)
-            + stats
-            + OutlineCache::heap_bytes_bound(self.grid, stats)
+        self.built_bytes() + stats + OutlineCache::heap_bytes_bound(self.grid, stats)
     }
 
     /// Figures of this build.

@@ -39,8 +39,8 @@ impl Hierarchy {
     /// ([`crate::mesh::Outlines::Dropped`]), has at most
     /// `max_triangles` triangles, for the requesting camera `view`
     /// (view-dependent) or none (static), from the error statistics
-    /// gathered on the first such request (`budget.rs`): `Tau` for `view` or `Epsilon`,
-    /// never `Triangles`. Fails when even the coarsest mesh has more, and
+    /// gathered on the first such request (`budget.rs`): `Tau` for `view`
+    /// or `Epsilon`, never `Triangles`. Fails when even the coarsest mesh has more, and
     /// only then does a budget given to an extraction that keeps outlines
     /// fail. Such an extraction resolves a [`Lod::Triangles`] itself, with
     /// its refinement counted.
