@@ -74,6 +74,32 @@ fn odd_sizes_work() {
     }
 }
 
+/// The build counts the valid samples as the image does (a service reports
+/// the build's count and no longer scans the image for it), holes and
+/// values that are not depths included, on odd sizes and on both threads'
+/// layouts.
+#[test]
+fn the_build_counts_the_valid_samples_of_the_image() {
+    for (w, h) in [(2, 2), (3, 7), (33, 17), (640, 480)] {
+        let mut depth = waves(w, h);
+        let bad = [0.0, -1.0, f32::NAN, f32::INFINITY, f32::NEG_INFINITY];
+        for (i, z) in depth.z.iter_mut().enumerate() {
+            if i % 7 == 3 {
+                *z = bad[i % bad.len()];
+            }
+        }
+        // `z` is public: the build reads whatever it holds as the image's
+        // conversion would have left it.
+        let want = depth.z.iter().filter(|z| z.is_finite() && **z > 0.0).count();
+        assert_eq!(DepthImage::from_z(w, h, depth.z.clone()).unwrap().valid_count(), want);
+        assert!(want > 0 && want < depth.z.len(), "{w}x{h}: the image needs holes");
+        for threads in [Threads::Single, Threads::Parallel] {
+            let hier = Hierarchy::build_with(&depth, &camera(w, h), &Segmentation::default(), threads).unwrap();
+            assert_eq!(hier.stats().valid_samples, want, "{w}x{h} {threads:?}");
+        }
+    }
+}
+
 #[test]
 fn tau_zero_is_full_resolution_minus_segmented_triangles() {
     let (w, h) = (33, 21);

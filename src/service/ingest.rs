@@ -58,7 +58,6 @@ pub fn ingest(state: &AppState, scene: &str, view: &str, upload: Upload, live: b
     }
     // Build before storing: a view that cannot be meshed is not kept.
     let hierarchy = Hierarchy::build(&depth, &camera, &upload.segmentation.to_engine())?;
-    let valid_samples = depth.valid_count() as u64;
     let stored = StoredView {
         camera: (&camera).into(),
         segmentation: upload.segmentation,
@@ -70,6 +69,6 @@ pub fn ingest(state: &AppState, scene: &str, view: &str, upload: Upload, live: b
         }),
         color: upload.color,
     };
-    let loaded = Loaded::from_built(hierarchy, camera, valid_samples, &stored, String::new());
+    let loaded = Loaded::from_built(hierarchy, camera, &stored, String::new());
     state.store_view(scene, view, &stored, loaded, live)
 }

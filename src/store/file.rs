@@ -11,7 +11,7 @@
 //! ([`ViewStore::shared`] is false).
 
 use std::fs::{self, File};
-use std::io::{Read, Write};
+use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -101,12 +101,12 @@ impl FileStore {
             fs::create_dir_all(&scene_dir)?;
             sync_dir(&self.root.join("scenes"))?;
         }
-        let bytes = dmv::encode(v)?;
         let n = self.counter.fetch_add(1, Ordering::Relaxed);
         let tmp = self.root.join("tmp").join(format!("{}-{n}", std::process::id()));
         let written = (|| {
-            let mut f = File::create(&tmp)?;
-            f.write_all(&bytes)?;
+            let mut f = std::io::BufWriter::with_capacity(1 << 16, File::create(&tmp)?);
+            dmv::write(v, &mut f)?;
+            let f = f.into_inner().map_err(|e| e.into_error())?;
             if durable {
                 f.sync_all()?;
             }

@@ -137,6 +137,19 @@ impl DepthImage {
     /// Wraps row-major depths, mapping every non-finite or non-positive value to
     /// invalid (`0.0`). Width and height must be at least 2.
     pub fn from_z(width: u32, height: u32, mut z: Vec<f32>) -> Result<Self> {
+        for v in &mut z {
+            if !(v.is_finite() && *v > 0.0) {
+                *v = 0.0;
+            }
+        }
+        Self::from_valid_z(width, height, z)
+    }
+
+    /// [`Self::from_z`] of depths already finite and positive or `0.0`
+    /// (as [`to_z_with`] leaves them): the sizes checked, the samples not
+    /// read again (a tenth of a 1920 x 1080 frame's decode).
+    fn from_valid_z(width: u32, height: u32, z: Vec<f32>) -> Result<Self> {
+        debug_assert!(z.iter().all(|v| v.is_finite() && *v >= 0.0));
         if width < 2 || height < 2 {
             return Err(Error::invalid(format!(
                 "depth image is {width}x{height}; width and height must be at least 2"
@@ -152,11 +165,6 @@ impl DepthImage {
             return Err(Error::TooLarge(format!(
                 "depth image is {width}x{height}; each side must be at most 65535"
             )));
-        }
-        for v in &mut z {
-            if !(v.is_finite() && *v > 0.0) {
-                *v = 0.0;
-            }
         }
         Ok(Self { width, height, z })
     }
@@ -341,7 +349,7 @@ fn to_z(raw: RawSamples, options: &DepthOptions, camera: &Camera) -> Result<Dept
             }
         }),
     }
-    DepthImage::from_z(width, height, values)
+    DepthImage::from_valid_z(width, height, values)
 }
 
 /// Each raw sample in place as `z(index, raw)`, as f32; a raw 0 or

@@ -61,29 +61,17 @@ impl Loaded {
         let camera = Camera::try_from(&v.camera)?;
         let depth = DepthImage::from_z(camera.width, camera.height, v.z.clone())?;
         let hierarchy = Hierarchy::build(&depth, &camera, &v.segmentation.to_engine())?;
-        Ok(Self::from_built(
-            hierarchy,
-            camera,
-            depth.valid_count() as u64,
-            v,
-            version,
-        ))
+        Ok(Self::from_built(hierarchy, camera, v, version))
     }
 
     /// The view `v` (what the store keeps of it: hashed for the ETag, its
-    /// colour shared, not copied) with its `hierarchy`, built for `camera`
-    /// from `valid_samples` valid samples, at `version`.
-    pub fn from_built(
-        hierarchy: Hierarchy,
-        camera: Camera,
-        valid_samples: u64,
-        v: &StoredView,
-        version: Version,
-    ) -> Self {
+    /// colour shared, not copied) with its `hierarchy`, built for `camera`,
+    /// at `version`.
+    pub fn from_built(hierarchy: Hierarchy, camera: Camera, v: &StoredView, version: Version) -> Self {
         // Uploads are checked to be PNG or JPEG by their magic bytes; what a
         // store holds is named by its own, never assumed.
         let color_type = sniff(&v.color).map_or("application/octet-stream", Format::media_type);
-        let mut h = std::collections::hash_map::DefaultHasher::new();
+        let mut h = xxhash_rust::xxh3::Xxh3::new();
         hash_depths(&v.z, &mut h);
         v.color[..].hash(&mut h);
         serde_json::to_string(&v.camera).unwrap_or_default().hash(&mut h);
@@ -92,7 +80,7 @@ impl Loaded {
         Self {
             version: Version::new(),
             content: h.finish(),
-            valid_samples,
+            valid_samples: hierarchy.stats().valid_samples as u64,
             raw_grid: v.raw_grid,
             live_since: None,
             hierarchy,
@@ -115,17 +103,16 @@ impl Loaded {
     }
 }
 
-/// Feeds the depths' bits to `h` a few thousand at a time: one `write`
-/// per block rather than per sample, which is most of the cost of hashing
-/// a frame (1.7 ms for a 1920 x 1080 frame, against 4.6 ms sample by
-/// sample).
-fn hash_depths(z: &[f32], h: &mut impl Hasher) {
-    let mut bits = [0u32; 4096];
-    for block in z.chunks(bits.len()) {
-        for (b, z) in bits.iter_mut().zip(block) {
-            *b = z.to_bits();
+/// Feeds the depths' bits to `h` a few thousand at a time: one update per
+/// block rather than per sample (with SipHash, 1.7 ms for a 1920 x 1080
+/// frame against 4.6 ms sample by sample).
+fn hash_depths(z: &[f32], h: &mut xxhash_rust::xxh3::Xxh3) {
+    let mut bytes = [0u8; 4 * 4096];
+    for block in z.chunks(bytes.len() / 4) {
+        for (b, z) in bytes.chunks_exact_mut(4).zip(block) {
+            b.copy_from_slice(&z.to_le_bytes());
         }
-        bits[..block.len()].hash(h);
+        h.update(&bytes[..4 * block.len()]);
     }
 }
 
