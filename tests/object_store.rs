@@ -135,7 +135,7 @@ fn only_the_current_version_of_a_view_is_kept() {
     }
     let bytes = store.bytes_stored().unwrap();
     // Data of the current version, its manifest and the scene marker.
-    let data = dmesh::store::dmv::encode(&view(4)).unwrap().len() as u64;
+    let data = dmesh::store::dmv::encode(view(4).parts()).unwrap().len() as u64;
     assert!(
         bytes >= data && bytes < data + 4096,
         "{bytes} bytes held for one view of {data}"

@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result};
 use dmesh::http::AppState;
 use dmesh::service::Loaded;
-use dmesh::store::StoredView;
+use dmesh::store::{Staged, StoredView};
 use dmesh_engine::mesh::SegmentationSpec;
 
 /// The live scene's id.
@@ -109,7 +109,7 @@ impl Frames {
         let stored = &self.rendered[i];
         let loaded = Loaded::from_stored(stored, String::new())?;
         let done = match previous {
-            None => Some(state.store_view(SCENE, VIEW, stored, loaded, true)?),
+            None => Some(state.store_view(SCENE, VIEW, stored, loaded, true, Staged::default())?),
             Some(previous) => state.store_live_frame_over(SCENE, VIEW, stored, loaded, previous)?,
         };
         Ok(done.map(|loaded| loaded.version.clone()))

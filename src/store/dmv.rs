@@ -8,7 +8,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{StoreError, StoredView};
+use super::{StoreError, StoredView, ViewParts};
 use dmesh_engine::mesh::SegmentationSpec;
 
 /// The first four bytes of every `.dmv`.
@@ -33,7 +33,7 @@ pub struct Meta {
 
 impl Meta {
     /// The metadata of `v`.
-    pub fn of(v: &StoredView) -> Self {
+    pub fn of(v: ViewParts<'_>) -> Self {
         Self {
             camera: v.camera.clone(),
             segmentation: v.segmentation,
@@ -67,7 +67,7 @@ fn damaged(name: &str, why: &str) -> StoreError {
 }
 
 /// Encodes a view.
-pub fn encode(v: &StoredView) -> Result<Vec<u8>, StoreError> {
+pub fn encode(v: ViewParts<'_>) -> Result<Vec<u8>, StoreError> {
     let meta = meta_bytes(v)?;
     let mut out = Vec::with_capacity(HEAD_BYTES + 16 + meta.len() + v.z.len() * 4 + v.color.len());
     write_parts(v, &meta, &mut out)?;
@@ -77,15 +77,15 @@ pub fn encode(v: &StoredView) -> Result<Vec<u8>, StoreError> {
 /// Writes the encoding of a view to `out` as [`encode`] gives it, without
 /// holding it whole: the depths go through a small buffer, so a file store
 /// writes a 1920 x 1080 frame without first filling (and faulting in) 8 MB.
-pub fn write(v: &StoredView, out: &mut impl std::io::Write) -> Result<(), StoreError> {
+pub fn write(v: ViewParts<'_>, out: &mut impl std::io::Write) -> Result<(), StoreError> {
     write_parts(v, &meta_bytes(v)?, out)
 }
 
-fn meta_bytes(v: &StoredView) -> Result<Vec<u8>, StoreError> {
+fn meta_bytes(v: ViewParts<'_>) -> Result<Vec<u8>, StoreError> {
     serde_json::to_vec(&Meta::of(v)).map_err(|e| StoreError::Io(std::io::Error::other(e)))
 }
 
-fn write_parts(v: &StoredView, meta: &[u8], out: &mut impl std::io::Write) -> Result<(), StoreError> {
+fn write_parts(v: ViewParts<'_>, meta: &[u8], out: &mut impl std::io::Write) -> Result<(), StoreError> {
     out.write_all(MAGIC)?;
     out.write_all(&(meta.len() as u64).to_le_bytes())?;
     out.write_all(meta)?;
@@ -99,7 +99,7 @@ fn write_parts(v: &StoredView, meta: &[u8], out: &mut impl std::io::Write) -> Re
         out.write_all(&block[..4 * z.len()])?;
     }
     out.write_all(&(v.color.len() as u64).to_le_bytes())?;
-    out.write_all(&v.color)?;
+    out.write_all(v.color)?;
     Ok(())
 }
 

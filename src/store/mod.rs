@@ -39,6 +39,67 @@ pub struct StoredView {
     pub color: bytes::Bytes,
 }
 
+impl StoredView {
+    /// Its parts, borrowed.
+    pub fn parts(&self) -> ViewParts<'_> {
+        ViewParts {
+            camera: &self.camera,
+            segmentation: self.segmentation,
+            z: &self.z,
+            raw_grid: self.raw_grid,
+            color: &self.color,
+        }
+    }
+}
+
+/// What a store keeps of a view, borrowed: a [`StoredView`] before its
+/// depths are moved into it (the server writes a view aside while the
+/// depths are still the build's input).
+#[derive(Clone, Copy, Debug)]
+pub struct ViewParts<'a> {
+    /// The reference camera, wire form.
+    pub camera: &'a dmesh_proto::Camera,
+    /// Segmentation settings.
+    pub segmentation: SegmentationSpec,
+    /// Depth as `z`, row-major, 0 for invalid.
+    pub z: &'a [f32],
+    /// As [`StoredView::raw_grid`].
+    pub raw_grid: Option<dmesh_proto::RawGrid>,
+    /// The colour image's bytes.
+    pub color: &'a [u8],
+}
+
+/// A view written aside by [`ViewStore::stage`], which
+/// [`ViewStore::put_staged`] makes the view's version. Dropped unused (the
+/// view could not be built), what was written is removed.
+#[derive(Debug, Default)]
+pub struct Staged {
+    aside: Option<Aside>,
+}
+
+/// A file written aside: its path, its version, and whether it reached
+/// the disk.
+#[derive(Debug)]
+struct Aside {
+    path: std::path::PathBuf,
+    version: Version,
+    durable: bool,
+}
+
+impl Staged {
+    fn take(&mut self) -> Option<Aside> {
+        self.aside.take()
+    }
+}
+
+impl Drop for Staged {
+    fn drop(&mut self) {
+        if let Some(aside) = self.aside.take() {
+            let _ = std::fs::remove_file(aside.path);
+        }
+    }
+}
+
 /// Store failures: bad ids, or the storage itself.
 #[derive(Debug, thiserror::Error)]
 pub enum StoreError {
@@ -78,6 +139,31 @@ pub trait ViewStore: Send + Sync {
     /// Makes a view's latest frame durable (after [`ViewStore::put_live`]).
     fn persist(&self, _scene: &str, _view: &str) -> Result<(), StoreError> {
         Ok(())
+    }
+    /// Writes `scene/view`'s `parts` aside, ahead of
+    /// [`ViewStore::put_staged`], without changing the view: the server does
+    /// it while the view's hierarchy is built. With `durable`, what is
+    /// written reaches the disk. By default nothing is written aside
+    /// (`put_staged` then puts the view whole).
+    fn stage(&self, _scene: &str, _view: &str, _parts: ViewParts<'_>, _durable: bool) -> Result<Staged, StoreError> {
+        Ok(Staged::default())
+    }
+    /// [`ViewStore::put_live`] (with `live`) or [`ViewStore::put`] of `v`,
+    /// whose bytes [`ViewStore::stage`] wrote aside into `staged`.
+    fn put_staged(
+        &self,
+        scene: &str,
+        view: &str,
+        v: &StoredView,
+        live: bool,
+        staged: Staged,
+    ) -> Result<Version, StoreError> {
+        drop(staged);
+        if live {
+            self.put_live(scene, view, v)
+        } else {
+            self.put(scene, view, v)
+        }
     }
     /// Reads a view and its version, `None` when absent.
     fn get(&self, scene: &str, view: &str) -> Result<Option<(StoredView, Version)>, StoreError>;

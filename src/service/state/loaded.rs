@@ -3,7 +3,7 @@
 
 use std::hash::{Hash, Hasher};
 
-use crate::store::{StoredView, Version};
+use crate::store::{StoredView, Version, ViewParts};
 use dmesh_engine::camera::Camera;
 use dmesh_engine::image::{sniff, DepthImage, Format};
 use dmesh_engine::mesh::Hierarchy;
@@ -61,25 +61,19 @@ impl Loaded {
         let camera = Camera::try_from(&v.camera)?;
         let depth = DepthImage::from_z(camera.width, camera.height, v.z.clone())?;
         let hierarchy = Hierarchy::build(&depth, &camera, &v.segmentation.to_engine())?;
-        Ok(Self::from_built(hierarchy, camera, v, version))
+        Ok(Self::from_built(hierarchy, camera, v, content_of(v.parts()), version))
     }
 
     /// The view `v` (what the store keeps of it: hashed for the ETag, its
     /// colour shared, not copied) with its `hierarchy`, built for `camera`,
-    /// at `version`.
-    pub fn from_built(hierarchy: Hierarchy, camera: Camera, v: &StoredView, version: Version) -> Self {
+    /// at `version`; `content` is [`content_of`] `v`.
+    pub fn from_built(hierarchy: Hierarchy, camera: Camera, v: &StoredView, content: u64, version: Version) -> Self {
         // Uploads are checked to be PNG or JPEG by their magic bytes; what a
         // store holds is named by its own, never assumed.
         let color_type = sniff(&v.color).map_or("application/octet-stream", Format::media_type);
-        let mut h = xxhash_rust::xxh3::Xxh3::new();
-        hash_depths(&v.z, &mut h);
-        v.color[..].hash(&mut h);
-        serde_json::to_string(&v.camera).unwrap_or_default().hash(&mut h);
-        serde_json::to_string(&v.segmentation).unwrap_or_default().hash(&mut h);
-        serde_json::to_string(&v.raw_grid).unwrap_or_default().hash(&mut h);
         Self {
             version: Version::new(),
-            content: h.finish(),
+            content,
             valid_samples: hierarchy.stats().valid_samples as u64,
             raw_grid: v.raw_grid,
             live_since: None,
@@ -101,6 +95,18 @@ impl Loaded {
         self.version = version;
         self
     }
+}
+
+/// The hash of a view's content, its ETag's first part: the same for the
+/// same camera, segmentation, depths and colour, in every process.
+pub fn content_of(v: ViewParts<'_>) -> u64 {
+    let mut h = xxhash_rust::xxh3::Xxh3::new();
+    hash_depths(v.z, &mut h);
+    v.color.hash(&mut h);
+    serde_json::to_string(v.camera).unwrap_or_default().hash(&mut h);
+    serde_json::to_string(&v.segmentation).unwrap_or_default().hash(&mut h);
+    serde_json::to_string(&v.raw_grid).unwrap_or_default().hash(&mut h);
+    h.finish()
 }
 
 /// Feeds the depths' bits to `h` a few thousand at a time: one update per

@@ -5,7 +5,7 @@ use std::collections::HashMap;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use crate::store::StoredView;
+use crate::store::{Staged, StoredView};
 
 use super::super::error::AppError;
 use super::{AppState, Loaded};
@@ -17,6 +17,8 @@ impl AppState {
     /// cache it after this. A `live` frame is visible at once but made
     /// durable later ([`Self::persist_live`]); a frame that is not live is
     /// durable when this returns, and so ends the view's live frames.
+    /// `staged` is what the store wrote of it aside, if anything
+    /// ([`crate::store::ViewStore::stage`]).
     pub fn store_view(
         &self,
         scene: &str,
@@ -24,9 +26,10 @@ impl AppState {
         stored: &StoredView,
         loaded: Loaded,
         live: bool,
+        staged: Staged,
     ) -> Result<Arc<Loaded>, AppError> {
         let _commit = self.commit.lock().unwrap_or_else(|p| p.into_inner());
-        self.store_view_committing(scene, view, stored, loaded, live)
+        self.store_view_committing(scene, view, stored, loaded, live, staged)
     }
 
     /// [`Self::store_view`] of a live frame only while the view is the
@@ -46,7 +49,8 @@ impl AppState {
         if self.store.version(scene, view)?.as_deref() != Some(previous) {
             return Ok(None);
         }
-        self.store_view_committing(scene, view, stored, loaded, true).map(Some)
+        self.store_view_committing(scene, view, stored, loaded, true, Staged::default())
+            .map(Some)
     }
 
     /// [`Self::store_view`]'s work, with the commit lock held.
@@ -57,17 +61,15 @@ impl AppState {
         stored: &StoredView,
         loaded: Loaded,
         live: bool,
+        staged: Staged,
     ) -> Result<Arc<Loaded>, AppError> {
         let key = (scene.to_string(), view.to_string());
-        let version = if live {
-            let version = self.store.put_live(scene, view, stored)?;
+        let version = self.store.put_staged(scene, view, stored, live, staged)?;
+        if live {
             self.unpersisted().entry(key).or_insert_with(Instant::now);
-            version
         } else {
-            let version = self.store.put(scene, view, stored)?;
             self.unpersisted().remove(&key);
-            version
-        };
+        }
         let loaded = Arc::new(Loaded {
             live_since: live.then(std::time::SystemTime::now),
             ..loaded.at_version(version)

@@ -228,14 +228,14 @@ impl ViewStore for ObjectViewStore {
     fn put(&self, scene: &str, view: &str, v: &StoredView) -> Result<Version, StoreError> {
         let manifest_path = self.manifest_path(scene, view)?;
         let marker = self.marker(scene)?;
-        let bytes = dmv::encode(v)?;
+        let bytes = dmv::encode(v.parts())?;
         self.block_on(async {
             let previous = self.read_manifest(&manifest_path).await.ok().flatten();
             let id = self.fresh_id();
             let data = self.data_path(scene, view, &id);
             let manifest = Manifest {
                 data: id.clone(),
-                meta: dmv::Meta::of(v),
+                meta: dmv::Meta::of(v.parts()),
                 bytes: bytes.len() as u64,
             };
             let manifest = serde_json::to_vec(&manifest).map_err(|e| StoreError::Io(std::io::Error::other(e)))?;
