@@ -169,8 +169,15 @@ impl Server {
         live: bool,
     ) -> anyhow::Result<dmesh_proto::ViewSummary> {
         let boundary = "dmesh-client-boundary";
-        let mut body = Vec::new();
         let extra = fields.iter().map(|(k, v)| (*k, v.as_bytes()));
+        // Sized once: a 1920 x 1080 frame's body is megabytes, which
+        // growing by doubling copied (and faulted in) again and again.
+        let parts: usize = [camera_json.len(), depth.len(), color.len()]
+            .into_iter()
+            .chain(fields.iter().map(|(k, v)| k.len() + v.len()))
+            .map(|n| n + 128)
+            .sum();
+        let mut body = Vec::with_capacity(parts + 64);
         for (name, data) in [("camera", camera_json.as_bytes()), ("depth", depth), ("color", color)]
             .into_iter()
             .chain(extra)
