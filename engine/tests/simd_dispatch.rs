@@ -2,7 +2,9 @@
 //! portable fallback give the same bytes: every vertex's error, radius and flags, and the
 //! meshes extracted from them with their normals and rho, on scenes with
 //! boxes, holes and noise, every segmentation method, perspective and
-//! orthographic cameras, one thread and two.
+//! orthographic cameras, one thread and two. So do the depth decodes
+//! that run at those tiers (16-bit PGM, and z from raw samples), on one
+//! thread and on two.
 
 use dmesh_engine::camera::Camera;
 use dmesh_engine::image::DepthImage;
@@ -103,8 +105,56 @@ fn every_tier_and_the_portable_code_give_the_same_bytes() {
             }
         }
     }
+    for &tier in &tiers {
+        limit(Tier::Portable);
+        let portable = decoded();
+        limit(tier);
+        assert!(portable == decoded(), "decodes: {tier:?} and portable differ");
+    }
     limit(Tier::Avx512);
     assert_eq!(compared, 7 * 4 * 2 * tiers.len());
+}
+
+/// The bits of depths decoded from 16-bit PGM and from PFM holding every
+/// kind of raw value (zero, negative, NaN, infinite, huge, tiny), with
+/// scales and offsets that send some out of range, at sizes decoded on
+/// one thread and on two.
+fn decoded() -> Vec<u32> {
+    use dmesh_engine::image::{decode_depth, encode_pfm, pgm, DepthOptions, Limits};
+    let mut out = Vec::new();
+    for (w, h) in [(33u32, 17u32), (1100, 1000)] {
+        let camera = Camera::perspective(w, h, 500.0, 500.0, f64::from(w) / 2.0, f64::from(h) / 2.0).unwrap();
+        let n = (w * h) as usize;
+        let raw16: Vec<u16> = (0..n).map(|i| (i.wrapping_mul(2_654_435_761) >> 7) as u16).collect();
+        let special = [
+            0.0,
+            -1.0,
+            f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            3.0e38,
+            1.0e-40,
+            0.5,
+            1234.5,
+        ];
+        let raw32: Vec<f32> = (0..n)
+            .map(|i| special[i % special.len()] * (1.0 + (i % 13) as f32))
+            .collect();
+        let files = [pgm::encode16(w, h, &raw16), encode_pfm(w, h, &raw32)];
+        for bytes in &files {
+            for (scale, offset) in [(0.001, 0.0), (1.0, -100.0), (1.0e30, 0.0), (-2.0, 5.0)] {
+                let options = DepthOptions {
+                    scale,
+                    offset,
+                    ..Default::default()
+                };
+                let depth = decode_depth(bytes, &options, &camera, &Limits::default()).unwrap();
+                assert!(depth.z.iter().all(|z| z.is_finite() && *z >= 0.0));
+                out.extend(depth.z.iter().map(|z| z.to_bits()));
+            }
+        }
+    }
+    out
 }
 
 /// No limit makes a tier run that the CPU lacks, nor one above the limit.

@@ -327,7 +327,7 @@ fn to_z(raw: RawSamples, options: &DepthOptions, camera: &Camera) -> Result<Dept
     let (scale, offset) = (options.scale, options.offset);
     // One straight loop per kind (the compiler widens them).
     match options.kind {
-        DepthKind::Z => to_z_with(&mut values, |_, raw| raw * scale + offset),
+        DepthKind::Z => in_halves(&mut values, |_, half| z_affine(half, scale, offset)),
         DepthKind::Range => to_z_with(&mut values, |idx, raw| {
             let (u, vv) = ((idx % w) as f64, (idx / w) as f64);
             (raw * scale + offset) / camera.ray_length(u, vv)
@@ -350,6 +350,47 @@ fn to_z(raw: RawSamples, options: &DepthOptions, camera: &Camera) -> Result<Dept
         }),
     }
     DepthImage::from_valid_z(width, height, values)
+}
+
+/// Samples from which a conversion runs on two threads: a 1920 x 1080
+/// live frame's decode took 4 ms on one.
+const HALVES_FROM: usize = 1 << 20;
+
+/// `f(offset, part)` over `values` cut in two parts, on two threads when
+/// there are [`HALVES_FROM`] values or more and the machine has two cores
+/// (every value the same as on one).
+fn in_halves<T: Send>(values: &mut [T], f: impl Fn(usize, &mut [T]) + Sync) {
+    let two = values.len() >= HALVES_FROM && std::thread::available_parallelism().is_ok_and(|n| n.get() >= 2);
+    if !two {
+        return f(0, values);
+    }
+    let mid = values.len() / 2;
+    let (first, second) = values.split_at_mut(mid);
+    std::thread::scope(|s| {
+        let f = &f;
+        s.spawn(move || f(mid, second));
+        f(0, first);
+    });
+}
+
+crate::simd::dispatch! {
+    /// [`to_z_with`] of depths given as z (`raw * scale + offset`), the
+    /// kind a depth camera sends, with AVX2 or AVX-512 where the CPU has
+    /// them (the same bits: the f64 arithmetic is only widened).
+    fn z_affine(values: &mut [f32], scale: f64, offset: f64) -> () = z_affine_body;
+}
+
+#[inline(always)]
+fn z_affine_body(values: &mut [f32], scale: f64, offset: f64) {
+    for v in values.iter_mut() {
+        let raw = f64::from(*v);
+        let z = if raw == 0.0 || !raw.is_finite() {
+            0.0
+        } else {
+            (raw * scale + offset) as f32
+        };
+        *v = if z.is_finite() && z > 0.0 { z } else { 0.0 };
+    }
 }
 
 /// Each raw sample in place as `z(index, raw)`, as f32; a raw 0 or

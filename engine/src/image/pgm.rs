@@ -42,6 +42,19 @@ fn number(bytes: &[u8], pos: &mut usize, what: &str) -> Result<u64> {
         .ok_or_else(|| Error::decode(format!("PGM {what} is not a number")))
 }
 
+crate::simd::dispatch! {
+    /// Big-endian 16-bit samples `data` as f32 into `out` (as long as
+    /// `data` has pairs), with AVX2 or AVX-512 where the CPU has them.
+    fn be16_to_f32(data: &[u8], out: &mut [f32]) -> () = be16_to_f32_body;
+}
+
+#[inline(always)]
+fn be16_to_f32_body(data: &[u8], out: &mut [f32]) {
+    for (o, b) in out.iter_mut().zip(data.chunks_exact(2)) {
+        *o = f32::from(u16::from_be_bytes([b[0], b[1]]));
+    }
+}
+
 pub(crate) fn decode(bytes: &[u8], limits: &Limits) -> Result<RawSamples> {
     if !bytes.starts_with(b"P5") {
         return Err(Error::decode("PGM magic is not P5 (binary greyscale)"));
@@ -71,10 +84,11 @@ pub(crate) fn decode(bytes: &[u8], limits: &Limits) -> Result<RawSamples> {
     let values = if size == 1 {
         data[..n].iter().map(|&v| f32::from(v)).collect()
     } else {
-        data[..2 * n]
-            .chunks_exact(2)
-            .map(|b| f32::from(u16::from_be_bytes([b[0], b[1]])))
-            .collect()
+        let mut values = vec![0f32; n];
+        super::in_halves(&mut values, |first, part| {
+            be16_to_f32(&data[2 * first..2 * (first + part.len())], part)
+        });
+        values
     };
     Ok(RawSamples {
         width: w as u32,
