@@ -1,6 +1,7 @@
-//! Run-time dispatch of the build's hot loops to AVX2 and FMA, or to
-//! AVX-512 (DMesh Sec. 4.2's per-vertex passes, issue 27): the one module
-//! of the engine with `unsafe` code.
+//! Run-time dispatch of the engine's hot loops to AVX2 and FMA, or to
+//! AVX-512 (DMesh Sec. 4.2's per-vertex passes, and the depth decode's
+//! conversions; issue 27): the one module of the engine with `unsafe`
+//! code.
 //!
 //! `dispatch!` defines a function that runs its body compiled for the
 //! `x86-64-v4` features (AVX-512 F, BW, CD, DQ and VL, with those of v3)
