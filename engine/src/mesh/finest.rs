@@ -68,10 +68,14 @@ pub(super) fn eq1(p: DVec3, a: DVec3, b: DVec3) -> f64 {
     }
 }
 
-/// Whether a leaf cell's finest triangle `t` is segmented, as a join.
+/// A half off the grid, as bits ([`Half::bits`]).
+const ABSENT: u8 = Half::ABSENT.bits();
+
+/// The half made of the finest triangles `ha` of `a`'s cell and `hb` of
+/// `b`'s, as bits ([`Half::bits`]).
 #[inline(always)]
-fn leaf(f: Flags, t: usize) -> Half {
-    Half::leaf(f.cell(t))
+fn leaf_join(a: Flags, ha: usize, b: Flags, hb: usize) -> u8 {
+    Half::leaf(a.cell(ha)).join(Half::leaf(b.cell(hb))).bits()
 }
 
 /// The column factors the centres of level 0 read, one row per role, `i`
@@ -209,6 +213,9 @@ impl Levels<'_> {
         let (bp, camera, z) = (self.bp, self.camera, self.z);
         let len = 2.0;
         let ys = if ROW { (0..gh).step_by(2) } else { (1..gh).step_by(2) };
+        // The row above the first, read but not used (its halves are off
+        // the grid).
+        let none = &vec![Flags::default(); gw][..];
         for y in ys {
             let zr = &z[y * gw..(y + 1) * gw];
             // Geometry of every vertex of the row: v at x = 2i + 1 along
@@ -240,56 +247,91 @@ impl Levels<'_> {
                     *g = round_up(own);
                 }
             }
-            // Flags, and which error counts.
+            // Flags, and which error counts: straight loops over the row
+            // (so they widen), then the partly segmented halves, which are
+            // rare (only along discontinuities), one by one.
             let (head, tail) = flags.split_at_mut(y * gw);
             let row = &mut tail[..gw];
-            let up: &[Flags] = if y > 0 { &head[(y - 1) * gw..] } else { &[] };
-            // (Their radii stay 0, as the pass is given them.)
+            let up: &[Flags] = if y > 0 { &head[(y - 1) * gw..y * gw] } else { none };
             let err = &mut self.err2[y * gw..(y + 1) * gw];
+            let partial = if ROW {
+                let exists = [y > 0, y + 1 < gh];
+                let mut partial = false;
+                for (i, g) in geo[..gw / 2].iter().enumerate() {
+                    let x = 2 * i + 1;
+                    let halves = [
+                        if exists[0] {
+                            leaf_join(up[x - 1], 1, up[x], 0)
+                        } else {
+                            ABSENT
+                        },
+                        if exists[1] {
+                            leaf_join(row[x - 1], 1, row[x], 0)
+                        } else {
+                            ABSENT
+                        },
+                    ];
+                    let bits = row[x].with_halves(halves);
+                    row[x] = bits;
+                    let (unflagged, p) = bits.halves_unflagged_partial();
+                    err[x] = if unflagged { *g } else { 0.0 };
+                    partial |= p;
+                }
+                partial
+            } else {
+                let n = gw / 2 + 1;
+                let mut partial = false;
+                for (i, g) in geo[..n].iter().enumerate() {
+                    let x = 2 * i;
+                    // (At x = 0 the half before is off the grid, and its
+                    // leaves are not read.)
+                    let before = x.saturating_sub(1);
+                    let halves = [
+                        if x > 0 {
+                            leaf_join(up[before], 1, row[before], 1)
+                        } else {
+                            ABSENT
+                        },
+                        if x + 1 < gw {
+                            leaf_join(up[x], 0, row[x], 0)
+                        } else {
+                            ABSENT
+                        },
+                    ];
+                    let bits = row[x].with_halves(halves);
+                    row[x] = bits;
+                    let (unflagged, p) = bits.halves_unflagged_partial();
+                    err[x] = if unflagged { *g } else { 0.0 };
+                    partial |= p;
+                }
+                partial
+            };
+            if !partial {
+                continue;
+            }
             let xs = if ROW { 1 } else { 0 };
-            for (i, x) in (xs..gw).step_by(2).enumerate() {
+            for x in (xs..gw).step_by(2) {
+                if row[x].partial_halves() == 0 {
+                    continue;
+                }
                 let exists = if ROW { [y > 0, y + 1 < gh] } else { [x > 0, x + 1 < gw] };
-                let halves = if ROW {
-                    [
-                        exists[0].then(|| leaf(up[x - 1], 1).join(leaf(up[x], 0))),
-                        exists[1].then(|| leaf(row[x - 1], 1).join(leaf(row[x], 0))),
-                    ]
-                } else {
-                    [
-                        exists[0].then(|| leaf(up[x - 1], 1).join(leaf(row[x - 1], 1))),
-                        exists[1].then(|| leaf(up[x], 0).join(leaf(row[x], 0))),
-                    ]
+                let apex = |dx: isize, dy: isize| {
+                    let (ax, ay) = (x as isize + dx, y as isize + dy);
+                    z[(ay as usize) * gw + ax as usize]
                 };
-                let mut bits = row[x].cell_only();
-                let (mut unflagged, mut partial) = (false, false);
-                for (half, flagged) in halves.into_iter().enumerate() {
-                    let flagged = flagged.unwrap_or(Half::ABSENT);
-                    bits.set_half(half, flagged);
-                    unflagged |= flagged.unflagged();
-                    partial |= flagged.partial();
-                }
-                row[x] = bits;
-                let mut e = if unflagged { geo[i] } else { 0.0 };
-                if partial {
-                    let apex = |dx: isize, dy: isize| {
-                        let (ax, ay) = (x as isize + dx, y as isize + dy);
-                        z[(ay as usize) * gw + ax as usize]
-                    };
-                    let (back, forth) = if ROW { ((0, -1), (0, 1)) } else { ((-1, 0), (1, 0)) };
-                    let zapex = match exists {
-                        [true, true] => apex(back.0, back.1).max(apex(forth.0, forth.1)),
-                        [true, false] => apex(back.0, back.1),
-                        [false, true] => apex(forth.0, forth.1),
-                        [false, false] => 0.0,
-                    };
-                    let (za, zb) = if ROW {
-                        (zr[x - 1], zr[x + 1])
-                    } else {
-                        (z[(y - 1) * gw + x], z[(y + 1) * gw + x])
-                    };
-                    e = e.max(round_up(footprint2(camera, len, [za, zb, zr[x], zapex], zmax)));
-                }
-                err[x] = e;
+                let (back, forth) = if ROW { ((0, -1), (0, 1)) } else { ((-1, 0), (1, 0)) };
+                let zapex = match exists {
+                    [true, true] => apex(back.0, back.1).max(apex(forth.0, forth.1)),
+                    [true, false] => apex(back.0, back.1),
+                    [false, true] => apex(forth.0, forth.1),
+                    [false, false] => 0.0,
+                };
+                let (za, zb) = if ROW {
+                    (zr[x - 1], zr[x + 1])
+                } else {
+                    (z[(y - 1) * gw + x], z[(y + 1) * gw + x])
+                };
+                err[x] = err[x].max(round_up(footprint2(camera, len, [za, zb, zr[x], zapex], zmax)));
             }
         }
     }

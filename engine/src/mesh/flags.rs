@@ -58,6 +58,13 @@ impl Half {
     pub const fn partial(self) -> bool {
         self.any && !self.all
     }
+
+    /// As bits for straight loops, as [`Flags::half_bits`] gives them:
+    /// "any" in bit 0, "all" in bit 2.
+    #[inline(always)]
+    pub const fn bits(self) -> u8 {
+        self.any as u8 | (self.all as u8) << 2
+    }
 }
 
 impl Flags {
