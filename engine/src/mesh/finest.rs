@@ -254,39 +254,29 @@ impl Levels<'_> {
             let row = &mut tail[..gw];
             let up: &[Flags] = if y > 0 { &head[(y - 1) * gw..y * gw] } else { none };
             let err = &mut self.err2[y * gw..(y + 1) * gw];
-            let partial = if ROW {
-                let exists = [y > 0, y + 1 < gh];
-                let mut partial = false;
-                for (i, g) in geo[..gw / 2].iter().enumerate() {
-                    let x = 2 * i + 1;
-                    let halves = [
-                        if exists[0] {
+            // Vertex i at x = 2i + 1 along rows, x = 2i along columns.
+            let (first, n) = if ROW { (1, gw / 2) } else { (0, gw / 2 + 1) };
+            let mut partial = false;
+            for (i, g) in geo[..n].iter().enumerate() {
+                let x = 2 * i + first;
+                let halves = if ROW {
+                    [
+                        if y > 0 {
                             leaf_join(up[x - 1], 1, up[x], 0)
                         } else {
                             ABSENT
                         },
-                        if exists[1] {
+                        if y + 1 < gh {
                             leaf_join(row[x - 1], 1, row[x], 0)
                         } else {
                             ABSENT
                         },
-                    ];
-                    let bits = row[x].with_halves(halves);
-                    row[x] = bits;
-                    let (unflagged, p) = bits.halves_unflagged_partial();
-                    err[x] = if unflagged { *g } else { 0.0 };
-                    partial |= p;
-                }
-                partial
-            } else {
-                let n = gw / 2 + 1;
-                let mut partial = false;
-                for (i, g) in geo[..n].iter().enumerate() {
-                    let x = 2 * i;
+                    ]
+                } else {
                     // (At x = 0 the half before is off the grid, and its
                     // leaves are not read.)
                     let before = x.saturating_sub(1);
-                    let halves = [
+                    [
                         if x > 0 {
                             leaf_join(up[before], 1, row[before], 1)
                         } else {
@@ -297,20 +287,18 @@ impl Levels<'_> {
                         } else {
                             ABSENT
                         },
-                    ];
-                    let bits = row[x].with_halves(halves);
-                    row[x] = bits;
-                    let (unflagged, p) = bits.halves_unflagged_partial();
-                    err[x] = if unflagged { *g } else { 0.0 };
-                    partial |= p;
-                }
-                partial
-            };
+                    ]
+                };
+                let bits = row[x].with_halves(halves);
+                row[x] = bits;
+                let (unflagged, p) = bits.halves_unflagged_partial();
+                err[x] = if unflagged { *g } else { 0.0 };
+                partial |= p;
+            }
             if !partial {
                 continue;
             }
-            let xs = if ROW { 1 } else { 0 };
-            for x in (xs..gw).step_by(2) {
+            for x in (first..gw).step_by(2) {
                 if row[x].partial_halves() == 0 {
                     continue;
                 }
