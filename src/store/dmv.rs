@@ -90,16 +90,23 @@ fn write_parts(v: ViewParts<'_>, meta: &[u8], out: &mut impl std::io::Write) -> 
     out.write_all(&(meta.len() as u64).to_le_bytes())?;
     out.write_all(meta)?;
     out.write_all(&(v.z.len() as u64).to_le_bytes())?;
-    // A straight copy into a block at a time.
+    depth_bytes(v.z, |block| out.write_all(block))?;
+    out.write_all(&(v.color.len() as u64).to_le_bytes())?;
+    out.write_all(v.color)?;
+    Ok(())
+}
+
+/// `f` of the depths' bytes as the encoding lays them out (little-endian
+/// `f32`), a block of a few thousand at a time: a straight copy per
+/// block, and one call rather than one per sample.
+pub fn depth_bytes<E>(z: &[f32], mut f: impl FnMut(&[u8]) -> Result<(), E>) -> Result<(), E> {
     let mut block = [0u8; 4 * 8192];
-    for z in v.z.chunks(block.len() / 4) {
+    for z in z.chunks(block.len() / 4) {
         for (bytes, z) in block.chunks_exact_mut(4).zip(z) {
             bytes.copy_from_slice(&z.to_le_bytes());
         }
-        out.write_all(&block[..4 * z.len()])?;
+        f(&block[..4 * z.len()])?;
     }
-    out.write_all(&(v.color.len() as u64).to_le_bytes())?;
-    out.write_all(v.color)?;
     Ok(())
 }
 

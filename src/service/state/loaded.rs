@@ -3,7 +3,7 @@
 
 use std::hash::{Hash, Hasher};
 
-use crate::store::{StoredView, Version, ViewParts};
+use crate::store::{dmv, StoredView, Version, ViewParts};
 use dmesh_engine::camera::Camera;
 use dmesh_engine::image::{sniff, DepthImage, Format};
 use dmesh_engine::mesh::Hierarchy;
@@ -101,25 +101,17 @@ impl Loaded {
 /// same camera, segmentation, depths and colour, in every process.
 pub fn content_of(v: ViewParts<'_>) -> u64 {
     let mut h = xxhash_rust::xxh3::Xxh3::new();
-    hash_depths(v.z, &mut h);
+    // The depths as the store lays them out (one update per block: with
+    // SipHash, per sample, hashing took 4.6 ms of a 1920 x 1080 frame).
+    let Ok(()) = dmv::depth_bytes(v.z, |block| {
+        h.update(block);
+        Ok::<(), std::convert::Infallible>(())
+    });
     v.color.hash(&mut h);
     serde_json::to_string(v.camera).unwrap_or_default().hash(&mut h);
     serde_json::to_string(&v.segmentation).unwrap_or_default().hash(&mut h);
     serde_json::to_string(&v.raw_grid).unwrap_or_default().hash(&mut h);
     h.finish()
-}
-
-/// Feeds the depths' bits to `h` a few thousand at a time: one update per
-/// block rather than per sample (with SipHash, 1.7 ms for a 1920 x 1080
-/// frame against 4.6 ms sample by sample).
-fn hash_depths(z: &[f32], h: &mut xxhash_rust::xxh3::Xxh3) {
-    let mut bytes = [0u8; 4 * 4096];
-    for block in z.chunks(bytes.len() / 4) {
-        for (b, z) in bytes.chunks_exact_mut(4).zip(block) {
-            b.copy_from_slice(&z.to_le_bytes());
-        }
-        h.update(&bytes[..4 * block.len()]);
-    }
 }
 
 #[cfg(test)]
