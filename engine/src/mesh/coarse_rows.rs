@@ -202,6 +202,35 @@ impl Plane {
     }
 }
 
+impl Plane {
+    /// The results of the vertices swept in `scratch` as the sweep gave
+    /// them, from lane `first` of row `r` on, with their halves'
+    /// deviations `dev2` (0 where not given).
+    #[inline(always)]
+    pub(super) fn set_row(&mut self, r: usize, first: usize, scratch: &Scratch, dev2: Option<&[[f32; 2]]>) {
+        let swept = &scratch.swept;
+        let n = swept.flags.len();
+        let at = r * self.lanes + first;
+        self.z[at..at + n].copy_from_slice(&scratch.samples.z[V][..n]);
+        self.err2[at..at + n].copy_from_slice(&swept.err2[..n]);
+        self.radius[at..at + n].copy_from_slice(&swept.radius[..n]);
+        self.flags[at..at + n].copy_from_slice(&swept.flags[..n]);
+        if let Some(kept) = self.dev2.get_mut(at..at + n) {
+            match dev2 {
+                Some(d) => kept.copy_from_slice(&d[..n]),
+                None => kept.fill([0.0; 2]),
+            }
+        }
+    }
+}
+
+/// One grid row of the pass's outputs, as [`Scratch::write`] fills it.
+pub(super) struct GridRows<'a> {
+    pub flags: &'a mut [Flags],
+    pub err2: &'a mut [f32],
+    pub radius: &'a mut [f32],
+}
+
 /// What a [`Plane`] keeps of one vertex: its depth, saturated error,
 /// nested radius, flags, and its halves' squared deviations (or bounds).
 pub(super) struct Results {
@@ -429,6 +458,29 @@ impl Scratch {
             dev2,
             &mut self.swept,
         );
+    }
+}
+
+impl Scratch {
+    /// The swept vertices' flags, errors and radii into their grid row,
+    /// the first at column `x0`, `step` apart.
+    #[inline(always)]
+    pub(super) fn write(&self, row: GridRows<'_>, x0: usize, step: usize) {
+        let swept = &self.swept;
+        let n = swept.flags.len();
+        let Some(last) = n.checked_sub(1) else { return };
+        // Every `step`-th value from `x0` on, each the first of a chunk
+        // (no value checked against the row's end).
+        let cols = x0..=x0 + last * step;
+        for (out, &f) in row.flags[cols.clone()].chunks_mut(step).zip(&swept.flags) {
+            out[0] = f;
+        }
+        for (out, &e) in row.err2[cols.clone()].chunks_mut(step).zip(&swept.err2) {
+            out[0] = e;
+        }
+        for (out, &r) in row.radius[cols].chunks_mut(step).zip(&swept.radius) {
+            out[0] = r;
+        }
     }
 }
 

@@ -21,7 +21,7 @@
 //! against it. The finest level's loops are in `finest.rs`.
 
 use super::backproject::BackProject;
-use super::coarse_rows::{Child, Grids, Kept, Plane, Results, Row, RowTask, Scratch};
+use super::coarse_rows::{Child, GridRows, Grids, Kept, Plane, Results, Row, RowTask, Scratch};
 use super::deviation::{half_rows, max_deviation};
 use super::deviation_bound;
 use super::deviation_f32::max_deviation_f32;
@@ -379,13 +379,12 @@ impl Levels<'_> {
         let gw = self.grid.gw();
         let (bp, camera, z) = (self.bp, self.camera, self.z);
         let Row { bisects, h, y, .. } = row;
-        let xs = match bisects {
-            Bisects::Row | Bisects::Diagonal => (h..gw).step_by(2 * h as usize),
-            Bisects::Column => (0..gw).step_by(2 * h as usize),
-        };
+        // The row's vertices lie at `x0 + step * i`.
+        let (x0, step) = (if bisects == Bisects::Column { 0 } else { h }, 2 * h);
+        let count = (gw - x0).div_ceil(step) as usize;
         // This row's deviations, if given.
         let given = next.as_mut().map(|rest| {
-            let (now, later) = rest.split_at(xs.len().min(rest.len()));
+            let (now, later) = rest.split_at(count.min(rest.len()));
             *rest = later;
             now
         });
@@ -398,7 +397,19 @@ impl Levels<'_> {
                 flags,
             };
             scratch.samples.gather(&grids, row, lanes.clone(), children);
-            scratch.sweep(bp, row, lanes.start, given.and_then(|d| d.get(lanes.clone())));
+            let dev2 = given.and_then(|d| d.get(lanes.clone()));
+            scratch.sweep(bp, row, lanes.start, dev2);
+            // Every swept vertex's results as the sweep gave them, in
+            // straight loops; the rare ones the loop below finishes are
+            // written again there.
+            let row_at = y as usize * gw as usize;
+            let grid_rows = GridRows {
+                flags: &mut flags[row_at..row_at + gw as usize],
+                err2: &mut self.err2[row_at..row_at + gw as usize],
+                radius: &mut self.radius[row_at..row_at + gw as usize],
+            };
+            scratch.write(grid_rows, (x0 + step * lanes.start as u32) as usize, step as usize);
+            out.set_row(r, lanes.start, scratch, dev2);
         }
         let q = h / 2;
         // Children lie `d` rows above and below (and, for centres, on the
@@ -411,36 +422,20 @@ impl Levels<'_> {
         let point = BackProject::point_from;
         let at = |p: Pt| p.1 as usize * gw as usize + p.0 as usize;
         let row_factor = factor(y);
-        for (i, x) in xs.enumerate() {
+        // The vertices left: those off the sweep (on the grid's border),
+        // and the swept ones with a partly segmented half or a deviation
+        // to scan.
+        let swept = &scratch.swept.flags;
+        let rare = lanes.clone().filter(|&i| {
+            let (unflagged, partial) = swept[i - lanes.start].halves_unflagged_partial();
+            partial || (given.is_none() && unflagged)
+        });
+        for i in (0..lanes.start).chain(rare).chain(lanes.end..count) {
+            let x = x0 + step * i as u32;
             let v = (x, y);
             let xi = x as usize;
             let dev2 = given.map(|d| d[i]);
             let k = i.wrapping_sub(lanes.start);
-            if k < lanes.len() {
-                // Swept; done here unless a half is partly segmented or a
-                // deviation must be scanned.
-                let bits = scratch.swept.flags[k];
-                let (unflagged, partial) = bits.halves_unflagged_partial();
-                if !partial && (dev2.is_some() || !unflagged) {
-                    let (err, rad) = (scratch.swept.err2[k], scratch.swept.radius[k]);
-                    flag_row[xi] = bits;
-                    err_row[xi] = err;
-                    rad_row[xi] = rad;
-                    let kept = dev2.unwrap_or_default();
-                    out.set(
-                        r,
-                        i,
-                        Results {
-                            z: z[y as usize * gw as usize + xi],
-                            err2: err,
-                            radius: rad,
-                            flags: bits,
-                            dev2: kept,
-                        },
-                    );
-                    continue;
-                }
-            }
             let s = Split::at(self.grid, v, h, bisects);
             let Split { a, b, apex, .. } = s;
             let corners = |c: Pt| [z[at(a)], z[at(b)], z[at(v)], z[at(c)]];
