@@ -33,24 +33,26 @@ paper's, but the shape is the same: the view-dependent meshes are smaller
 than the static ones at every range, most of all far away (0.70 of the
 static count at 3 times the rig's distance, 0.95 and 0.86 at the rig's
 distance and half of it, where culling takes what the near camera does not
-see). Extraction takes 1.5-2.5 ms for the five meshes on one CPU thread, where
+see). Extraction takes 1.6-2.7 ms for the five meshes on one CPU thread, where
 the paper's view-dependent frames took 114-157 ms on its 2004 machine.
 
 Table 1: the paper builds six 513 x 513 depth-meshes' quadtrees in 641-660 ms
 (about 110 ms each; "for a single 513^2 depth-image the initialization takes
 about 150 ms"), on 2004 hardware. Here one 513 x 513 build takes the
 "whole build" column's milliseconds on one thread, a fifth of the
-paper's time or less (two threads save a quarter to a third more:
+paper's time or less (two threads save a third to two fifths of it:
 \`docs/live.md\`). The line under the table gives the
 shares: the coarse levels, with the exact deviation that makes epsilon
 hold at every sample (something the paper's Eq. 1-2 do not bound), take
-the largest, the finest level about a quarter, normals and rho about a
-sixth. The time per pixel grows slowly with the image, as the paper's
-\`n log n\` says (the exact deviations scan every sample once per level).
+the largest, the finest level about a quarter to a third, normals and
+rho about a tenth. The time per pixel depends more on the scene than on
+its size: the paper's \`n log n\` (the exact deviations of the coarser
+levels would scan every sample once per level) does not show, because the
+children's bound (\`deviation_bound.rs\`) spares most of those scans.
 The stages also appear in \`dmesh mesh --json\`
 (\`stages_ms\`). The strips column is a hierarchy's first extraction,
 which also computes the vertices that keeping outlines forces (once per
-hierarchy): 1.4 ms of the synthetic scene's, 5.7 of Art's.
+hierarchy): 0.8 ms of the synthetic scene's, 4.5 of Art's.
 
 Strips: the paper reports 20-40 triangles per strip static and 15-30
 view-dependent. Art at fine tolerances (0.1 % of its depth, tau up to 1 px)
