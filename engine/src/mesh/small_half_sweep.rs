@@ -164,18 +164,20 @@ pub(crate) fn half_worst<const H: isize, const N: usize>(
 }
 
 /// The squared deviations, rounded up, of `N` lanes' halves from the f32
-/// scan's `worst` and corner depths, widened by the margin; `None` for a
-/// lane whose corners are out of f32's range, which the caller scans in f64
-/// ([`in_f64`]). Straight code over the lanes, so it widens too.
+/// scan's `worst` and corner depths, widened by the margin, and whether
+/// each lane's corners are in f32's range: where not, its value stands for
+/// nothing and the caller scans the half in f64 ([`in_f64`]). Straight
+/// code over the lanes, so it widens too.
 #[inline(always)]
-fn squared<const N: usize>(worst: [f32; N], corners: [[f32; N]; 3]) -> [Option<f32>; N] {
-    let mut out = [None; N];
+fn squared<const N: usize>(worst: [f32; N], corners: [[f32; N]; 3]) -> ([f32; N], [bool; N]) {
+    let (mut out, mut in_range) = ([0f32; N], [false; N]);
     for l in 0..N {
         let lane = [corners[0][l], corners[1][l], corners[2][l]];
         let d = widen(worst[l], lane);
-        out[l] = in_f32_range(lane).then_some(round_up(d * d));
+        out[l] = round_up(d * d);
+        in_range[l] = in_f32_range(lane);
     }
-    out
+    (out, in_range)
 }
 
 /// The squared exact deviation, rounded up, of the half `shape` of the
@@ -195,7 +197,10 @@ pub(crate) fn small_half_deviation2<const H: isize>(z: &[f32], gw: usize, v: usi
         #[inline(always)]
         |dy, dx| [z[(vi + dy * gwi + dx) as usize]],
     );
-    squared(worst, corners)[0].unwrap_or_else(|| in_f64::<H>(z, gw, v, shape))
+    match squared(worst, corners) {
+        ([d], [true]) => d,
+        _ => in_f64::<H>(z, gw, v, shape),
+    }
 }
 
 /// The squared deviations, rounded up, of both halves of every split
@@ -411,6 +416,7 @@ fn emit<const H: isize>(planes: &Planes, z: &[f32], gw: usize, out: &mut [[f32; 
         let count = (row.n + classes - 1 - class) / classes;
         let x0 = row.x + s * class;
         for j0 in (0..count).step_by(LANES) {
+            let lanes = (count - j0).min(LANES);
             let mut pairs = [[0f32; 2]; LANES];
             for half in 0..2 {
                 if !row.rows[half] {
@@ -422,18 +428,28 @@ fn emit<const H: isize>(planes: &Planes, z: &[f32], gw: usize, out: &mut [[f32; 
                     #[inline(always)]
                     |dy, dx| planes.load((row.y as isize + dy) as usize, x0, dx, j0),
                 );
-                let wide = squared(worst, corners);
-                for (l, pair) in pairs.iter_mut().enumerate().take(count - j0) {
-                    let j = classes * (j0 + l) + class;
-                    let at_end = if half == 0 { j == 0 } else { j + 1 == row.n };
-                    if at_end && !row.ends[half] {
-                        continue;
+                let (wide, in_range) = squared(worst, corners);
+                for (pair, d) in pairs.iter_mut().zip(wide) {
+                    pair[half] = d;
+                }
+                // The half off the grid at a row's end (an edge along a
+                // column's first and last vertices) is 0.
+                let end = if half == 0 { 0 } else { row.n - 1 };
+                let off = (!row.ends[half] && end % classes == class)
+                    .then(|| (end / classes).wrapping_sub(j0))
+                    .filter(|&l| l < lanes);
+                if let Some(l) = off {
+                    pairs[l][half] = 0.0;
+                }
+                // Lanes out of f32's range, scanned in f64 (rare).
+                if !in_range[..lanes].iter().all(|&ok| ok) {
+                    for l in (0..lanes).filter(|&l| !in_range[l] && Some(l) != off) {
+                        let v = row.y * gw + row.x + s * (classes * (j0 + l) + class);
+                        pairs[l][half] = in_f64::<H>(z, gw, v, shape);
                     }
-                    let v = row.y * gw + row.x + s * j;
-                    pair[half] = wide[l].unwrap_or_else(|| in_f64::<H>(z, gw, v, shape));
                 }
             }
-            for (l, pair) in pairs.into_iter().enumerate().take(count - j0) {
+            for (l, pair) in pairs.into_iter().enumerate().take(lanes) {
                 out[classes * (j0 + l) + class] = pair;
             }
         }
@@ -521,19 +537,28 @@ mod tests {
     }
 
     /// The sweep gives, for every half of the three levels, the bits of the
-    /// one-half scan, on grids padded or not, with holes.
+    /// one-half scan, on grids padded or not, with holes; with `extreme`,
+    /// depths also beyond f32's range for the scan in places (1e25 on the
+    /// left, 1e-25 on every third row), whose halves go to the f64 scan.
     #[test]
     fn the_sweep_gives_each_halfs_bits() {
-        for (w, h) in [(33u32, 33u32), (40, 17), (3, 7), (70, 45), (257, 130), (300, 21)] {
+        let sizes = [(33u32, 33u32), (40, 17), (3, 7), (70, 45), (257, 130), (300, 21)];
+        for ((w, h), extreme) in sizes.into_iter().flat_map(|s| [(s, false), (s, true)]) {
             let grid = Grid::for_image(w, h);
             let (gw, gh) = (grid.gw() as usize, grid.gh() as usize);
             let z: Vec<f32> = (0..gw * gh)
                 .map(|i| {
                     let (x, y) = ((i % gw) as f32, (i / gw) as f32);
+                    let scale = match (extreme, x < w as f32 / 3.0, (i / gw) % 3 == 0) {
+                        (false, _, _) => 1.0,
+                        (true, true, _) => 1e25,
+                        (true, false, true) => 1e-25,
+                        (true, false, false) => 1.0,
+                    };
                     if (x as u32 + 3 * y as u32) % 11 == 0 || x as u32 >= w || y as u32 >= h {
                         0.0
                     } else {
-                        2.0 + 0.3 * (0.7 * x).sin() + 0.01 * y * y
+                        scale * (2.0 + 0.3 * (0.7 * x).sin() + 0.01 * y * y)
                     }
                 })
                 .collect();
@@ -555,7 +580,7 @@ mod tests {
                     });
                     one.push(pair);
                 });
-                assert_eq!(swept, one, "{w} x {h}, level {g}");
+                assert_eq!(swept, one, "{w} x {h}, level {g}, extreme {extreme}");
             }
         }
     }
