@@ -22,7 +22,9 @@
 //! kept, they would be the largest copy of the build. Only the vertex's own
 //! depth and cell and the ends of its edge come from the grid.
 //!
-//! What stays per vertex (`levels.rs`) is rare or costly: the footprint of
+//! The sweep's results go to the grid's row and to the kind's kept row in
+//! straight loops too ([`Scratch::write`], [`Plane::set_row`]). What stays
+//! per vertex (`levels.rs`) is rare or costly: the footprint of
 //! a partly segmented half, and a deviation not given, which is scanned
 //! only for a half found unsegmented, and only where the bound from its
 //! children's kept deviations (`deviation_bound.rs`) leaves it open. Only vertices with both halves come
@@ -200,9 +202,7 @@ impl Plane {
             *d = v.dev2;
         }
     }
-}
 
-impl Plane {
     /// The results of the vertices swept in `scratch` as the sweep gave
     /// them, from lane `first` of row `r` on, with their halves'
     /// deviations `dev2` (0 where not given).
@@ -459,9 +459,7 @@ impl Scratch {
             &mut self.swept,
         );
     }
-}
 
-impl Scratch {
     /// The swept vertices' flags, errors and radii into their grid row,
     /// the first at column `x0`, `step` apart.
     #[inline(always)]
