@@ -351,6 +351,17 @@ fn every<T: Copy>(src: &[T], first: usize, step: usize, out: &mut [T]) {
     out[last] = src[last * step];
 }
 
+/// [`every`]'s inverse: `src` into values `first, first + step, ...` of
+/// `out`, each the first of a chunk of `step`, so none is checked against
+/// the slice's end.
+#[inline(always)]
+fn scatter<T: Copy>(src: &[T], out: &mut [T], first: usize, step: usize) {
+    let Some(last) = src.len().checked_sub(1) else { return };
+    for (o, &s) in out[first..=first + last * step].chunks_mut(step).zip(src) {
+        o[0] = s;
+    }
+}
+
 /// What the grid holds so far, as the sweep reads it.
 pub(super) struct Grids<'a> {
     pub gw: usize,
@@ -465,20 +476,9 @@ impl Scratch {
     #[inline(always)]
     pub(super) fn write(&self, row: GridRows<'_>, x0: usize, step: usize) {
         let swept = &self.swept;
-        let n = swept.flags.len();
-        let Some(last) = n.checked_sub(1) else { return };
-        // Every `step`-th value from `x0` on, each the first of a chunk
-        // (no value checked against the row's end).
-        let cols = x0..=x0 + last * step;
-        for (out, &f) in row.flags[cols.clone()].chunks_mut(step).zip(&swept.flags) {
-            out[0] = f;
-        }
-        for (out, &e) in row.err2[cols.clone()].chunks_mut(step).zip(&swept.err2) {
-            out[0] = e;
-        }
-        for (out, &r) in row.radius[cols].chunks_mut(step).zip(&swept.radius) {
-            out[0] = r;
-        }
+        scatter(&swept.flags, row.flags, x0, step);
+        scatter(&swept.err2, row.err2, x0, step);
+        scatter(&swept.radius, row.radius, x0, step);
     }
 }
 
