@@ -173,15 +173,12 @@ impl FileStore {
 
     /// Removes `path` on the store's own thread (or here, if it has none).
     fn discard(&self, path: PathBuf) {
-        match &self.discard {
-            Some(send) => {
-                if let Err(mpsc::SendError(path)) = send.send(path) {
-                    let _ = fs::remove_file(path);
-                }
-            }
-            None => {
-                let _ = fs::remove_file(path);
-            }
+        let unsent = match &self.discard {
+            Some(send) => send.send(path).err().map(|mpsc::SendError(path)| path),
+            None => Some(path),
+        };
+        if let Some(path) = unsent {
+            let _ = fs::remove_file(path);
         }
     }
 
