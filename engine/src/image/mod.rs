@@ -382,15 +382,7 @@ crate::simd::dispatch! {
 
 #[inline(always)]
 fn z_affine_body(values: &mut [f32], scale: f64, offset: f64) {
-    for v in values.iter_mut() {
-        let raw = f64::from(*v);
-        let z = if raw == 0.0 || !raw.is_finite() {
-            0.0
-        } else {
-            (raw * scale + offset) as f32
-        };
-        *v = if z.is_finite() && z > 0.0 { z } else { 0.0 };
-    }
+    to_z_with(values, |_, raw| raw * scale + offset);
 }
 
 /// Each raw sample in place as `z(index, raw)`, as f32; a raw 0 or
