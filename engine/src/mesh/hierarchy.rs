@@ -41,6 +41,10 @@
 //! normals first when the segmentation needs them: connectedness).
 //!
 //! Errors are stored squared (Eq. 3) in f32, rounded up, saturated at `f32::MAX`.
+//!
+//! Each step of a build is a `trace` span (`leaf_flags`, `deviations_1_3`,
+//! `deviations g`, `finest`, `level g`, `normals`), so a subscriber can
+//! show which thread ran what when (`examples/build_timeline.rs`).
 
 mod budgets;
 
@@ -49,6 +53,7 @@ use std::sync::{mpsc, OnceLock};
 use std::time::Instant;
 
 use glam::DVec3;
+use tracing::trace_span;
 
 use super::backproject::BackProject;
 use super::budget::ErrorStats;
@@ -280,7 +285,9 @@ impl Passes {
                             z,
                             normals: &[],
                         };
-                        leaf_flag_rows(&samples, seg, split..grid.gh(), &mut band);
+                        trace_span!("leaf_flags").in_scope(|| {
+                            leaf_flag_rows(&samples, seg, split..grid.gh(), &mut band);
+                        });
                         let _ = send_band.send(band);
                     }
                     // Level by level, so the pass can start on one while
@@ -288,18 +295,20 @@ impl Passes {
                     // thread: sending cannot fail.
                     let mut levels = levels.into_iter();
                     let small = [(); 3].map(|()| levels.next().unwrap_or_default());
-                    for level in small_deviations(grid, z, small).into_iter().take(grid.k as usize - 1) {
+                    let small = trace_span!("deviations_1_3").in_scope(|| small_deviations(grid, z, small));
+                    for level in small.into_iter().take(grid.k as usize - 1) {
                         let _ = send.send(level);
                     }
                     for (g, out) in (4..grid.k).zip(levels) {
                         if pass_at.load(Ordering::Acquire) + 2 > g || !claim(g) {
                             break;
                         }
-                        let _ = send.send(coarse_deviations(grid, z, g, out));
+                        let level = trace_span!("deviations", g).in_scope(|| coarse_deviations(grid, z, g, out));
+                        let _ = send.send(level);
                     }
                     bands.get().map(|bands: &NormalBands<'_>| {
                         let t = Instant::now();
-                        bands.work(&grid, camera, bp, z);
+                        trace_span!("normals").in_scope(|| bands.work(&grid, camera, bp, z));
                         t.elapsed().as_secs_f64() * 1e3
                     })
                 })
@@ -314,7 +323,8 @@ impl Passes {
             let ms = |t: Instant| t.elapsed().as_secs_f64() * 1e3;
             let mut stages = Stages::default();
             let t = Instant::now();
-            let early = normals_first.then(|| normals_and_quality(&grid, camera, bp, z));
+            let early =
+                normals_first.then(|| trace_span!("normals").in_scope(|| normals_and_quality(&grid, camera, bp, z)));
             if early.is_some() {
                 stages.normals_ms = ms(t);
             }
@@ -332,7 +342,7 @@ impl Passes {
             let (cells, made) = if split < grid.gh() {
                 let mut cells = vec![0u8; grid.len()];
                 let (upper, lower) = cells.split_at_mut(split as usize * gw);
-                leaf_flag_rows(&samples, seg, 0..split, upper);
+                trace_span!("leaf_flags").in_scope(|| leaf_flag_rows(&samples, seg, 0..split, upper));
                 // Made while the helper (which started later) flags its
                 // rows: 2 ms of zero fill at 1920 x 1080.
                 let made = pass_arrays();
@@ -344,7 +354,7 @@ impl Passes {
                 }
                 (cells, Some(made))
             } else {
-                (leaf_flags(&samples, seg), None)
+                (trace_span!("leaf_flags").in_scope(|| leaf_flags(&samples, seg)), None)
             };
             let segmented = segmented_count(&grid, &cells);
             let mut flags: Vec<Flags> = cells.into_iter().map(Flags::of_cell).collect();
@@ -359,7 +369,7 @@ impl Passes {
                 radius: &mut radius,
             };
             let t = Instant::now();
-            run_finest(&mut levels, &mut flags, zmax);
+            trace_span!("finest").in_scope(|| run_finest(&mut levels, &mut flags, zmax));
             stages.finest_ms = ms(t);
             let t = Instant::now();
             let join = |job: std::thread::ScopedJoinHandle<'_, _>| {
@@ -395,7 +405,8 @@ impl Passes {
                     (Some(_), _) => receive.recv().ok(),
                     (None, 1) => {
                         let out = [1, 2, 3].map(|g| Vec::with_capacity(split_count(grid, g)));
-                        let [one, two, three] = small_deviations(grid, z, out);
+                        let [one, two, three] =
+                            trace_span!("deviations_1_3").in_scope(|| small_deviations(grid, z, out));
                         later = [Some(two), Some(three)];
                         Some(one)
                     }
@@ -413,7 +424,7 @@ impl Passes {
             // time is both threads' time in them.
             if let Some(bands) = bands.get() {
                 let t = Instant::now();
-                bands.work(&grid, camera, bp, z);
+                trace_span!("normals").in_scope(|| bands.work(&grid, camera, bp, z));
                 stages.normals_ms = ms(t);
             }
             if let Some(helper_ms) = job.and_then(join) {

@@ -230,6 +230,8 @@ impl Levels<'_> {
         let [mut below, mut row_edges, mut column_edges, mut centres] = [(); 4].map(|()| Plane::default());
         for g in 1..self.grid.k {
             let given = deviations(g);
+            // (After the deviations, which may wait for the helper.)
+            let _span = tracing::trace_span!("level", g).entered();
             let mut next = given.as_deref();
             let h = 1u32 << g;
             let step = 2 * h as usize;
