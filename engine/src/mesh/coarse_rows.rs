@@ -355,7 +355,7 @@ fn every<T: Copy>(src: &[T], first: usize, step: usize, out: &mut [T]) {
 /// `out`, each the first of a chunk of `step`, so none is checked against
 /// the slice's end.
 #[inline(always)]
-fn scatter<T: Copy>(src: &[T], out: &mut [T], first: usize, step: usize) {
+pub(super) fn scatter<T: Copy>(src: &[T], out: &mut [T], first: usize, step: usize) {
     let Some(last) = src.len().checked_sub(1) else { return };
     for (o, &s) in out[first..=first + last * step].chunks_mut(step).zip(src) {
         o[0] = s;

@@ -22,9 +22,9 @@
 //! check both.
 
 use super::backproject::BackProject;
-use super::coarse_rows::strided;
+use super::coarse_rows::{scatter, strided};
 use super::error_metric::norm_bound;
-use super::flags::{Flags, Half};
+use super::flags::{finish_halves, join_bits, join_leaves, Flags, Half};
 use super::levels::{footprint2, round_up, Levels};
 use glam::DVec3;
 
@@ -70,13 +70,6 @@ pub(super) fn eq1(p: DVec3, a: DVec3, b: DVec3) -> f64 {
 
 /// A half off the grid, as bits ([`Half::bits`]).
 const ABSENT: u8 = Half::ABSENT.bits();
-
-/// The half made of the finest triangles `ha` of `a`'s cell and `hb` of
-/// `b`'s, as bits ([`Half::bits`]).
-#[inline(always)]
-fn leaf_join(a: Flags, ha: usize, b: Flags, hb: usize) -> u8 {
-    Half::leaf(a.cell(ha)).join(Half::leaf(b.cell(hb))).bits()
-}
 
 /// The column factors the centres of level 0 read, one row per role, `i`
 /// for the centre at `x = 2i + 1`: their own column's, their left and right
@@ -216,6 +209,7 @@ impl Levels<'_> {
         // The row above the first, read but not used (its halves are off
         // the grid).
         let none = &vec![Flags::default(); gw][..];
+        let mut bits = vec![Flags::default(); gw];
         for y in ys {
             let zr = &z[y * gw..(y + 1) * gw];
             // Geometry of every vertex of the row: v at x = 2i + 1 along
@@ -248,53 +242,68 @@ impl Levels<'_> {
                 }
             }
             // Flags, and which error counts: straight loops over the row
-            // (so they widen), then the partly segmented halves, which are
-            // rare (only along discontinuities), one by one.
+            // (so they widen) into rows of their own, written to the grid
+            // two apart, then the partly segmented halves, which are rare
+            // (only along discontinuities), one by one.
             let (head, tail) = flags.split_at_mut(y * gw);
             let row = &mut tail[..gw];
             let up: &[Flags] = if y > 0 { &head[(y - 1) * gw..y * gw] } else { none };
             let err = &mut self.err2[y * gw..(y + 1) * gw];
             // Vertex i at x = 2i + 1 along rows, x = 2i along columns.
             let (first, n) = if ROW { (1, gw / 2) } else { (0, gw / 2 + 1) };
-            let mut partial = false;
-            for (i, g) in geo[..n].iter().enumerate() {
-                let x = 2 * i + first;
-                let halves = if ROW {
-                    [
-                        if y > 0 {
-                            leaf_join(up[x - 1], 1, up[x], 0)
-                        } else {
-                            ABSENT
-                        },
-                        if y + 1 < gh {
-                            leaf_join(row[x - 1], 1, row[x], 0)
-                        } else {
-                            ABSENT
-                        },
-                    ]
-                } else {
-                    // (At x = 0 the half before is off the grid, and its
-                    // leaves are not read.)
-                    let before = x.saturating_sub(1);
-                    [
-                        if x > 0 {
-                            leaf_join(up[before], 1, row[before], 1)
-                        } else {
-                            ABSENT
-                        },
-                        if x + 1 < gw {
-                            leaf_join(up[x], 0, row[x], 0)
-                        } else {
-                            ABSENT
-                        },
-                    ]
+            let (geo, bits) = (&mut geo[..n], &mut bits[..n]);
+            let partial = if ROW {
+                // Half 0 above the row (off the grid on the first), half 1
+                // below (off the grid on the last); the leaves either side
+                // of v: the cells at x - 1 and x.
+                let above = if y > 0 { 0 } else { ABSENT };
+                let below = if y + 1 < gh { 0 } else { ABSENT };
+                let pairs = up[..2 * n].chunks_exact(2).zip(row[..2 * n].chunks_exact(2));
+                let mut partial = 0;
+                for (((u, r), g), b) in pairs.zip(geo.iter_mut()).zip(bits.iter_mut()) {
+                    let h0 = join_leaves(u[0].leaf_bit(1), u[1].leaf_bit(0)) | above;
+                    let h1 = join_leaves(r[0].leaf_bit(1), r[1].leaf_bit(0)) | below;
+                    let (f, unflagged, p) = finish_halves(r[1].cell_only(), h0, h1);
+                    (*b, *g, partial) = (f, if unflagged { *g } else { 0.0 }, partial | p);
+                }
+                partial
+            } else {
+                // Half 0 left of the column (off the grid at x = 0), half 1
+                // right (off the grid at the row's end); the leaves above
+                // and below v: the cells at (x - 1, y - 1) and (x - 1, y),
+                // then at x.
+                let halves = |x: usize| {
+                    let h0 = if x > 0 {
+                        join_leaves(up[x - 1].leaf_bit(1), row[x - 1].leaf_bit(1))
+                    } else {
+                        ABSENT
+                    };
+                    let h1 = if x + 1 < gw {
+                        join_leaves(up[x].leaf_bit(0), row[x].leaf_bit(0))
+                    } else {
+                        ABSENT
+                    };
+                    finish_halves(row[x].cell_only(), h0, h1)
                 };
-                let bits = row[x].with_halves(halves);
-                row[x] = bits;
-                let (unflagged, p) = bits.halves_unflagged_partial();
-                err[x] = if unflagged { *g } else { 0.0 };
-                partial |= p;
-            }
+                let mut partial = 0;
+                for i in [0, n - 1] {
+                    let (f, unflagged, p) = halves(2 * i);
+                    (bits[i], geo[i], partial) = (f, if unflagged { geo[i] } else { 0.0 }, partial | p);
+                }
+                // Between the ends, in pairs (x - 1, x) from x = 2.
+                let inner = 1..n - 1;
+                let pairs = up[1..2 * n - 3].chunks_exact(2).zip(row[1..2 * n - 3].chunks_exact(2));
+                for (((u, r), g), b) in pairs.zip(geo[inner.clone()].iter_mut()).zip(bits[inner].iter_mut()) {
+                    let h0 = join_leaves(u[0].leaf_bit(1), r[0].leaf_bit(1));
+                    let h1 = join_leaves(u[1].leaf_bit(0), r[1].leaf_bit(0));
+                    let (f, unflagged, p) = finish_halves(r[1].cell_only(), h0, h1);
+                    (*b, *g, partial) = (f, if unflagged { *g } else { 0.0 }, partial | p);
+                }
+                partial
+            };
+            scatter(bits, row, first, 2);
+            scatter(geo, err, first, 2);
+            let partial = partial != 0;
             if !partial {
                 continue;
             }
@@ -332,6 +341,7 @@ impl Levels<'_> {
         let (bp, camera, z) = (self.bp, self.camera, self.z);
         let columns = CentreColumns::new(bp, gw / 2);
         let mut samples = CentreSamples::default();
+        let mut bits = vec![Flags::default(); gw / 2];
         for y in (1..gh).step_by(2) {
             let rows = [bp.row(y - 1), bp.row(y), bp.row(y + 1)];
             let zs = [
@@ -356,50 +366,66 @@ impl Levels<'_> {
             let (flag_row, rest) = tail.split_at_mut(gw);
             let (flag_up, flag_down) = (&head[(y - 1) * gw..], &rest[..gw]);
             let radius_row = &mut self.radius[y * gw..(y + 1) * gw];
+            // Half 0 has its apex at x - 1, half 1 at x + 1; each holds the
+            // child beside v on its side and the one above or below v on
+            // its apex's row: p's row for half 0 of even centres and half 1
+            // of odd ones, q's for the others. Children before v (left, or
+            // above) hold v in their half 1, those after in half 0. Flags
+            // and errors in a straight loop into rows of their own (so it
+            // widens), written to the grid two apart; then the partly
+            // segmented halves, which are rare, one by one.
+            let (vp, vq) = if p_row == 0 {
+                (flag_up, flag_down)
+            } else {
+                (flag_down, flag_up)
+            };
+            let (hp, hq) = if p_row == 0 { (1, 0) } else { (0, 1) };
+            let (bits, geo) = (&mut bits[..n], &mut geo[..n]);
+            let mut partial = 0;
+            {
+                let m = 2 * n + 1;
+                let (fr, vp, vq) = (&flag_row[..m], &vp[..m], &vq[..m]);
+                let (er, eu, ed) = (&err_row[..m], &err_up[..m], &err_down[..m]);
+                for (i, (b, g)) in bits.iter_mut().zip(geo.iter_mut()).enumerate() {
+                    let x = 2 * i + 1;
+                    let (p, q) = (vp[x].half_bits(hp), vq[x].half_bits(hq));
+                    let odd = 0u8.wrapping_sub((i & 1) as u8);
+                    let (v0, v1) = (p & !odd | q & odd, q & !odd | p & odd);
+                    let h0 = join_bits(fr[x - 1].half_bits(1), v0);
+                    let h1 = join_bits(fr[x + 1].half_bits(0), v1);
+                    let (f, unflagged, p) = finish_halves(fr[x].cell_only(), h0, h1);
+                    let own = if unflagged { *g } else { 0.0 };
+                    let children = er[x - 1].max(er[x + 1]).max(eu[x]).max(ed[x]);
+                    (*b, *g, partial) = (f, children.max(own), partial | p);
+                }
+            }
+            scatter(bits, flag_row, 1, 2);
+            scatter(geo, err_row, 1, 2);
+            scatter(&rad[..n], radius_row, 1, 2);
+            if partial == 0 {
+                continue;
+            }
             for i in 0..n {
                 let x = 2 * i + 1;
+                let halves = flag_row[x].partial_halves();
+                if halves == 0 {
+                    continue;
+                }
                 let odd = i % 2 == 1;
-                // Half 0 has its apex at x - 1, half 1 at x + 1; each holds
-                // the child beside v on its side and the one above or below
-                // v on its apex's row. Children before v (left, or above)
-                // hold v in their half 1, those after in half 0.
                 let apex_rows = if odd { [q_row, p_row] } else { [p_row, q_row] };
-                let vertical = |apex_row: usize| {
-                    if apex_row == 0 {
-                        flag_up[x].half(1)
-                    } else {
-                        flag_down[x].half(0)
-                    }
+                // Each partial half's footprint; the larger apex depth
+                // covers both when both are partial.
+                let zapex = (0..2)
+                    .filter(|&half| halves >> half & 1 == 1)
+                    .map(|half| zs[apex_rows[half]][x + 2 * half - 1])
+                    .fold(f32::MIN, f32::max);
+                let (za, zb) = if odd {
+                    (zs[p_row][x - 1], zs[q_row][x + 1])
+                } else {
+                    (zs[p_row][x + 1], zs[q_row][x - 1])
                 };
-                let beside = [flag_row[x - 1].half(1), flag_row[x + 1].half(0)];
-                let mut bits = flag_row[x].cell_only();
-                let mut unflagged = false;
-                let mut partial_zapex = None::<f32>;
-                for half in 0..2 {
-                    let flagged = beside[half].join(vertical(apex_rows[half]));
-                    bits.set_half(half, flagged);
-                    unflagged |= flagged.unflagged();
-                    if flagged.partial() {
-                        let za = zs[apex_rows[half]][x + 2 * half - 1];
-                        partial_zapex = Some(partial_zapex.map_or(za, |z: f32| z.max(za)));
-                    }
-                }
-                flag_row[x] = bits;
-                let err = err_row[x - 1].max(err_row[x + 1]).max(err_up[x]).max(err_down[x]);
-                let mut own = if unflagged { geo[i] } else { 0.0 };
-                if let Some(zapex) = partial_zapex {
-                    // Each partial half's footprint; the larger apex depth
-                    // covers both when both are partial.
-                    let (za, zb) = if odd {
-                        (zs[p_row][x - 1], zs[q_row][x + 1])
-                    } else {
-                        (zs[p_row][x + 1], zs[q_row][x - 1])
-                    };
-                    let len = 2.0 * std::f64::consts::SQRT_2;
-                    own = own.max(round_up(footprint2(camera, len, [za, zb, zs[1][x], zapex], zmax)));
-                }
-                err_row[x] = err.max(own);
-                radius_row[x] = rad[i];
+                let len = 2.0 * std::f64::consts::SQRT_2;
+                err_row[x] = err_row[x].max(round_up(footprint2(camera, len, [za, zb, zs[1][x], zapex], zmax)));
             }
         }
     }

@@ -27,12 +27,35 @@ pub(crate) struct Half {
     pub all: bool,
 }
 
+/// Two halves' bits ([`Flags::half_bits`]) joined ([`Half::join`]).
+#[inline(always)]
+pub(crate) const fn join_bits(a: u8, b: u8) -> u8 {
+    (a | b) & 1 | a & b & 4
+}
+
+/// Two leaves' bits ([`Flags::leaf_bit`]) joined as the half they make.
+#[inline(always)]
+pub(crate) const fn join_leaves(a: u8, b: u8) -> u8 {
+    a | b | (a & b) << 2
+}
+
+/// A vertex's flags from two halves' bits, with what the pass needs of
+/// them: whether some half is unflagged (its geometric error counts) and
+/// whether some is partly segmented, as 1 or 0 (for straight loops).
+#[inline(always)]
+pub(crate) const fn finish_halves(cells: Flags, h0: u8, h1: u8) -> (Flags, bool, u8) {
+    let flags = cells.with_halves([h0, h1]);
+    (flags, h0 & h1 & 1 == 0, (h0 == 1) as u8 | (h1 == 1) as u8)
+}
+
 impl Half {
     /// A half off the grid: nothing in it to draw, so it counts as fully
     /// segmented.
     pub const ABSENT: Self = Self { any: true, all: true };
 
-    /// A full-resolution triangle, segmented or not.
+    /// A full-resolution triangle, segmented or not (the tests' general
+    /// kernel; the pass joins leaves as bits: [`join_leaves`]).
+    #[cfg(test)]
     pub const fn leaf(segmented: bool) -> Self {
         Self {
             any: segmented,
@@ -118,6 +141,12 @@ impl Flags {
         Self(self.0 & 0xf0 | halves[0] | halves[1] << 1)
     }
 
+    /// Leaf `h` of the vertex's unit cell as a bit (1: segmented).
+    #[inline(always)]
+    pub const fn leaf_bit(self, h: usize) -> u8 {
+        (self.0 >> (4 + h)) & 1
+    }
+
     /// Whether some half is unflagged, and whether some is partly
     /// segmented ([`Half::unflagged`], [`Half::partial`]).
     #[inline(always)]
@@ -165,6 +194,35 @@ mod tests {
         // The byte layout the hierarchy has always had (16 bytes per vertex).
         assert_eq!(f.0, 0b10_1011);
         assert_eq!(std::mem::size_of::<Flags>(), 1);
+    }
+
+    #[test]
+    fn the_bit_joins_are_the_halves_joins() {
+        let halves = [
+            Half::leaf(false),
+            Half::leaf(true),
+            Half { any: true, all: false },
+            Half::ABSENT,
+        ];
+        for a in halves {
+            for b in halves {
+                assert_eq!(join_bits(a.bits(), b.bits()), a.join(b).bits(), "{a:?} {b:?}");
+            }
+        }
+        for (a, b) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
+            let leaf = |bit: u8| Half::leaf(bit == 1);
+            assert_eq!(join_leaves(a, b), leaf(a).join(leaf(b)).bits());
+        }
+        for byte in 0..=u8::MAX {
+            let f = Flags(byte);
+            assert_eq!(f.leaf_bit(0), u8::from(f.cell(0)));
+            assert_eq!(f.leaf_bit(1), u8::from(f.cell(1)));
+            for (h0, h1) in [(0, 5), (1, 0), (5, 5), (4, 1)] {
+                let (flags, unflagged, partial) = finish_halves(f.cell_only(), h0, h1);
+                assert_eq!(flags, f.cell_only().with_halves([h0, h1]));
+                assert_eq!((unflagged, partial == 1), flags.halves_unflagged_partial());
+            }
+        }
     }
 
     #[test]
