@@ -303,8 +303,7 @@ impl Levels<'_> {
             };
             scatter(bits, row, first, 2);
             scatter(geo, err, first, 2);
-            let partial = partial != 0;
-            if !partial {
+            if partial == 0 {
                 continue;
             }
             for x in (first..gw).step_by(2) {
@@ -388,9 +387,9 @@ impl Levels<'_> {
                 let (er, eu, ed) = (&err_row[..m], &err_up[..m], &err_down[..m]);
                 for (i, (b, g)) in bits.iter_mut().zip(geo.iter_mut()).enumerate() {
                     let x = 2 * i + 1;
-                    let (p, q) = (vp[x].half_bits(hp), vq[x].half_bits(hq));
+                    let (on_p, on_q) = (vp[x].half_bits(hp), vq[x].half_bits(hq));
                     let odd = 0u8.wrapping_sub((i & 1) as u8);
-                    let (v0, v1) = (p & !odd | q & odd, q & !odd | p & odd);
+                    let (v0, v1) = (on_p & !odd | on_q & odd, on_q & !odd | on_p & odd);
                     let h0 = join_bits(fr[x - 1].half_bits(1), v0);
                     let h1 = join_bits(fr[x + 1].half_bits(0), v1);
                     let (f, unflagged, p) = finish_halves(fr[x].cell_only(), h0, h1);
