@@ -10,6 +10,29 @@ pub fn synthetic(w: u32, h: u32) -> (DepthImage, Camera) {
     dmesh_engine::synthetic::terrain_with_boxes(w, h)
 }
 
+/// The scene a command-line argument names: a size of the synthetic scene
+/// (`513`, `1920x1080`) or a Middlebury scene of `../shared/data`; `None`
+/// (with a message on standard error) when it names neither.
+#[allow(dead_code)]
+pub fn from_arg(arg: &str) -> Option<(DepthImage, Camera)> {
+    let scene = if arg.starts_with(|c: char| c.is_ascii_digit()) {
+        let (w, h): (u32, u32) = match arg.split_once('x') {
+            Some((w, h)) => (w.parse().unwrap_or(513), h.parse().unwrap_or(513)),
+            None => {
+                let s = arg.parse().unwrap_or(513);
+                (s, s)
+            }
+        };
+        Some(synthetic(w, h))
+    } else {
+        middlebury(arg)
+    };
+    if scene.is_none() {
+        eprintln!("no scene {arg:?}: give a size (513, 1920x1080) or a Middlebury scene of ../shared/data");
+    }
+    scene
+}
+
 /// A Middlebury scene's left disparity as depth, or `None` when the data is absent.
 #[allow(dead_code)]
 pub fn middlebury(name: &str) -> Option<(DepthImage, Camera)> {

@@ -17,20 +17,7 @@ static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
 fn main() {
     let mut args = std::env::args().skip(1);
     let size = args.next().unwrap_or_else(|| "513".into());
-    let scene = if size.starts_with(|c: char| c.is_ascii_digit()) {
-        let (w, h): (u32, u32) = match size.split_once('x') {
-            Some((w, h)) => (w.parse().unwrap_or(513), h.parse().unwrap_or(513)),
-            None => {
-                let s = size.parse().unwrap_or(513);
-                (s, s)
-            }
-        };
-        Some(scenes::synthetic(w, h))
-    } else {
-        scenes::middlebury(&size)
-    };
-    let Some((d, c)) = scene else {
-        eprintln!("no scene {size:?}: give a size (513, 1920x1080) or a Middlebury scene of ../shared/data");
+    let Some((d, c)) = scenes::from_arg(&size) else {
         std::process::exit(2);
     };
     let (w, h) = (d.width, d.height);
