@@ -19,7 +19,14 @@ fn a_build_on_two_threads_reports_each_step_on_its_thread() {
     // The only test of this binary: the helper thread reports to the
     // global subscriber.
     tracing::subscriber::set_global_default(Arc::clone(&timeline)).unwrap();
-    let (w, h) = (257, 193);
+    // The second size shares level 1 of the pass with the helper.
+    for (w, h) in [(257, 193), (1025, 1025)] {
+        one_build(&timeline, (w, h));
+    }
+}
+
+/// A build of a `w x h` ramp with a step on two threads, and its spans.
+fn one_build(timeline: &Timeline, (w, h): (usize, usize)) {
     // A ramp with a step, so some cells are segmented.
     let z = (0..w * h)
         .map(|i| {
@@ -59,6 +66,19 @@ fn a_build_on_two_threads_reports_each_step_on_its_thread() {
     // Every level of the pass, once.
     let levels = spans.iter().filter(|s| s.name.starts_with("level ")).count();
     assert_eq!(levels, mesh.grid().k as usize - 1, "{:?}", names(&spans));
+    // Level 1 in two bands on grids of 2^20 vertices and up: the lower
+    // one on whichever thread took it first.
+    let shared = mesh.grid().len() >= 1 << 20;
+    for (thread, name) in [("calling", "level_1_upper"), ("calling", "level_1_meet")] {
+        assert_eq!(
+            on(thread, name),
+            shared,
+            "{name} on the {thread} thread: {:?}",
+            names(&spans)
+        );
+    }
+    let lower = spans.iter().any(|s| s.name == "level_1_lower");
+    assert_eq!(lower, shared, "{:?}", names(&spans));
     let build = spans
         .iter()
         .find(|s| s.name.starts_with("build "))

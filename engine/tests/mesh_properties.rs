@@ -276,22 +276,27 @@ fn view_dependent_meshes_are_conforming_and_coarsen_with_distance() {
         .is_empty());
 }
 
+/// On one thread, and on two at a size where level 1 of the pass is
+/// shared (its lower band's planes held beside the level's).
 #[test]
 fn hierarchy_stays_within_24_bytes_per_grid_vertex() {
-    let depth = waves(513, 513);
-    let hier = Hierarchy::build(&depth, &camera(513, 513), &Segmentation::default()).unwrap();
-    let s = hier.stats();
-    assert!(
-        s.heap_bytes <= 24 * s.grid_vertices,
-        "{} bytes for {} vertices",
-        s.heap_bytes,
-        s.grid_vertices
-    );
-    assert!(
-        s.build_peak_bytes <= 24 * s.grid_vertices + 64 * 1024,
-        "build peak {}",
-        s.build_peak_bytes
-    );
+    for (n, threads) in [(513, Threads::Single), (1025, Threads::Parallel)] {
+        let depth = waves(n, n);
+        let hier = Hierarchy::build_with(&depth, &camera(n, n), &Segmentation::default(), threads).unwrap();
+        let s = hier.stats();
+        assert!(
+            s.heap_bytes <= 24 * s.grid_vertices,
+            "{n}: {} bytes for {} vertices",
+            s.heap_bytes,
+            s.grid_vertices
+        );
+        assert!(
+            s.build_peak_bytes <= 24 * s.grid_vertices + 64 * 1024,
+            "{n}: build peak {} for {} vertices",
+            s.build_peak_bytes,
+            s.grid_vertices
+        );
+    }
 }
 
 /// Error, radius and depth bits and the two cell flags of one grid vertex.

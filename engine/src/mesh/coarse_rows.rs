@@ -163,6 +163,9 @@ pub(super) struct Samples {
 /// midpoint the level below's centres at twice its lane (two apart).
 #[derive(Default)]
 pub(super) struct Plane {
+    /// The kind's row held first (0 but for a band's own planes:
+    /// `level_one_shared.rs`).
+    row0: usize,
     lanes: usize,
     z: Vec<f32>,
     err2: Vec<f32>,
@@ -175,9 +178,10 @@ pub(super) struct Plane {
 }
 
 impl Plane {
-    /// Room for `rows` rows of `lanes` (the values are overwritten), with
-    /// the halves' deviations if `deviations`.
-    pub(super) fn reset(&mut self, rows: usize, lanes: usize, deviations: bool) {
+    /// Room for `rows` rows of `lanes` from row `row0` on (the values are
+    /// overwritten), with the halves' deviations if `deviations`.
+    pub(super) fn reset(&mut self, row0: usize, rows: usize, lanes: usize, deviations: bool) {
+        self.row0 = row0;
         self.lanes = lanes;
         let n = rows * lanes;
         self.z.resize(n, 0.0);
@@ -190,10 +194,24 @@ impl Plane {
         }
     }
 
+    /// The rows `other` holds (a band's own plane), copied into this one
+    /// (the whole level's), the halves' deviations with them if kept.
+    pub(super) fn absorb(&mut self, other: &Plane) {
+        let at = (other.row0 - self.row0) * self.lanes;
+        let n = other.z.len();
+        self.z[at..at + n].copy_from_slice(&other.z);
+        self.err2[at..at + n].copy_from_slice(&other.err2);
+        self.radius[at..at + n].copy_from_slice(&other.radius);
+        self.flags[at..at + n].copy_from_slice(&other.flags);
+        if let Some(kept) = self.dev2.get_mut(at..at + other.dev2.len()) {
+            kept.copy_from_slice(&other.dev2);
+        }
+    }
+
     /// The results of vertex `j` of row `r`.
     #[inline(always)]
     pub(super) fn set(&mut self, r: usize, j: usize, v: Results) {
-        let at = r * self.lanes + j;
+        let at = (r - self.row0) * self.lanes + j;
         self.z[at] = v.z;
         self.err2[at] = v.err2;
         self.radius[at] = v.radius;
@@ -210,7 +228,7 @@ impl Plane {
     pub(super) fn set_row(&mut self, r: usize, first: usize, scratch: &Scratch, dev2: Option<&[[f32; 2]]>) {
         let swept = &scratch.swept;
         let n = swept.flags.len();
-        let at = r * self.lanes + first;
+        let at = (r - self.row0) * self.lanes + first;
         self.z[at..at + n].copy_from_slice(&scratch.samples.z[V][..n]);
         self.err2[at..at + n].copy_from_slice(&swept.err2[..n]);
         self.radius[at..at + n].copy_from_slice(&swept.radius[..n]);
@@ -222,6 +240,16 @@ impl Plane {
             }
         }
     }
+}
+
+/// The kept planes of the pass: the level below's centres, and this
+/// level's edge midpoints along rows, along columns and its centres.
+#[derive(Default)]
+pub(super) struct Planes {
+    pub below: Plane,
+    pub row_edges: Plane,
+    pub column_edges: Plane,
+    pub centres: Plane,
 }
 
 /// One grid row of the pass's outputs, as [`Scratch::write`] fills it.
@@ -308,7 +336,9 @@ impl Child<'_> {
     #[inline(always)]
     pub(super) fn dev2(self, k: usize, c: usize) -> Option<f32> {
         let Kept::Plane(p) = self.kept else { return None };
-        let d = p.dev2.get(self.row * p.lanes + self.first + self.stride * k)?;
+        let d = p
+            .dev2
+            .get((self.row - p.row0) * p.lanes + self.first + self.stride * k)?;
         Some(d[holding_half(c)])
     }
 
@@ -362,9 +392,11 @@ pub(super) fn scatter<T: Copy>(src: &[T], out: &mut [T], first: usize, step: usi
     }
 }
 
-/// What the grid holds so far, as the sweep reads it.
+/// What the grid holds so far, as the sweep reads it: the depths whole,
+/// the rest from grid row `row0` on.
 pub(super) struct Grids<'a> {
     pub gw: usize,
+    pub row0: usize,
     pub z: &'a [f32],
     pub radius: &'a [f32],
     pub err2: &'a [f32],
@@ -405,7 +437,7 @@ impl Samples {
         // the copies do).
         let first = |role: usize| base[role][lanes.start % 2].wrapping_add(step * lanes.start);
         let turns = |role: usize| base[role][0] != base[role][1];
-        every(grids.flags, first(V), step, cell);
+        every(grids.flags, first(V) - grids.row0 * gw, step, cell);
         for (role, z) in z.iter_mut().enumerate() {
             if turns(role) {
                 for (k, z) in z.iter_mut().enumerate() {
@@ -417,15 +449,22 @@ impl Samples {
             }
         }
         for (c, child) in children.into_iter().enumerate() {
-            let (width, z, radius, err2, flags) = match child.kept {
-                Kept::Plane(p) => (p.lanes, &p.z[..], &p.radius[..], &p.err2[..], &p.flags[..]),
-                Kept::Grid => (gw, grids.z, grids.radius, grids.err2, grids.flags),
+            // The depths are whole; the rest starts at the plane's or the
+            // band's first row.
+            let (width, z, radius, err2, flags, row0) = match child.kept {
+                Kept::Plane(p) => (p.lanes, &p.z[..], &p.radius[..], &p.err2[..], &p.flags[..], p.row0),
+                Kept::Grid => (gw, grids.z, grids.radius, grids.err2, grids.flags, grids.row0),
             };
-            child.copy(&mut self.z[CHILD + c], z, width, n, |z| z);
-            child.copy(&mut self.radius[c], radius, width, n, |r| r);
-            child.copy(&mut self.err[c], err2, width, n, |e| e);
+            let own = Child {
+                row: child.row - row0,
+                ..child
+            };
+            let whole = if matches!(child.kept, Kept::Grid) { child } else { own };
+            whole.copy(&mut self.z[CHILD + c], z, width, n, |z| z);
+            own.copy(&mut self.radius[c], radius, width, n, |r| r);
+            own.copy(&mut self.err[c], err2, width, n, |e| e);
             let half = holding_half(c);
-            child.copy(&mut self.half[c], flags, width, n, |f| f.half_bits(half));
+            own.copy(&mut self.half[c], flags, width, n, |f| f.half_bits(half));
         }
     }
 }

@@ -38,13 +38,16 @@
 //! vertices a step, on one thread too) and the normals and quality read
 //! only the depths, so with
 //! [`Threads::Parallel`] a helper thread computes them meanwhile (the
-//! normals first when the segmentation needs them: connectedness).
+//! normals first when the segmentation needs them: connectedness), and on
+//! large grids then shares level 1 of the pass (`level_one_shared.rs`).
 //!
 //! Errors are stored squared (Eq. 3) in f32, rounded up, saturated at `f32::MAX`.
 //!
 //! Each step of a build is a `trace` span (`leaf_flags`, `deviations_1_3`,
-//! `deviations g`, `finest`, `level g`, `normals`), so a subscriber can
-//! show which thread ran what when (`examples/build_timeline.rs`).
+//! `deviations g`, `finest`, `level g` and, when level 1 is shared,
+//! `level_1_upper`, `level_1_lower`, `level_1_meet`, `normals`), so a
+//! subscriber can show which thread ran what when
+//! (`examples/build_timeline.rs`).
 
 mod budgets;
 
@@ -59,7 +62,9 @@ use super::backproject::BackProject;
 use super::budget::ErrorStats;
 use super::flags::Flags;
 use super::grid::{Grid, Pt};
-use super::levels::{coarse_deviations, run_coarse, run_finest, small_deviations, Levels};
+use super::level_deviations::{coarse_deviations, small_deviations};
+use super::level_one_shared::{self, lend};
+use super::levels::{run_coarse, run_finest, Levels};
 use super::normals::{normals_and_quality, NormalBands};
 use super::outline::OutlineCache;
 use super::segmentation::{leaf_flag_rows, leaf_flags, rows_split, segmented_count, Method, Samples, Segmentation};
@@ -151,6 +156,12 @@ impl Threads {
     }
 }
 
+/// Grids of this many vertices or more share level 1 of the pass with the
+/// helper on two threads: at 1920 x 1080 the helper idles for the last
+/// 7-9 ms of a build in the VM's quick state, while at 513 x 513 the two
+/// threads' chains are even (docs/live.md).
+const SHARE_LEVEL_ONE_FROM: usize = 1 << 20;
+
 /// Cores available to this process, asked once (the answer reads cgroup
 /// limits, which is too slow to repeat per build).
 fn cores() -> usize {
@@ -228,6 +239,12 @@ impl Passes {
     /// (sparing the scans its children's bound shows needless) while the
     /// helper goes on to the normals. Either way a level's deviations are
     /// the same bits, so the result does not depend on the schedule.
+    ///
+    /// On grids of [`SHARE_LEVEL_ONE_FROM`] vertices or more the helper,
+    /// done with its deviations, lends itself to level 1 of the pass
+    /// before the normals: a thread of the pass's takes the lower band of
+    /// level 1's rows once it is lent, unless this thread got there first
+    /// (`level_one_shared.rs`). The bytes are the same either way.
     fn run(
         grid: &Grid,
         camera: &Camera,
@@ -264,6 +281,14 @@ impl Passes {
             unclaimed
                 .compare_exchange(g, g + 1, Ordering::AcqRel, Ordering::Acquire)
                 .is_ok()
+        };
+        // On a large grid the helper lends itself to level 1 of the pass
+        // once its deviations are done (`level_one_shared.rs`).
+        let (share, lender) = if helper && grid.len() >= SHARE_LEVEL_ONE_FROM {
+            let (share, lender) = lend();
+            (Some(share), Some(lender))
+        } else {
+            (None, None)
         };
         let scoped = std::thread::scope(|scope| {
             let (send, receive) = mpsc::channel();
@@ -305,6 +330,11 @@ impl Passes {
                         }
                         let level = trace_span!("deviations", g).in_scope(|| coarse_deviations(grid, z, g, out));
                         let _ = send.send(level);
+                    }
+                    // Lent to the pass's level 1 until its lower band
+                    // is done (at once if the pass took it itself).
+                    if let Some(lender) = lender {
+                        lender.lend();
                     }
                     bands.get().map(|bands: &NormalBands<'_>| {
                         let t = Instant::now();
@@ -367,6 +397,7 @@ impl Passes {
                 z,
                 err2: &mut err2,
                 radius: &mut radius,
+                row0: 0,
             };
             let t = Instant::now();
             trace_span!("finest").in_scope(|| run_finest(&mut levels, &mut flags, zmax));
@@ -384,7 +415,8 @@ impl Passes {
             // vertex's error open (`deviation_bound.rs`). Scratch: the
             // sweep's planes, on whichever thread, the levels' deviations,
             // the pass's kept rows, and the helper's band of leaf flags
-            // (counted as if held as long).
+            // (counted as if held as long), and the planes of level 1's
+            // lower band if it is shared.
             // The helper reserves every level's deviations at its start (a
             // level the pass takes over is freed unused), so all count.
             let helper_levels: usize = if job.is_some() {
@@ -395,7 +427,8 @@ impl Passes {
             let mut scratch_bytes = small_half_sweep::scratch_bytes(grid)
                 + coarse_rows::scratch_bytes(grid)
                 + (grid.gh() - split) as usize * gw
-                + helper_levels;
+                + helper_levels
+                + share.as_ref().map_or(0, |_| level_one_shared::scratch_bytes(grid));
             let mut later = [None, None];
             let mut given = |g: u32| {
                 pass_at.store(g, Ordering::Release);
@@ -418,7 +451,7 @@ impl Passes {
                 }
                 level
             };
-            run_coarse(&mut levels, &mut flags, zmax, &mut given);
+            run_coarse(&mut levels, &mut flags, zmax, &mut given, share);
             stages.coarse_ms = ms(t);
             // The normals' bands the helper has not taken: the stage's
             // time is both threads' time in them.

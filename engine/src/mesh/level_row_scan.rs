@@ -20,7 +20,8 @@
 use super::deviation::{gradient, half_row, half_rows, HalfRows};
 use super::deviation_f32::{in_f32_range, row_max_deviation_f32, widen};
 use super::grid::{Grid, Pt};
-use super::levels::{half_deviation2, round_up};
+use super::level_deviations::half_deviation2;
+use super::levels::round_up;
 use super::split_order::{split_rows, Bisects, Split};
 
 /// A half's interpolant from its corner `a` (as `max_deviation_f32` has

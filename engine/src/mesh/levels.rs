@@ -4,8 +4,7 @@
 //! `hierarchy.rs`). It reads the depths and writes flags, errors and radii
 //! only, so the normals can be computed beside it; the deviations of the
 //! levels above the finest, which need the depths alone, can be computed on
-//! another thread ([`small_deviations`] for levels 1 to 3,
-//! [`coarse_deviations`] for each level above), while this pass builds the
+//! another thread (`level_deviations.rs`), while this pass builds the
 //! finest level and the levels below. On one thread levels 1 to 3 are
 //! swept before the pass reaches them, and each coarser unsegmented half is
 //! scanned as the pass comes to it, unless the bound from its children's
@@ -18,21 +17,21 @@
 //! a kind's children lie on sliced once beside the row it writes. A general kernel
 //! per split vertex, `split_vertex`, states the same computation once for
 //! any vertex; the tests (`levels_tests.rs`, which holds it) check the loops
-//! against it. The finest level's loops are in `finest.rs`.
+//! against it. The finest level's loops are in `finest.rs`; level 1 on
+//! two threads is in `level_one_shared.rs`.
 
 use super::backproject::BackProject;
-use super::coarse_rows::{Child, GridRows, Grids, Kept, Plane, Results, Row, RowTask, Scratch};
-use super::deviation::{half_rows, max_deviation};
+use super::coarse_rows::{Child, GridRows, Grids, Kept, Plane, Planes, Results, Row, RowTask, Scratch};
 use super::deviation_bound;
-use super::deviation_f32::max_deviation_f32;
 use super::error_metric::{norm_bound, point_line_2d_sq, point_line_3d_sq};
 use super::flags::{Flags, Half};
 use super::grid::{half_of, Grid, Pt};
-use super::level_row_scan::level_row_scan;
-use super::small_half_sweep::{small_half_deviation2, small_level_deviations};
-use super::split_order::{for_each_split, split_count, Bisects, Split};
+use super::level_deviations::half_deviation2;
+use super::level_one_shared::{Share, SHARED_ROWS};
+use super::split_order::{Bisects, Split};
 use crate::camera::Camera;
 use glam::DVec3;
+use std::ops::Range;
 
 /// `v >= 0` as f32, rounded up (an error or radius may grow, never
 /// shrink), saturated at `f32::MAX` (which NaN also gives). Without
@@ -93,98 +92,32 @@ pub(crate) struct Levels<'a> {
     /// Nested radii, written; zero on entry (the finest edge midpoints',
     /// which have no children, are left so).
     pub radius: &'a mut [f32],
+    /// The grid row `err2`, `radius` and the flags the pass is given
+    /// start at (0 but for a band of rows: `level_one_shared.rs`).
+    pub row0: u32,
 }
 
-/// The levels whose halves [`coarse_deviations`] reads grid row by grid
-/// row (`level_row_scan.rs`); the others half by half. Medians of twelve
-/// builds at 1920 x 1080 on two threads, on a 2 GHz Zen 1, in ms per level
-/// (half by half, then by rows): level 3 10.4, 10.5 (12.5 with it in the
-/// rows' groups); level 4 8.7-9.0, 7.1-7.4; level 5 8.9-9.0, 5.8-6.3;
-/// level 6 5.7-5.8, 6.1-6.2. Level 3's rows are too short to gain, and from
-/// level 6 on a half's rows (65 samples and more) are long enough for the
-/// prefetchers to follow half by half. At 513 x 513, whose depths stay in
-/// cache, the two ways cost the same.
-const ROW_SCAN_LEVELS: std::ops::Range<u32> = 4..6;
-
-crate::simd::dispatch! {
-    /// The depth deviation of each half of every split vertex of level `g`
-    /// (at least 4: levels 1 to 3 come from [`small_deviations`]), squared
-    /// and rounded up (0 where a half does not exist), in the order
-    /// [`Levels::run_coarse`] takes them. It reads only the depths, so it
-    /// can run on another thread, a level ahead of the pass. Halves that
-    /// turn out segmented get a value too, which the pass ignores (it is
-    /// finite: invalid samples are 0). Levels 4 and 5 grid row by grid
-    /// row, the others half by half ([`ROW_SCAN_LEVELS`]), with AVX2 where
-    /// the CPU has it. The deviations go into `out` (whatever it holds), so a build on two
-    /// threads can hand the helper memory the calling thread has used.
-    pub(crate) fn coarse_deviations(grid: Grid, z: &[f32], g: u32, out: Vec<[f32; 2]>) -> Vec<[f32; 2]> = coarse_deviations_body;
+/// One kind of vertex of a level, as [`Levels::kind_rows`] takes it: the
+/// shape of its rows, its first row, and per row its vertices with both
+/// halves (`lanes`) and where their children are kept.
+struct Kind<L, C> {
+    row: Row,
+    y0: u32,
+    lanes: L,
+    children: C,
 }
 
-crate::simd::dispatch! {
-    /// The deviations of levels 1 to 3 as [`coarse_deviations`] gives
-    /// them, all from one set of phase planes (`small_half_sweep.rs`),
-    /// into `out` (whatever they hold; empty where the grid has no such
-    /// level). With AVX2 where the CPU has it.
-    pub(crate) fn small_deviations(grid: Grid, z: &[f32], out: [Vec<[f32; 2]>; 3]) -> [Vec<[f32; 2]>; 3] = small_deviations_body;
-}
-
-#[inline(always)]
-fn small_deviations_body(grid: Grid, z: &[f32], out: [Vec<[f32; 2]>; 3]) -> [Vec<[f32; 2]>; 3] {
-    let [mut one, mut two, mut three] = out;
-    small_level_deviations(grid, z, [&mut one, &mut two, &mut three]);
-    [one, two, three]
-}
-
-#[inline(always)]
-fn coarse_deviations_body(grid: Grid, z: &[f32], g: u32, mut out: Vec<[f32; 2]>) -> Vec<[f32; 2]> {
-    out.clear();
-    out.reserve(split_count(grid, g));
-    if ROW_SCAN_LEVELS.contains(&g) {
-        level_row_scan(grid, z, g, &mut out);
-        return out;
-    }
-    let (gw, h) = (grid.gw() as usize, 1 << g);
-    for_each_split(
-        grid,
-        g..g + 1,
-        #[inline(always)]
-        |s| {
-            let mut pair = [0f32; 2];
-            for (d, apex) in pair.iter_mut().zip(s.apex) {
-                if let Some(apex) = apex {
-                    *d = half_deviation2(z, gw, s, h, apex);
-                }
-            }
-            out.push(pair);
-        },
-    );
-    out
+/// Vertices per row of level `g` (centres, and edge midpoints along rows;
+/// one more along columns) and rows per kind (one more along rows).
+pub(super) fn level_size(grid: Grid, g: u32) -> (usize, usize) {
+    let step = 2usize << g;
+    ((grid.gw() as usize - 1) / step, (grid.gh() as usize - 1) / step)
 }
 
 /// Where the pass over the levels above the finest gets each level's
 /// deviations: called once per level, finest first; `None` has the pass
 /// scan each unflagged half as it comes.
 pub(crate) type DeviationSource<'a> = &'a mut dyn FnMut(u32) -> Option<Vec<[f32; 2]>>;
-
-/// The squared deviation of the half of `s` with apex `apex`, rounded up:
-/// in f32 within a stated margin above the exact value, for the two levels
-/// just above the finest in straight code (`small_half_sweep.rs`, nine in
-/// ten of these halves), for the coarser ones by rows
-/// (`deviation_f32.rs`); the finest level's halves (only the tests' general
-/// kernel scans them) exact, by rows.
-#[inline(always)]
-pub(super) fn half_deviation2(z: &[f32], gw: usize, s: Split, h: u32, apex: Pt) -> f32 {
-    let rows = || half_rows(s.v, h, apex, s.bisects == Bisects::Row, s.bisects == Bisects::Diagonal);
-    let v = s.v.1 as usize * gw + s.v.0 as usize;
-    let dev = match h {
-        1 => max_deviation(z, gw, [s.a, s.b, apex], rows()),
-        2 => return small_half_deviation2::<2>(z, gw, v, s.small_shape(apex)),
-        4 => return small_half_deviation2::<4>(z, gw, v, s.small_shape(apex)),
-        8 => return small_half_deviation2::<8>(z, gw, v, s.small_shape(apex)),
-        _ => max_deviation_f32(z, gw, [s.a, s.b, apex], rows()),
-    };
-    round_up(dev * dev)
-}
 
 crate::simd::dispatch! {
     /// The finest level (three quarters of all vertices), in the row
@@ -206,151 +139,227 @@ fn run_finest_body(levels: &mut Levels<'_>, flags: &mut [Flags], zmax: f32) {
 crate::simd::dispatch! {
     /// The levels above the finest: [`Levels::run_coarse`] (with AVX2 where
     /// the CPU has it).
-    pub(crate) fn run_coarse(levels: &mut Levels<'_>, flags: &mut [Flags], zmax: f32, deviations: DeviationSource<'_>) -> () = run_coarse_body;
+    pub(crate) fn run_coarse(levels: &mut Levels<'_>, flags: &mut [Flags], zmax: f32, deviations: DeviationSource<'_>, share: Option<Share>) -> () = run_coarse_body;
 }
 
 #[inline(always)]
-fn run_coarse_body(levels: &mut Levels<'_>, flags: &mut [Flags], zmax: f32, deviations: DeviationSource<'_>) {
-    levels.run_coarse(flags, zmax, deviations);
+fn run_coarse_body(
+    levels: &mut Levels<'_>,
+    flags: &mut [Flags],
+    zmax: f32,
+    deviations: DeviationSource<'_>,
+    share: Option<Share>,
+) {
+    levels.run_coarse(flags, zmax, deviations, share);
 }
 
 impl Levels<'_> {
-    /// The levels above the finest, each given its [`coarse_deviations`]
+    /// The levels above the finest, each given its `coarse_deviations`
     /// by `deviations` or computing each unsegmented half's as it comes:
     /// per level the edge midpoints along rows, along columns, then the
     /// centres, each in a straight loop over rows ([`Self::coarse_row`]),
-    /// in the order of [`for_each_split`].
+    /// in the order of `for_each_split`. Level 1 is shared with a
+    /// second thread when `share` lends one (`level_one_shared.rs`).
     #[inline(always)]
-    pub(crate) fn run_coarse(&mut self, flags: &mut [Flags], zmax: f32, deviations: DeviationSource<'_>) {
-        let (gw, gh) = (self.grid.gw(), self.grid.gh());
+    pub(crate) fn run_coarse(
+        &mut self,
+        flags: &mut [Flags],
+        zmax: f32,
+        deviations: DeviationSource<'_>,
+        mut share: Option<Share>,
+    ) {
         let mut scratch = Scratch::default();
         // Each kind's results, kept for the kind that reads them as
         // children (`coarse_rows.rs`): the level below's centres, this
         // level's edge midpoints along rows and along columns, its centres.
-        let [mut below, mut row_edges, mut column_edges, mut centres] = [(); 4].map(|()| Plane::default());
+        let mut planes = Planes::default();
         for g in 1..self.grid.k {
             let given = deviations(g);
             // (After the deviations, which may wait for the helper.)
             let _span = tracing::trace_span!("level", g).entered();
-            let mut next = given.as_deref();
-            let h = 1u32 << g;
-            let step = 2 * h as usize;
-            // Vertices per row (centres, and edge midpoints along rows; one
-            // more along columns) and rows per kind (one more along rows).
-            let (nx, ny) = ((gw as usize - 1) / step, (gh as usize - 1) / step);
+            let (nx, ny) = level_size(self.grid, g);
             // The halves' deviations are kept from level 2 on, for the
             // bound of the level above where it is scanned as the pass
             // comes (from level 4 in a build, which is given levels 1 to
             // 3; from level 1 in the tests' scanning paths).
-            row_edges.reset(ny + 1, nx, g >= 2);
-            column_edges.reset(ny, nx + 1, g >= 2);
-            centres.reset(ny, nx, g >= 2);
-            // Each kind's vertices with both halves go through the sweep:
-            // the edge midpoints along rows off the first and last rows,
-            // those along columns off the first and last columns, every
-            // centre. An edge midpoint's children are the centres of the
-            // level below around it, at twice its lane (`Row::offset`'s
-            // order: left above, right above, left below, right below):
-            // lane `j` of row `r` of the level below's centres, which on
-            // level 1 are the finest centres, in the grid at `(2j + 1,
-            // 2r + 1)`.
-            let two = |below, row: usize, first: usize| match g {
-                1 => Child {
-                    kept: Kept::Grid,
-                    row: 2 * row + 1,
-                    first: 2 * first + 1,
-                    stride: 4,
-                },
-                _ => Child {
-                    kept: Kept::Plane(below),
-                    row,
-                    first,
-                    stride: 2,
-                },
-            };
-            let row = Row {
-                bisects: Bisects::Row,
-                h,
-                x0: h,
-                y: h,
-            };
-            scratch.columns.gather(self.bp, row, 0..nx);
-            for (r, y) in (0..gh).step_by(step).enumerate() {
-                let lanes = if r == 0 || r == ny { 0..0 } else { 0..nx };
-                // (Unread on the first and last rows, which have no lanes.)
-                let above = (2 * r).saturating_sub(1);
-                let children = [
-                    two(&below, above, 0),
-                    two(&below, above, 1),
-                    two(&below, 2 * r, 0),
-                    two(&below, 2 * r, 1),
-                ];
-                let task = RowTask {
-                    row: Row { y, ..row },
-                    lanes,
-                    children,
-                    out: &mut row_edges,
-                    r,
-                };
-                self.coarse_row(flags, zmax, task, &mut next, &mut scratch);
+            planes.row_edges.reset(0, ny + 1, nx, g >= 2);
+            planes.column_edges.reset(0, ny, nx + 1, g >= 2);
+            planes.centres.reset(0, ny, nx, g >= 2);
+            let given = given.as_deref();
+            match share.take() {
+                Some(share) if g == 1 && ny >= SHARED_ROWS => {
+                    self.level_one_shared(flags, zmax, given, &mut planes, &mut scratch, share);
+                }
+                _ => self.level_rows(
+                    flags,
+                    zmax,
+                    g,
+                    [0..ny + 1, 0..ny, 0..ny],
+                    given,
+                    &mut planes,
+                    &mut scratch,
+                ),
             }
-            let row = Row {
-                bisects: Bisects::Column,
-                h,
-                x0: 0,
-                y: h,
-            };
-            scratch.columns.gather(self.bp, row, 1..nx);
-            for (r, y) in (h..gh).step_by(step).enumerate() {
-                let children = [
-                    two(&below, 2 * r, 1),
-                    two(&below, 2 * r, 2),
-                    two(&below, 2 * r + 1, 1),
-                    two(&below, 2 * r + 1, 2),
-                ];
-                let task = RowTask {
-                    row: Row { y, ..row },
-                    lanes: 1..nx,
-                    children,
-                    out: &mut column_edges,
-                    r,
-                };
-                self.coarse_row(flags, zmax, task, &mut next, &mut scratch);
-            }
-            // A centre's children are its level's edge midpoints: along
-            // columns on its row at its lane and the next, along rows
-            // above and below at its lane.
-            let row = Row {
-                bisects: Bisects::Diagonal,
-                h,
-                x0: h,
-                y: h,
-            };
-            scratch.columns.gather(self.bp, row, 0..nx);
-            let one = |plane, row, first| Child {
-                kept: Kept::Plane(plane),
+            std::mem::swap(&mut planes.below, &mut planes.centres);
+        }
+    }
+
+    /// The vertices of level `g` on rows `rows` of each kind (edge
+    /// midpoints along rows, along columns, centres; rows counted per
+    /// kind), in that order, with the level's deviations `given` (all of
+    /// them, in the order `coarse_deviations` gives them), into the
+    /// grid's rows and `planes`.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn level_rows(
+        &mut self,
+        flags: &mut [Flags],
+        zmax: f32,
+        g: u32,
+        rows: [Range<usize>; 3],
+        given: Option<&[[f32; 2]]>,
+        planes: &mut Planes,
+        scratch: &mut Scratch,
+    ) {
+        let gw = self.grid.gw() as usize;
+        let h = 1u32 << g;
+        let step = 2 * h as usize;
+        let (nx, ny) = level_size(self.grid, g);
+        // Each kind's rows of deviations: `count` per row, the kinds one
+        // after the other.
+        let counts = [
+            (gw - h as usize).div_ceil(step),
+            gw.div_ceil(step),
+            (gw - h as usize).div_ceil(step),
+        ];
+        let bases = [0, (ny + 1) * counts[0], (ny + 1) * counts[0] + ny * counts[1]];
+        debug_assert!(
+            given.is_none_or(|d| d.len() == bases[2] + ny * counts[2]),
+            "deviations of another level"
+        );
+        let from = |kind: usize, r: usize| given.map(|d| &d[(bases[kind] + r * counts[kind]).min(d.len())..]);
+        let [row_edge_rows, column_edge_rows, centre_rows] = rows;
+        let Planes {
+            below,
+            row_edges,
+            column_edges,
+            centres,
+        } = planes;
+        let shape = |bisects, x0| Row { bisects, h, x0, y: h };
+        // Each kind's vertices with both halves go through the sweep:
+        // the edge midpoints along rows off the first and last rows,
+        // those along columns off the first and last columns, every
+        // centre. An edge midpoint's children are the centres of the
+        // level below around it, at twice its lane (`Row::offset`'s
+        // order: left above, right above, left below, right below):
+        // lane `j` of row `r` of the level below's centres, which on
+        // level 1 are the finest centres, in the grid at `(2j + 1,
+        // 2r + 1)`.
+        let two = |row: usize, first: usize| match g {
+            1 => Child {
+                kept: Kept::Grid,
+                row: 2 * row + 1,
+                first: 2 * first + 1,
+                stride: 4,
+            },
+            _ => Child {
+                kept: Kept::Plane(below),
                 row,
                 first,
-                stride: 1,
+                stride: 2,
+            },
+        };
+        // (The first and last rows along rows have no lanes, and do not
+        // read their children there.)
+        let row_edge = Kind {
+            row: shape(Bisects::Row, h),
+            y0: 0,
+            lanes: |r| if r == 0 || r == ny { 0..0 } else { 0..nx },
+            children: |r: usize| {
+                let above = (2 * r).saturating_sub(1);
+                [two(above, 0), two(above, 1), two(2 * r, 0), two(2 * r, 1)]
+            },
+        };
+        self.kind_rows(flags, zmax, row_edge, row_edge_rows, |r| from(0, r), row_edges, scratch);
+        let column_edge = Kind {
+            row: shape(Bisects::Column, 0),
+            y0: h,
+            lanes: |_| 1..nx,
+            children: |r| [two(2 * r, 1), two(2 * r, 2), two(2 * r + 1, 1), two(2 * r + 1, 2)],
+        };
+        self.kind_rows(
+            flags,
+            zmax,
+            column_edge,
+            column_edge_rows,
+            |r| from(1, r),
+            column_edges,
+            scratch,
+        );
+        // A centre's children are its level's edge midpoints: along
+        // columns on its row at its lane and the next, along rows
+        // above and below at its lane.
+        let one = |plane, row, first| Child {
+            kept: Kept::Plane(plane),
+            row,
+            first,
+            stride: 1,
+        };
+        let (column_edges, row_edges) = (&*column_edges, &*row_edges);
+        let centre = Kind {
+            row: shape(Bisects::Diagonal, h),
+            y0: h,
+            lanes: |_| 0..nx,
+            children: |r| {
+                [
+                    one(column_edges, r, 0),
+                    one(column_edges, r, 1),
+                    one(row_edges, r, 0),
+                    one(row_edges, r + 1, 0),
+                ]
+            },
+        };
+        self.kind_rows(flags, zmax, centre, centre_rows, |r| from(2, r), centres, scratch);
+    }
+
+    /// Rows `rows` of one kind of a level, with its deviations from row
+    /// `r` on given by `from(r)`, into the grid and `out`.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn kind_rows<'p>(
+        &mut self,
+        flags: &mut [Flags],
+        zmax: f32,
+        kind: Kind<impl Fn(usize) -> Range<usize>, impl Fn(usize) -> [Child<'p>; 4]>,
+        rows: Range<usize>,
+        from: impl Fn(usize) -> Option<&'p [[f32; 2]]>,
+        out: &mut Plane,
+        scratch: &mut Scratch,
+    ) {
+        let Kind {
+            row,
+            y0,
+            lanes,
+            children,
+        } = kind;
+        if rows.is_empty() {
+            return;
+        }
+        // The columns of the lanes inside the rows: the same on each.
+        scratch.columns.gather(self.bp, row, lanes(1));
+        let mut next = from(rows.start);
+        for r in rows {
+            let task = RowTask {
+                row: Row {
+                    y: y0 + r as u32 * 2 * row.h,
+                    ..row
+                },
+                lanes: lanes(r),
+                children: children(r),
+                out: &mut *out,
+                r,
             };
-            for (r, y) in (h..gh).step_by(step).enumerate() {
-                let children = [
-                    one(&column_edges, r, 0),
-                    one(&column_edges, r, 1),
-                    one(&row_edges, r, 0),
-                    one(&row_edges, r + 1, 0),
-                ];
-                let task = RowTask {
-                    row: Row { y, ..row },
-                    lanes: 0..nx,
-                    children,
-                    out: &mut centres,
-                    r,
-                };
-                self.coarse_row(flags, zmax, task, &mut next, &mut scratch);
-            }
-            std::mem::swap(&mut below, &mut centres);
-            debug_assert!(next.is_none_or(<[_]>::is_empty), "deviations left over");
+            self.coarse_row(flags, zmax, task, &mut next, scratch);
         }
     }
 
@@ -393,6 +402,7 @@ impl Levels<'_> {
         if !lanes.is_empty() {
             let grids = Grids {
                 gw: gw as usize,
+                row0: self.row0 as usize,
                 z,
                 radius: self.radius,
                 err2: self.err2,
@@ -404,7 +414,7 @@ impl Levels<'_> {
             // Every swept vertex's results as the sweep gave them, in
             // straight loops; the rare ones the loop below finishes are
             // written again there.
-            let row_at = y as usize * gw as usize;
+            let row_at = (y - self.row0) as usize * gw as usize;
             let grid_rows = GridRows {
                 flags: &mut flags[row_at..row_at + gw as usize],
                 err2: &mut self.err2[row_at..row_at + gw as usize],
@@ -417,9 +427,10 @@ impl Levels<'_> {
         // Children lie `d` rows above and below (and, for centres, on the
         // row itself).
         let d = if bisects == Bisects::Diagonal { h } else { q };
-        let (err_up, err_row, err_down) = rows3(self.err2, gw as usize, y, d);
-        let (flag_up, flag_row, flag_down) = rows3(flags, gw as usize, y, d);
-        let (rad_up, rad_row, rad_down) = rows3(self.radius, gw as usize, y, d);
+        let yb = y - self.row0;
+        let (err_up, err_row, err_down) = rows3(self.err2, gw as usize, yb, d);
+        let (flag_up, flag_row, flag_down) = rows3(flags, gw as usize, yb, d);
+        let (rad_up, rad_row, rad_down) = rows3(self.radius, gw as usize, yb, d);
         let factor = |yy: u32| bp.row(yy as usize);
         let point = BackProject::point_from;
         let at = |p: Pt| p.1 as usize * gw as usize + p.0 as usize;

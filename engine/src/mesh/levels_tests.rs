@@ -3,8 +3,12 @@
 //! `for_each_coarse` gives; the proptests check the pass's loops (and
 //! `finest.rs`'s) against it.
 
+use super::super::deviation::{half_rows, max_deviation};
 use super::super::deviation_f32::{MARGIN, RELATIVE};
 use super::super::grid::cell_half;
+use super::super::level_deviations::{coarse_deviations, small_deviations};
+use super::super::level_one_shared::lend;
+use super::super::split_order::{for_each_split, split_count};
 use super::*;
 use proptest::prelude::*;
 
@@ -139,6 +143,18 @@ fn stages(n: u32, z: &[f32], cells: &[u8]) -> [[State; 2]; 2] {
     [edges, centres]
 }
 
+/// Every coarse level's deviations as the helper gives them, level 1
+/// first.
+fn given_levels(grid: Grid, z: &[f32]) -> Vec<Vec<[f32; 2]>> {
+    let small = small_deviations(grid, z, [Vec::new(), Vec::new(), Vec::new()]);
+    (1..grid.k)
+        .map(|g| match g {
+            1..=3 => small[g as usize - 1].clone(),
+            _ => coarse_deviations(grid, z, g, Vec::new()),
+        })
+        .collect()
+}
+
 /// The levels above the finest, from the same finest level, by the row
 /// loops of [`Levels::run_coarse`] (scanning; given the helper's
 /// deviations; given them below level `handover` and scanning from it, as
@@ -148,22 +164,20 @@ fn coarse_ways((w, h): (u32, u32), z: &[f32], cells: &[u8], handover: u32) -> [S
     let fx = Fixture::new(w, h, z);
     let (grid, zmax) = (fx.grid, fx.zmax);
     let finest = fx.run(&fx.start(cells), &|l, flags| run_finest(l, flags, zmax));
-    let small = small_deviations(grid, z, [Vec::new(), Vec::new(), Vec::new()]);
-    let levels: Vec<_> = (1..grid.k)
-        .map(|g| match g {
-            1..=3 => small[g as usize - 1].clone(),
-            _ => coarse_deviations(grid, z, g, Vec::new()),
-        })
-        .collect();
+    let levels = given_levels(grid, z);
     [
-        fx.run(&finest, &|l, flags| run_coarse(l, flags, zmax, &mut |_| None)),
+        fx.run(&finest, &|l, flags| run_coarse(l, flags, zmax, &mut |_| None, None)),
         fx.run(&finest, &|l, flags| {
-            run_coarse(l, flags, zmax, &mut |g| Some(levels[g as usize - 1].clone()))
+            run_coarse(l, flags, zmax, &mut |g| Some(levels[g as usize - 1].clone()), None)
         }),
         fx.run(&finest, &|l, flags| {
-            run_coarse(l, flags, zmax, &mut |g| {
-                (g < handover).then(|| levels[g as usize - 1].clone())
-            })
+            run_coarse(
+                l,
+                flags,
+                zmax,
+                &mut |g| (g < handover).then(|| levels[g as usize - 1].clone()),
+                None,
+            )
         }),
         fx.run(&finest, &|l, flags| {
             for_each_coarse(grid, |s| l.split_vertex(flags, zmax, s, None))
@@ -234,6 +248,7 @@ impl<'z> Fixture<'z> {
             z: self.z,
             err2: &mut st.err2,
             radius: &mut st.radius,
+            row0: 0,
         };
         pass(&mut levels, &mut st.flags);
         st
@@ -259,7 +274,7 @@ fn coarse_against_exact(n: u32, z: &[f32], cells: &[u8]) -> [State; 2] {
         })
     };
     [
-        fx.run(&finest, &|l, flags| run_coarse(l, flags, zmax, &mut |_| None)),
+        fx.run(&finest, &|l, flags| run_coarse(l, flags, zmax, &mut |_| None, None)),
         fx.run(&finest, &|l, flags| {
             for_each_coarse(grid, |s| l.split_vertex(flags, zmax, s, Some(exact(s))))
         }),
@@ -321,6 +336,55 @@ fn coarse_rows_match_the_general_kernel(
     Ok(())
 }
 
+/// Level 1 in two bands (`level_one_shared.rs`), both run on this
+/// thread, meeting at every row they can: the same bytes as the pass
+/// over the whole level, given the helper's deviations and scanning.
+fn shared_level_one_matches_one_pass((w, h): (u32, u32), z: &[f32], cells: &[u8]) -> Result<(), TestCaseError> {
+    let fx = Fixture::new(w, h, z);
+    let (grid, zmax) = (fx.grid, fx.zmax);
+    let finest = fx.run(&fx.start(cells), &|l, flags| run_finest(l, flags, zmax));
+    let levels = given_levels(grid, z);
+    let ny = level_size(grid, 1).1;
+    prop_assert!(ny >= SHARED_ROWS, "{} rows of level 1 centres: not shared", ny);
+    for given in [false, true] {
+        let source = |g: u32| given.then(|| levels[g as usize - 1].clone());
+        let one = fx.run(&finest, &|l, flags| {
+            run_coarse(l, flags, zmax, &mut |g| source(g), None)
+        });
+        for t in 1..ny {
+            let (mut share, _lender) = lend();
+            share.in_turn = Some(t);
+            let share = std::cell::Cell::new(Some(share));
+            let two = fx.run(&finest, &|l, flags| {
+                run_coarse(l, flags, zmax, &mut |g| source(g), share.take())
+            });
+            prop_assert!(share.take().is_none(), "the share was not used");
+            let bits = |v: &[f32]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
+            let flags_at = two.flags.iter().zip(&one.flags).position(|(a, b)| a != b);
+            prop_assert!(
+                flags_at.is_none(),
+                "flags of grid vertex {:?} differ, meeting at {}",
+                flags_at,
+                t
+            );
+            for (what, a, b) in [
+                ("error", bits(&two.err2), bits(&one.err2)),
+                ("radius", bits(&two.radius), bits(&one.radius)),
+            ] {
+                let at = a.iter().zip(&b).position(|(a, b)| a != b);
+                prop_assert!(
+                    at.is_none(),
+                    "{} of grid vertex {:?} differs, meeting at {}",
+                    what,
+                    at,
+                    t
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(64))]
 
@@ -365,6 +429,22 @@ proptest! {
     ) {
         let depths = noisy_paraboloid(curve, &noise, amplitude, centre);
         coarse_rows_match_the_general_kernel((65, 65), &depths, &[0; 65 * 65], handover)?;
+    }
+
+    /// Level 1 shared by two threads in bands of rows gives the bytes of
+    /// one pass, wherever the bands meet: on a square grid and on one of
+    /// two roots (whose edge midpoints along columns on the border between
+    /// the roots have two halves).
+    #[test]
+    fn level_one_in_two_bands_matches_one_pass(
+        depths in proptest::collection::vec(prop_oneof![1 => Just(0.0f32), 9 => 0.5f32..4.0], 33 * 33),
+        cells in proptest::collection::vec(prop_oneof![6 => Just(0u8), 1 => 0u8..4], 33 * 33),
+        square in any::<bool>(),
+    ) {
+        let (w, h) = if square { (33, 33) } else { (33, 17) };
+        let n = (w * h) as usize;
+        let cells = leaf_cells((w as usize, h as usize), &depths[..n], &cells[..n]);
+        shared_level_one_matches_one_pass((w, h), &depths[..n], &cells)?;
     }
 
     /// The pass's errors are never below those from the exact f64

@@ -39,6 +39,8 @@ mod finest;
 mod flags;
 pub mod grid;
 pub mod hierarchy;
+mod level_deviations;
+mod level_one_shared;
 mod level_row_scan;
 mod levels;
 pub mod lod;
