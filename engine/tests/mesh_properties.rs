@@ -280,7 +280,7 @@ fn view_dependent_meshes_are_conforming_and_coarsen_with_distance() {
 /// shared (its lower band's planes held beside the level's).
 #[test]
 fn hierarchy_stays_within_24_bytes_per_grid_vertex() {
-    for (n, threads) in [(513, Threads::Single), (1025, Threads::Parallel)] {
+    for (n, threads) in [(513, Threads::Single), (1281, Threads::Parallel)] {
         let depth = waves(n, n);
         let hier = Hierarchy::build_with(&depth, &camera(n, n), &Segmentation::default(), threads).unwrap();
         let s = hier.stats();
@@ -320,12 +320,14 @@ fn answers(h: &Hierarchy) -> (Vec<VertexAnswer>, dmesh_engine::mesh::Mesh) {
     (per_vertex, h.extract(Lod::Epsilon(0.0)).unwrap())
 }
 
-/// One thread and two build the same hierarchy, on a small grid and on
-/// one of ten levels (1025 x 1025), where how many of the coarse levels'
-/// deviations the helper computes ahead of the pass depends on timing.
+/// One thread and two build the same hierarchy, on a small grid, on one
+/// of ten levels (1025 x 1025), where how many of the coarse levels'
+/// deviations the helper computes ahead of the pass depends on timing,
+/// and on one whose level 1 the helper shares (1281 x 1281, 1.6 million
+/// grid vertices), where which thread takes its lower band does.
 #[test]
 fn one_thread_and_two_build_the_same_hierarchy() {
-    for (w, h) in [(97, 61), (1025, 1025)] {
+    for (w, h) in [(97, 61), (1025, 1025), (1281, 1281)] {
         one_thread_and_two_agree(w, h);
     }
 }

@@ -157,10 +157,12 @@ impl Threads {
 }
 
 /// Grids of this many vertices or more share level 1 of the pass with the
-/// helper on two threads: at 1920 x 1080 the helper idles for the last
-/// 7-9 ms of a build in the VM's quick state, while at 513 x 513 the two
-/// threads' chains are even (docs/live.md).
-const SHARE_LEVEL_ONE_FROM: usize = 1 << 20;
+/// helper on two threads, where the helper would otherwise idle at the
+/// end. Medians on the Zen 3 VM, six alternations (docs/live.md): 1920 x
+/// 1080 (2.2 million grid vertices) 35.6 -> 32.2 ms, Books (1.6 million)
+/// 26.6 -> 24.7; 1025 x 1025 (1.05 million), where the two threads'
+/// chains are nearly even, lost (14.8 -> 15.8).
+const SHARE_LEVEL_ONE_FROM: usize = 3 << 19;
 
 /// Cores available to this process, asked once (the answer reads cgroup
 /// limits, which is too slow to repeat per build).

@@ -35,8 +35,8 @@ use super::grid::Grid;
 use super::levels::{level_size, Levels};
 
 /// Level 1 is shared when it has this many rows of centres or more: the
-/// two-thread builds of 2^20 grid vertices and up take a lent thread
-/// (`hierarchy.rs`), so this only keeps the meeting rows apart.
+/// two-thread builds of large grids take a lent thread (`hierarchy.rs`),
+/// so this only keeps the meeting rows apart.
 pub(crate) const SHARED_ROWS: usize = 4;
 
 /// Where the bands of a level with `ny` rows of centres meet: at row `t`
