@@ -4,9 +4,9 @@
 //! lower band, and the rows where the bands meet are computed once both
 //! are done.
 //!
-//! On two threads at 1920 x 1080 the build is the calling thread's chain
+//! On two threads at 1920 x 1080 the build was the calling thread's chain
 //! (the finest level, then the pass, whose level 1 is a third of it),
-//! while the helper, done with its deviations and normals, idles for the
+//! while the helper, done with its deviations and normals, idled for the
 //! last 7-9 ms in the VM's quick state (docs/live.md). Level 1 reads the
 //! finest level's results, which no step writes any more, and writes only
 //! its own rows, so it splits into bands of grid rows with little to
@@ -104,9 +104,8 @@ impl Lender {
     }
 }
 
-/// The lower band: its slices of the grid, its own planes (made by the
-/// calling thread: memory a thread allocates and then leaves is slow to
-/// hand back) and scratch.
+/// The lower band: its slices of the grid, and its own planes and
+/// scratch (made by the calling thread).
 struct Lower<'a> {
     levels: Levels<'a>,
     flags: &'a mut [Flags],
@@ -224,7 +223,7 @@ impl Levels<'_> {
                 let theirs = lent.and_then(|job| job.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic)));
                 // The helper goes back to its own work only now: woken by
                 // the lent thread, it took that thread's core before the
-                // thread had ended, and the join waited 2-4 ms for it.
+                // thread had ended, and the join waited 2-5 ms for it.
                 let _ = back.send(());
                 mine.or(theirs)
             });
