@@ -60,6 +60,13 @@ pub(super) struct Row {
 }
 
 impl Row {
+    /// Vertices on a row of this kind in a grid of rows `gw` long: at
+    /// `x0`, `x0 + 2h`, ... before the row's end.
+    #[inline(always)]
+    pub(super) fn count(self, gw: usize) -> usize {
+        (gw - self.x0 as usize).div_ceil(2 * self.h as usize)
+    }
+
     /// Whether the end `a` of a centre's diagonal lies on the row above
     /// (the row is the level's centre row of odd index).
     #[inline(always)]
@@ -269,12 +276,16 @@ pub(super) struct Results {
     pub dev2: [f32; 2],
 }
 
+/// Bytes a [`Plane`] keeps per vertex (its depth, error, radius and
+/// flags; the halves' deviations apart).
+pub(super) const PLANE_BYTES: usize = 3 * std::mem::size_of::<f32>() + std::mem::size_of::<Flags>();
+
 /// Bytes of the planes the pass above the finest level holds at once, at
 /// most: level 1's three kinds and level 2's centres (the buffers are
 /// reused from level to level, so the first are the largest), and the
 /// halves' deviations from level 2 on.
 pub(crate) fn scratch_bytes(grid: Grid) -> usize {
-    let per_vertex = 3 * std::mem::size_of::<f32>() + std::mem::size_of::<Flags>();
+    let per_vertex = PLANE_BYTES;
     let (gw, gh) = (grid.gw() as usize, grid.gh() as usize);
     // Centres and edge midpoints along rows and along columns of level g.
     let kinds = |g: u32| {
@@ -451,16 +462,24 @@ impl Samples {
         for (c, child) in children.into_iter().enumerate() {
             // The depths are whole; the rest starts at the plane's or the
             // band's first row.
-            let (width, z, radius, err2, flags, row0) = match child.kept {
-                Kept::Plane(p) => (p.lanes, &p.z[..], &p.radius[..], &p.err2[..], &p.flags[..], p.row0),
-                Kept::Grid => (gw, grids.z, grids.radius, grids.err2, grids.flags, grids.row0),
+            let (width, z, z_row0, radius, err2, flags, row0) = match child.kept {
+                Kept::Plane(p) => (
+                    p.lanes,
+                    &p.z[..],
+                    p.row0,
+                    &p.radius[..],
+                    &p.err2[..],
+                    &p.flags[..],
+                    p.row0,
+                ),
+                Kept::Grid => (gw, grids.z, 0, grids.radius, grids.err2, grids.flags, grids.row0),
             };
-            let own = Child {
+            let at = |row0: usize| Child {
                 row: child.row - row0,
                 ..child
             };
-            let whole = if matches!(child.kept, Kept::Grid) { child } else { own };
-            whole.copy(&mut self.z[CHILD + c], z, width, n, |z| z);
+            let own = at(row0);
+            at(z_row0).copy(&mut self.z[CHILD + c], z, width, n, |z| z);
             own.copy(&mut self.radius[c], radius, width, n, |r| r);
             own.copy(&mut self.err[c], err2, width, n, |e| e);
             let half = holding_half(c);

@@ -29,7 +29,7 @@
 use std::ops::Range;
 use std::sync::{mpsc, Mutex, PoisonError};
 
-use super::coarse_rows::{Planes, Scratch};
+use super::coarse_rows::{Planes, Scratch, PLANE_BYTES};
 use super::flags::Flags;
 use super::grid::Grid;
 use super::levels::{level_size, Levels};
@@ -48,6 +48,13 @@ fn meeting_row(ny: usize) -> usize {
     (ny * 9 / 16).clamp(1, ny - 2)
 }
 
+/// The lower band's planes for a level of `nx` by `ny` centres meeting at
+/// row `t`: the first row and the rows of its edge midpoints along rows,
+/// along columns (one more lane) and its centres, and their lanes.
+fn lower_plane_shapes(nx: usize, ny: usize, t: usize) -> [(usize, usize, usize); 3] {
+    [(t + 1, ny - t, nx), (t, ny - t, nx + 1), (t + 1, ny - t - 1, nx)]
+}
+
 /// The lower band's planes, in bytes (as `coarse_rows::scratch_bytes`
 /// counts the level's): held beside the level's while it is shared.
 pub(crate) fn scratch_bytes(grid: Grid) -> usize {
@@ -55,9 +62,8 @@ pub(crate) fn scratch_bytes(grid: Grid) -> usize {
     if ny < SHARED_ROWS {
         return 0;
     }
-    let t = meeting_row(ny);
-    let per_vertex = 3 * std::mem::size_of::<f32>() + std::mem::size_of::<Flags>();
-    ((ny - t) * nx + (ny - t) * (nx + 1) + (ny - t - 1) * nx) * per_vertex
+    let planes = lower_plane_shapes(nx, ny, meeting_row(ny));
+    planes.iter().map(|&(_, rows, lanes)| rows * lanes).sum::<usize>() * PLANE_BYTES
 }
 
 /// The pass's end of a thread lent to level 1: the lending thread says on
@@ -180,9 +186,18 @@ impl Levels<'_> {
             let (rad_up, rad_low) = self.radius.split_at_mut(at);
             let (flags_up, flags_low) = flags.split_at_mut(at);
             let mut lower_planes = Planes::default();
-            lower_planes.row_edges.reset(t + 1, ny - t, nx, false);
-            lower_planes.column_edges.reset(t, ny - t, nx + 1, false);
-            lower_planes.centres.reset(t + 1, ny - t - 1, nx, false);
+            let Planes {
+                row_edges,
+                column_edges,
+                centres,
+                ..
+            } = &mut lower_planes;
+            for (plane, (row0, rows, lanes)) in [row_edges, column_edges, centres]
+                .into_iter()
+                .zip(lower_plane_shapes(nx, ny, t))
+            {
+                plane.reset(row0, rows, lanes, false);
+            }
             let lower = Mutex::new(Some(Lower {
                 levels: Levels {
                     err2: err_low,

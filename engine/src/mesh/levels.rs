@@ -223,15 +223,16 @@ impl Levels<'_> {
     ) {
         let gw = self.grid.gw() as usize;
         let h = 1u32 << g;
-        let step = 2 * h as usize;
         let (nx, ny) = level_size(self.grid, g);
-        // Each kind's rows of deviations: `count` per row, the kinds one
-        // after the other.
-        let counts = [
-            (gw - h as usize).div_ceil(step),
-            gw.div_ceil(step),
-            (gw - h as usize).div_ceil(step),
+        // The shape of each kind's rows; its rows of deviations, `count`
+        // per row, the kinds one after the other.
+        let shape = |bisects, x0| Row { bisects, h, x0, y: h };
+        let shapes = [
+            shape(Bisects::Row, h),
+            shape(Bisects::Column, 0),
+            shape(Bisects::Diagonal, h),
         ];
+        let counts = shapes.map(|row| row.count(gw));
         let bases = [0, (ny + 1) * counts[0], (ny + 1) * counts[0] + ny * counts[1]];
         debug_assert!(
             given.is_none_or(|d| d.len() == bases[2] + ny * counts[2]),
@@ -245,7 +246,7 @@ impl Levels<'_> {
             column_edges,
             centres,
         } = planes;
-        let shape = |bisects, x0| Row { bisects, h, x0, y: h };
+
         // Each kind's vertices with both halves go through the sweep:
         // the edge midpoints along rows off the first and last rows,
         // those along columns off the first and last columns, every
@@ -272,7 +273,7 @@ impl Levels<'_> {
         // (The first and last rows along rows have no lanes, and do not
         // read their children there.)
         let row_edge = Kind {
-            row: shape(Bisects::Row, h),
+            row: shapes[0],
             y0: 0,
             lanes: |r| if r == 0 || r == ny { 0..0 } else { 0..nx },
             children: |r: usize| {
@@ -282,7 +283,7 @@ impl Levels<'_> {
         };
         self.kind_rows(flags, zmax, row_edge, row_edge_rows, |r| from(0, r), row_edges, scratch);
         let column_edge = Kind {
-            row: shape(Bisects::Column, 0),
+            row: shapes[1],
             y0: h,
             lanes: |_| 1..nx,
             children: |r| [two(2 * r, 1), two(2 * r, 2), two(2 * r + 1, 1), two(2 * r + 1, 2)],
@@ -307,7 +308,7 @@ impl Levels<'_> {
         };
         let (column_edges, row_edges) = (&*column_edges, &*row_edges);
         let centre = Kind {
-            row: shape(Bisects::Diagonal, h),
+            row: shapes[2],
             y0: h,
             lanes: |_| 0..nx,
             children: |r| {
@@ -391,8 +392,7 @@ impl Levels<'_> {
         let (bp, camera, z) = (self.bp, self.camera, self.z);
         let Row { bisects, h, y, .. } = row;
         // The row's vertices lie at `x0 + step * i`.
-        let (x0, step) = (if bisects == Bisects::Column { 0 } else { h }, 2 * h);
-        let count = (gw - x0).div_ceil(step) as usize;
+        let (x0, step, count) = (row.x0, 2 * h, row.count(gw as usize));
         // This row's deviations, if given.
         let given = next.as_mut().map(|rest| {
             let (now, later) = rest.split_at(count.min(rest.len()));
