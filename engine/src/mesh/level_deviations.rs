@@ -5,7 +5,7 @@
 //! (`level_row_scan.rs`), the others half by half (`deviation_f32.rs`),
 //! each in f32 within a stated margin above the exact f64 scan
 //! (`deviation.rs`). They read only the depths, so a helper thread can
-//! compute them ahead of the pass (`hierarchy.rs`).
+//! compute them ahead of the pass (`hierarchy/passes.rs`).
 
 use super::deviation::{half_rows, max_deviation};
 use super::deviation_f32::half_max_deviation_f32;

@@ -35,7 +35,7 @@ use super::grid::Grid;
 use super::levels::{level_size, Levels};
 
 /// Level 1 is shared when it has this many rows of centres or more: the
-/// two-thread builds of large grids take a lent thread (`hierarchy.rs`),
+/// two-thread builds of large grids take a lent thread (`hierarchy/passes.rs`),
 /// so this only keeps the meeting rows apart.
 pub(crate) const SHARED_ROWS: usize = 4;
 
