@@ -7,7 +7,7 @@
 //! would wait for every read ahead of it to run: with eight clients
 //! rendering on two cores, several renders (going ahead took 3-4 ms off a
 //! 640 x 480 live frame's median time to visible, and more off its tail:
-//! docs/live.md). So while a build waits,
+//! docs/live-journal.md). So while a build waits,
 //! a read that gets a slot hands it on at once and waits until the build
 //! has one: the build runs as soon as one running read ends.
 

@@ -46,7 +46,7 @@ pub fn ingest(state: &AppState, scene: &str, view: &str, upload: Upload, live: b
     upload.segmentation.validate()?;
     let camera: Camera = camera_from_json(&upload.camera)?;
     // A live frame's colour is checked from its header: decoding it whole
-    // would take a tenth of the frame's time (docs/live.md).
+    // would take a tenth of the frame's time (docs/live-journal.md).
     let files = ViewFiles {
         depth: &upload.depth,
         mask: upload.mask.as_deref(),
@@ -72,7 +72,7 @@ pub fn ingest(state: &AppState, scene: &str, view: &str, upload: Upload, live: b
     };
     // While the hierarchy is built, another thread hashes the view and
     // writes it aside: the build leaves part of a second core idle, and the
-    // two took a 1920 x 1080 frame 12 ms after it (docs/live.md). Build
+    // two took a 1920 x 1080 frame 12 ms after it (docs/live-journal.md). Build
     // before storing: a view that cannot be meshed is not kept (what was
     // written aside is removed).
     let (hierarchy, aside) = std::thread::scope(|s| {

@@ -7,7 +7,7 @@
 //! On two threads at 1920 x 1080 the build was the calling thread's chain
 //! (the finest level, then the pass, whose level 1 is a third of it),
 //! while the helper, done with its deviations and normals, idled for the
-//! last 7-9 ms in the VM's quick state (docs/live.md). Level 1 reads the
+//! last 7-9 ms in the VM's quick state (docs/live-journal.md). Level 1 reads the
 //! finest level's results, which no step writes any more, and writes only
 //! its own rows, so it splits into bands of grid rows with little to
 //! share.

@@ -35,7 +35,7 @@ use crate::mesh::{coarse_rows, small_half_sweep};
 
 /// Grids of this many vertices or more share level 1 of the pass with the
 /// helper on two threads, where the helper would otherwise idle at the
-/// end. Medians on the Zen 3 VM, six alternations (docs/live.md): 1920 x
+/// end. Medians on the Zen 3 VM, six alternations (docs/live-journal.md): 1920 x
 /// 1080 (2.2 million grid vertices) 35.6 -> 32.2 ms, Books (1.6 million)
 /// 26.6 -> 24.7; 1025 x 1025 (1.05 million), where the two threads'
 /// chains are nearly even, lost (14.8 -> 15.8).
