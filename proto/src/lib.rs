@@ -19,6 +19,7 @@
 //! little-endian integers, laid out byte by byte in `PROTOCOL.md`. Every
 //! response carries `version` = [`PROTOCOL_VERSION`].
 
+mod bits;
 pub mod camera;
 pub mod compact;
 pub mod diamond;

@@ -36,6 +36,7 @@
 
 use std::collections::HashMap;
 
+use crate::bits::{BitReader, BitWriter};
 use serde::{Deserialize, Serialize};
 
 /// Largest residual bit-depth.
@@ -286,7 +287,7 @@ impl ResidualDepths {
                 let coded = (q.abs() < f64::from(half(bits)))
                     .then(|| units.depth(prediction + q * step))
                     .filter(|&(d, _)| valid(d) && (d - z).abs() <= limit);
-                writer.push(coded.map_or(0, |_| (q + f64::from(half(bits))) as u32), bits);
+                writer.field(coded.map_or(0, |_| (q + f64::from(half(bits))) as u32), bits);
                 coded
             });
             let (d, u) = decoded.unwrap_or_else(|| {
@@ -320,19 +321,20 @@ impl ResidualDepths {
             return Err(ResidualError::Truncated("residual bytes do not match the vertices"));
         }
         let mut exact = self.exact.iter();
-        let mut reader = BitReader::new(&self.residuals);
+        let mut reader = BitReader::new(&self.residuals, "residual bits end early or run on");
         let mut held = vec![0f64; ij.len()];
         let mut out = vec![0f32; ij.len()];
         for (k, p) in parents.iter().enumerate() {
-            let decoded = p.and_then(|(a, b)| {
-                let prediction = units.predict(held[a], held[b]);
-                if self.bits == 0 {
-                    return Some(units.depth(prediction));
+            let decoded = match *p {
+                None => None,
+                Some((a, b)) if self.bits == 0 => Some(units.depth(units.predict(held[a], held[b]))),
+                Some((a, b)) => {
+                    let prediction = units.predict(held[a], held[b]);
+                    let c = reader.field(self.bits).map_err(ResidualError::Truncated)?;
+                    let q = f64::from(c) - f64::from(half(self.bits));
+                    (c != 0).then(|| units.depth(prediction + q * self.step))
                 }
-                let c = reader.take(self.bits);
-                let q = f64::from(c) - f64::from(half(self.bits));
-                (c != 0).then(|| units.depth(prediction + q * self.step))
-            });
+            };
             let (z, u) = match decoded {
                 Some(d) => d,
                 None => {
@@ -348,6 +350,9 @@ impl ResidualDepths {
         }
         if exact.next().is_some() {
             return Err(ResidualError::Truncated("more exact depths than anchors and escapes"));
+        }
+        if self.bits > 0 {
+            reader.end().map_err(ResidualError::Truncated)?;
         }
         Ok(out)
     }
@@ -382,65 +387,6 @@ fn check_header(bits: u8, root_side: u32) -> Result<(), ResidualError> {
         return Err(ResidualError::RootSide(root_side));
     }
     Ok(())
-}
-
-#[derive(Default)]
-struct BitWriter {
-    bytes: Vec<u8>,
-    acc: u64,
-    filled: u32,
-}
-
-impl BitWriter {
-    fn push(&mut self, value: u32, bits: u8) {
-        self.acc |= u64::from(value) << self.filled;
-        self.filled += u32::from(bits);
-        while self.filled >= 8 {
-            self.bytes.push(self.acc as u8);
-            self.acc >>= 8;
-            self.filled -= 8;
-        }
-    }
-
-    fn finish(mut self) -> Vec<u8> {
-        if self.filled > 0 {
-            self.bytes.push(self.acc as u8);
-        }
-        self.bytes
-    }
-}
-
-struct BitReader<'a> {
-    bytes: &'a [u8],
-    next: usize,
-    acc: u64,
-    filled: u32,
-}
-
-impl<'a> BitReader<'a> {
-    fn new(bytes: &'a [u8]) -> Self {
-        Self {
-            bytes,
-            next: 0,
-            acc: 0,
-            filled: 0,
-        }
-    }
-
-    /// The next `bits` bits; lengths are checked before reading, so running
-    /// out yields zeros rather than a panic.
-    fn take(&mut self, bits: u8) -> u32 {
-        while self.filled < u32::from(bits) {
-            let byte = self.bytes.get(self.next).copied().unwrap_or(0);
-            self.acc |= u64::from(byte) << self.filled;
-            self.next += 1;
-            self.filled += 8;
-        }
-        let v = (self.acc & ((1u64 << bits) - 1)) as u32;
-        self.acc >>= bits;
-        self.filled -= u32::from(bits);
-        v
-    }
 }
 
 #[cfg(test)]

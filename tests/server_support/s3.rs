@@ -89,7 +89,7 @@ impl S3Server {
         let mut child = spawn(kind, port, root.as_ref().map(|r| r.path()));
         let addr = SocketAddr::from(([127, 0, 0, 1], port));
         wait_listening(addr, &mut child);
-        let server = Self {
+        let mut server = Self {
             kind,
             addr,
             bucket,
@@ -97,20 +97,38 @@ impl S3Server {
             root,
         };
         if kind == Kind::Moto {
-            // moto checks no signature: an unsigned PUT creates the bucket.
-            let mut s = TcpStream::connect(addr).unwrap();
-            use std::io::{Read, Write};
-            write!(
-                s,
-                "PUT /{} HTTP/1.1\r\nHost: {addr}\r\nContent-Length: 0\r\nConnection: close\r\n\r\n",
-                server.bucket
-            )
-            .unwrap();
-            let mut reply = String::new();
-            s.read_to_string(&mut reply).unwrap();
-            assert!(reply.starts_with("HTTP/1.1 200"), "creating the bucket: {reply}");
+            server.create_moto_bucket();
         }
         server
+    }
+
+    /// moto checks no signature: an unsigned PUT creates the bucket. moto
+    /// may listen before it answers (a test once read an empty reply under
+    /// the whole workspace's load), so the PUT is tried again until it
+    /// answers 200, for as long as the server may take to start.
+    fn create_moto_bucket(&mut self) {
+        use std::io::{Read, Write};
+        let deadline = Instant::now() + Duration::from_secs(30);
+        loop {
+            let reply = TcpStream::connect(self.addr).and_then(|mut s| {
+                write!(
+                    s,
+                    "PUT /{} HTTP/1.1\r\nHost: {}\r\nContent-Length: 0\r\nConnection: close\r\n\r\n",
+                    self.bucket, self.addr
+                )?;
+                let mut reply = String::new();
+                s.read_to_string(&mut reply)?;
+                Ok(reply)
+            });
+            if reply.as_ref().is_ok_and(|r| r.starts_with("HTTP/1.1 200")) {
+                return;
+            }
+            if let Some(Ok(Some(status))) = self.child.as_mut().map(Child::try_wait) {
+                panic!("the S3 server on {} exited: {status}", self.addr);
+            }
+            assert!(Instant::now() < deadline, "creating the bucket: {reply:?}");
+            std::thread::sleep(Duration::from_millis(100));
+        }
     }
 
     /// The `AWS_*` settings that reach this server.

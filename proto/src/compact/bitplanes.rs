@@ -282,7 +282,7 @@ pub fn encode(
     let mut mags = vec![(0u32, false); vertices.len()];
     let mut coded = vec![false; vertices.len()];
     let mut exact: Vec<f32> = Vec::new();
-    let mut escapes = super::bits::BitWriter::default();
+    let mut escapes = crate::bits::BitWriter::default();
     for k in 0..vertices.len() {
         let p = preds[k];
         if is_known(k) {
@@ -385,7 +385,7 @@ fn plane_bits(
     }
     let mut out = Vec::with_capacity(usize::from(sent));
     for t in 1..=sent {
-        let mut w = super::bits::BitWriter::default();
+        let mut w = crate::bits::BitWriter::default();
         let mut signs = Vec::new();
         for (lc, block) in levels.iter().zip(&blocks).filter(|(lc, _)| lc.planes >= t) {
             let shift = u32::from(lc.planes - t);

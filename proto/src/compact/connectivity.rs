@@ -12,8 +12,8 @@
 //! The decoder numbers the vertices as the engine does: in order of first
 //! use by the drawn triangles, then stably by level, coarse to fine.
 
-use super::bits::{BitReader, BitWriter};
 use super::forest::{Decide, Forest, Node, Pt, Symbol};
+use crate::bits::{BitReader, BitWriter};
 
 /// The two bit fields.
 #[derive(Clone, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]

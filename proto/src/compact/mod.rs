@@ -15,7 +15,6 @@
 //! entropy coding.
 
 pub mod bitplanes;
-pub mod bits;
 pub mod connectivity;
 mod decode;
 pub mod forest;

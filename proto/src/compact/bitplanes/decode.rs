@@ -3,7 +3,7 @@
 //! runs it at every plane count (closed loop), so it is the one decoder.
 
 use super::{magnitude, predictors, reconstruct, valid, DepthCode, Error, Pred, Units, MAX_PLANES};
-use crate::compact::bits::BitReader;
+use crate::bits::BitReader;
 use crate::compact::forest::{Forest, Pt};
 use crate::residual::MAX_RAW;
 
