@@ -136,6 +136,13 @@ fn replica_id(a: &ServeArgs) -> Option<Result<String>> {
 pub fn run(a: &ServeArgs) -> Result<()> {
     use dmesh::http::{serve, AppState, Pipeline, Settings};
     use dmesh::store::{FileStore, ObjectViewStore, ViewStore};
+    // The port is bound before the store is opened: a server started on a
+    // port in use (a second one over the same data directory, say) stops
+    // here, before its demo scene or live feed writes anything.
+    let runtime = tokio::runtime::Runtime::new().context("starting the async runtime")?;
+    let listener = runtime
+        .block_on(tokio::net::TcpListener::bind(a.listen))
+        .with_context(|| format!("listening on {}", a.listen))?;
     let store: std::sync::Arc<dyn ViewStore> = match &a.store {
         Some(url) => {
             std::sync::Arc::new(ObjectViewStore::from_url(url).with_context(|| format!("object store {url}"))?)
@@ -174,8 +181,7 @@ pub fn run(a: &ServeArgs) -> Result<()> {
         queue_wait: std::time::Duration::from_millis(a.queue_wait_ms),
         timeout: std::time::Duration::from_secs(a.timeout_secs),
     };
-    let runtime = tokio::runtime::Runtime::new().context("starting the async runtime")?;
     runtime
-        .block_on(serve(a.listen, state, pipeline))
+        .block_on(serve(listener, state, pipeline))
         .with_context(|| format!("serving on {}", a.listen))
 }

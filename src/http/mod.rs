@@ -19,7 +19,6 @@ pub mod strips;
 pub mod views;
 pub mod web;
 
-use std::net::SocketAddr;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -212,9 +211,8 @@ pub fn app(state: Arc<AppState>, pipeline: Pipeline) -> Router {
         .with_state(state)
 }
 
-/// Binds `addr` and serves until Ctrl-C.
-pub async fn serve(addr: SocketAddr, state: Arc<AppState>, pipeline: Pipeline) -> std::io::Result<()> {
-    let listener = tokio::net::TcpListener::bind(addr).await?;
+/// Serves on `listener` until Ctrl-C, saying where.
+pub async fn serve(listener: tokio::net::TcpListener, state: Arc<AppState>, pipeline: Pipeline) -> std::io::Result<()> {
     let local = listener.local_addr()?;
     tracing::info!("dmesh listening on http://{local}");
     tracing::info!("viewer: open http://{local}/ in a browser");
