@@ -374,10 +374,9 @@ fn demo_runs_without_files() {
 fn serving_on_a_port_in_use_fails_before_touching_the_store() {
     // Held for the whole test: the server cannot bind it.
     let taken = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
-    let port = taken.local_addr().unwrap().port().to_string();
+    let listen = taken.local_addr().unwrap().to_string();
     let dir = tempfile::tempdir().unwrap();
     let data = dir.path().join("data");
-    let listen = format!("127.0.0.1:{port}");
     let (code, _, err) = dmesh(&["serve", "--demo", "--listen", &listen, "--data", data.to_str().unwrap()]);
     assert_ne!(code, 0, "{err}");
     assert!(err.contains(&format!("listening on {listen}")), "{err}");

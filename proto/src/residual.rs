@@ -327,12 +327,15 @@ impl ResidualDepths {
         for (k, p) in parents.iter().enumerate() {
             let decoded = match *p {
                 None => None,
-                Some((a, b)) if self.bits == 0 => Some(units.depth(units.predict(held[a], held[b]))),
                 Some((a, b)) => {
                     let prediction = units.predict(held[a], held[b]);
-                    let c = reader.field(self.bits).map_err(ResidualError::Truncated)?;
-                    let q = f64::from(c) - f64::from(half(self.bits));
-                    (c != 0).then(|| units.depth(prediction + q * self.step))
+                    if self.bits == 0 {
+                        Some(units.depth(prediction))
+                    } else {
+                        let c = reader.field(self.bits).map_err(ResidualError::Truncated)?;
+                        let q = f64::from(c) - f64::from(half(self.bits));
+                        (c != 0).then(|| units.depth(prediction + q * self.step))
+                    }
                 }
             };
             let (z, u) = match decoded {

@@ -127,18 +127,18 @@ impl Passes {
                 let levels: Vec<Vec<[f32; 2]>> =
                     (1..grid.k).map(|g| Vec::with_capacity(split_count(grid, g))).collect();
                 let band = vec![0u8; (grid.gh() - split) as usize * gw];
-                let depths = Depths {
-                    grid,
+                let samples = Samples {
+                    grid: &grid,
                     camera,
                     bp,
                     z,
-                    seg,
+                    normals: &[],
                 };
                 let to_pass = ToPass {
                     band: send_band,
                     levels: send,
                 };
-                scope.spawn(move || help(depths, (split, band), levels, to_pass, claims, lender, bands))
+                scope.spawn(move || help(samples, (seg, split, band), levels, to_pass, claims, lender, bands))
             });
             if !normals_first {
                 let (normal, rho) = late;
@@ -281,17 +281,6 @@ impl Passes {
     }
 }
 
-/// What both threads read: the grid and its depths, the camera and the
-/// segmentation.
-#[derive(Clone, Copy)]
-struct Depths<'a> {
-    grid: Grid,
-    camera: &'a Camera,
-    bp: &'a BackProject,
-    z: &'a [f32],
-    seg: &'a Segmentation,
-}
-
 /// What the helper sends the pass: its band of leaf flags, and the
 /// deviations a level at a time.
 struct ToPass {
@@ -343,34 +332,24 @@ impl Claims {
 /// deviations of levels 1 to 3 and then of each coarser level it claims,
 /// into `levels`, sent to the pass a level at a time so it can start on
 /// one while the next is computed (it outlives this thread: sending cannot
-/// fail); then, lent to level 1 of the pass until
-/// its lower band is done (at once if the pass took the band itself);
-/// then the normals' bands the pass has not taken. Gives the time it
-/// spent on the normals, if it computed any.
+/// fail); then, lent to level 1 of the pass until its lower band is done
+/// (at once if the pass took the band itself); then the normals' bands
+/// the pass has not taken. Gives the time it spent on the normals, if it
+/// computed any.
 fn help(
-    d: Depths<'_>,
-    (split, mut band): (u32, Vec<u8>),
+    samples: Samples<'_>,
+    (seg, split, mut band): (&Segmentation, u32, Vec<u8>),
     levels: Vec<Vec<[f32; 2]>>,
     to_pass: ToPass,
     claims: &Claims,
     lender: Option<Lender>,
     bands: &OnceLock<NormalBands<'_>>,
 ) -> Option<f64> {
-    let Depths {
-        grid,
-        camera,
-        bp,
-        z,
-        seg,
-    } = d;
+    let Samples {
+        grid, camera, bp, z, ..
+    } = samples;
+    let grid = *grid;
     if split < grid.gh() {
-        let samples = Samples {
-            grid: &grid,
-            camera,
-            bp,
-            z,
-            normals: &[],
-        };
         trace_span!("leaf_flags").in_scope(|| {
             leaf_flag_rows(&samples, seg, split..grid.gh(), &mut band);
         });
