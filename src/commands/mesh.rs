@@ -77,8 +77,14 @@ pub struct MeshArgs {
     /// Sec. 5.3 does, instead of refining it down to the segmented cells
     /// (fewer triangles; the foreground's outline erodes by up to the
     /// triangle's size).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "cut_outlines")]
     drop_outlines: bool,
+    /// Cut a triangle that a discontinuity crosses along one straight line
+    /// into two parts, each within the tolerance, instead of refining it
+    /// down to the segmented cells (docs/engine.md "Outlines as cuts").
+    /// Tolerances only: not with --max-triangles.
+    #[arg(long)]
+    cut_outlines: bool,
     /// Largest accepted image, in pixels.
     #[arg(long, default_value_t = 64 << 20)]
     max_pixels: u64,
@@ -173,6 +179,8 @@ pub fn run(a: &MeshArgs) -> Result<()> {
     let order = a.strips;
     let outlines = if a.drop_outlines {
         Outlines::Dropped
+    } else if a.cut_outlines {
+        Outlines::Cut
     } else {
         Outlines::Kept
     };
@@ -195,6 +203,8 @@ pub fn run(a: &MeshArgs) -> Result<()> {
             "grid_vertices": stats.grid_vertices,
             "vertices": mesh.vertices.len(),
             "triangles": mesh.triangles.len(),
+            "cut_triangles": mesh.cuts.len(),
+            "drawn_triangles": mesh.drawn_triangles(),
             "strips": mesh.strip_count(),
             "indices": mesh.strips.len(),
             "segmented_triangles": stats.segmented_triangles,
@@ -227,6 +237,14 @@ pub fn run(a: &MeshArgs) -> Result<()> {
             mesh.strips.len() as f64 / mesh.triangles.len().max(1) as f64,
             mesh.extract_ms
         );
+        if !mesh.cuts.is_empty() {
+            println!(
+                "{} cut triangles drawing {} more: {} triangles drawn",
+                mesh.cuts.len(),
+                mesh.drawn_triangles() - mesh.triangles.len(),
+                mesh.drawn_triangles()
+            );
+        }
         if let Some(p) = &a.ply {
             println!("wrote {}", p.display());
         }

@@ -49,6 +49,7 @@ impl Mesher for Rqt {
         }
         match self.outlines {
             Outlines::Dropped => "rqt_dropping",
+            Outlines::Cut => "rqt_cut",
             Outlines::Refined(_) | Outlines::NearSide(_) | Outlines::Kept => "rqt",
         }
     }
@@ -60,6 +61,7 @@ impl Mesher for Rqt {
             Outlines::NearSide(finest) => format!("{knob}, near side to {finest}"),
             Outlines::Kept => format!("{knob}, edges to 1"),
             Outlines::Dropped => knob.to_string(),
+            Outlines::Cut => format!("{knob}, edges cut"),
         }
     }
 

@@ -30,6 +30,7 @@ use std::time::Instant;
 
 use glam::DVec3;
 
+use super::cut::{CutTriangle, Samples};
 use super::hierarchy::Hierarchy;
 use super::lod::Lod;
 use super::outline::Rung;
@@ -75,6 +76,10 @@ pub struct Mesh {
     /// For a view-dependent mesh, how far the requesting camera may move
     /// before the mesh stops meeting its tolerance or misses culled parts.
     pub reach: Option<Reach>,
+    /// Triangles a discontinuity crosses, drawn as the parts on either
+    /// side of one straight cut ([`Outlines::Cut`] only; `cut.rs`). They
+    /// are not in `triangles` or `strips`.
+    pub cuts: Vec<CutTriangle>,
 }
 
 impl Mesh {
@@ -87,6 +92,11 @@ impl Mesh {
                 .map(|&i| if i == super::RESTART { u16::MAX } else { i as u16 })
                 .collect()
         })
+    }
+
+    /// Triangles drawn: `triangles` and the parts of the `cuts`.
+    pub fn drawn_triangles(&self) -> usize {
+        self.triangles.len() + self.cuts.iter().map(CutTriangle::drawn).sum::<usize>()
     }
 
     /// Number of strips in [`Mesh::strips`].
@@ -116,6 +126,14 @@ pub enum Outlines {
     /// and the far surface beside it is dropped in triangles as large as
     /// the extracted resolution's, for fewer triangles.
     NearSide(u32),
+    /// Cuts it along the discontinuity (`cut.rs`): a triangle that one
+    /// straight cut separates into parts within the tolerance is drawn as
+    /// those parts, nothing spanning the jump; any other is split, down to
+    /// the full-resolution triangles, which are cut where they can be and
+    /// dropped otherwise. Padded borders and the edges of missing samples
+    /// are cut alike. Tolerances only, for now: a triangle budget is
+    /// refused.
+    Cut,
     /// `Refined(1)` for a tolerance; for a triangle budget, the first of
     /// `Refined(1)`, `NearSide(1)`, `Refined(2)`, `NearSide(2)`, ... whose
     /// forced triangles take at most half the budget, or none when no
@@ -128,7 +146,7 @@ impl Outlines {
     /// The refinement it asks of a tolerance (`Kept`: `Refined(1)`).
     pub(crate) fn rung(self) -> Option<Rung> {
         match self {
-            Self::Dropped => None,
+            Self::Dropped | Self::Cut => None,
             Self::Refined(finest) => Some(Rung {
                 finest,
                 near_side: false,
@@ -193,6 +211,11 @@ impl Hierarchy {
                 let max = u64::from(max);
                 // Resolved to `Epsilon` or `Tau` with the refinement it counted.
                 let (lod, rung) = match (outlines, outlines.rung()) {
+                    (Outlines::Cut, _) => {
+                        return Err(Error::invalid(
+                            "max_triangles is not resolved for cut outlines yet; ask for epsilon or tau".to_string(),
+                        ))
+                    }
                     (Outlines::Kept, _) => {
                         let (lod, outline) = self.outline_lod_for_triangles(max, view)?;
                         (lod, outline.map(Rung::from))
@@ -208,6 +231,7 @@ impl Hierarchy {
             _ => outlines.rung(),
         };
         let forced: &[u64] = finest.map_or(&[], |rung| &self.outline(rung).forced);
+        let cut = (outlines == Outlines::Cut).then(|| self.cut_err2());
         let mut mesh = match lod {
             Lod::Epsilon(eps) => {
                 if !(eps.is_finite() && eps >= 0.0) {
@@ -221,7 +245,7 @@ impl Hierarchy {
                     eps2: if eps2.is_finite() { eps2 } else { f32::MAX },
                     all: eps == 0.0,
                 };
-                self.run(&sel, strips, forced).0
+                self.run(&sel, strips, forced, cut).0
             }
             Lod::Tau { tau, view } => {
                 if !(tau.is_finite() && tau >= 0.0) {
@@ -231,7 +255,7 @@ impl Hierarchy {
                     )));
                 }
                 let sel = ViewDependent::new(&self.camera, view, tau);
-                let (mut mesh, walked) = self.run(&sel, strips, forced);
+                let (mut mesh, walked) = self.run(&sel, strips, forced, cut);
                 mesh.reach = Some(self.reach(view, walked, &sel));
                 mesh
             }
@@ -248,7 +272,7 @@ impl Hierarchy {
     /// Walks and assembles with this thread's scratch buffers: the triangle
     /// list of the walk and the grid-sized vertex map are kept between
     /// extractions, so a request allocates only what it returns.
-    fn run<S: Select>(&self, sel: &S, strips: StripOrder, forced: &[u64]) -> (Mesh, Walked) {
+    fn run<S: Select>(&self, sel: &S, strips: StripOrder, forced: &[u64], cut: Option<&[f32]>) -> (Mesh, Walked) {
         thread_local! {
             static SCRATCH: std::cell::RefCell<Scratch> = const {
                 std::cell::RefCell::new(Scratch { tris: Vec::new(), slot: Vec::new() })
@@ -258,11 +282,27 @@ impl Hierarchy {
             let mut scratch = cell.borrow_mut();
             let Scratch { tris, slot } = &mut *scratch;
             tris.clear();
-            let walked = self.walk(sel, tris, forced);
+            let mut walked = self.walk(sel, tris, forced, cut);
             let mut mesh = self.assemble(tris, strips, slot);
             mesh.dropped_triangles = walked.dropped;
+            mesh.cuts = std::mem::take(&mut walked.cuts);
             (mesh, walked)
         })
+    }
+
+    /// What a cut reads of this hierarchy (`cut.rs`).
+    pub(crate) fn samples(&self) -> Samples<'_> {
+        Samples {
+            grid: self.grid,
+            z: &self.z,
+            flags: &self.flags,
+        }
+    }
+
+    /// The saturated squared errors of a cutting extraction, computed on
+    /// the first one (`cut_errors.rs`).
+    pub(crate) fn cut_err2(&self) -> &[f32] {
+        self.outlines.cut(self.samples(), &self.err2)
     }
 
     /// The [`Reach`] of a view-dependent mesh for `view` from its walk.
@@ -387,6 +427,7 @@ impl Hierarchy {
             extract_ms: 0.0,
             lod: dmesh_proto::Lod::Epsilon(0.0),
             reach: None,
+            cuts: Vec::new(),
         }
     }
 }

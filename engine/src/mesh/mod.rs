@@ -19,6 +19,9 @@
 //! - [`extract`]: the top-down traversal emitting a conforming mesh (Sec. 4.3-4.4);
 //! - `outline`: outlines kept at any level of detail, refining the coarse
 //!   triangles a discontinuity crosses, with the budget counting them (Sec. 5.3);
+//! - [`cut`]: outlines as cuts, a triangle that a discontinuity crosses
+//!   drawn as two parts on either side of one straight cut, with
+//!   `cut_errors`: the saturated errors of an extraction that cuts;
 //! - `surface_side`: which of those triangles hold the near surface, so a
 //!   refinement may spare the far side;
 //! - [`strips`]: generalised strips with primitive restart (Fig. 13): the
@@ -29,6 +32,8 @@ mod backproject;
 pub mod border;
 pub mod budget;
 mod coarse_rows;
+pub mod cut;
+mod cut_errors;
 pub mod derived_normals;
 mod deviation;
 mod deviation_bound;
@@ -55,6 +60,7 @@ mod split_order;
 pub mod strips;
 mod surface_side;
 
+pub use cut::CutTriangle;
 pub use extract::{Mesh, MeshVertex, Outlines};
 pub use grid::Grid;
 pub use hierarchy::{BuildStats, Hierarchy, Stages, Threads};

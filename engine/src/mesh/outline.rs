@@ -34,6 +34,8 @@
 use std::sync::OnceLock;
 
 use super::budget::ErrorStats;
+use super::cut::Samples;
+use super::cut_errors::cut_errors;
 use super::flags::Flags;
 use super::grid::{Grid, Kind};
 use super::surface_side::surface_halves;
@@ -105,6 +107,9 @@ pub(crate) struct OutlineCache {
     depths: [OnceLock<Outline>; 2 * DEPTHS.len()],
     /// Which halves hold the surface (`surface_side.rs`), for every depth.
     surface: OnceLock<Vec<u8>>,
+    /// The saturated errors of an extraction that cuts outlines instead
+    /// (`cut_errors.rs`).
+    cut: OnceLock<Vec<f32>>,
 }
 
 /// True when bit `i` of `bits` is set (false past its end).
@@ -136,11 +141,18 @@ impl OutlineCache {
         })
     }
 
+    /// The saturated squared errors of a cutting extraction, computed on
+    /// first use from the hierarchy's samples and errors.
+    pub(crate) fn cut(&self, samples: Samples<'_>, err2: &[f32]) -> &[f32] {
+        self.cut.get_or_init(|| cut_errors(samples, err2))
+    }
+
     /// The most heap bytes the outlines of `grid` will keep, each with its
     /// statistics (`stats_bytes` each): every depth on both sides and on
-    /// the near side, one bit per grid vertex, and the near side's halves.
+    /// the near side, one bit per grid vertex, the near side's halves, and
+    /// the cuts' errors (4 bytes per grid vertex).
     pub(crate) fn heap_bytes_bound(grid: Grid, stats_bytes: usize) -> usize {
-        2 * DEPTHS.len() * (8 * grid.len().div_ceil(64) + stats_bytes) + grid.len()
+        2 * DEPTHS.len() * (8 * grid.len().div_ceil(64) + stats_bytes) + grid.len() + 4 * grid.len()
     }
 
     /// Heap bytes of the outlines computed so far.
@@ -151,6 +163,7 @@ impl OutlineCache {
             .map(|o| 8 * o.forced.capacity() + o.stats.get().map_or(0, ErrorStats::heap_bytes))
             .sum::<usize>()
             + self.surface.get().map_or(0, Vec::capacity)
+            + self.cut.get().map_or(0, |c| 4 * c.capacity())
     }
 }
 

@@ -5,6 +5,7 @@
 
 use glam::DVec3;
 
+use crate::mesh::cut::CutTriangle;
 use crate::mesh::error_metric::norm_bound;
 use crate::mesh::grid::{cell_half, half_of, Pt};
 use crate::mesh::hierarchy::Hierarchy;
@@ -15,6 +16,13 @@ use crate::mesh::strips::BREAK;
 struct Walk<'a, S> {
     mesh: &'a Hierarchy,
     sel: &'a S,
+    /// The saturated squared errors the selection reads: the build's, or
+    /// a cutting extraction's (`cut_errors.rs`).
+    err2: &'a [f32],
+    /// Cuts the triangles a discontinuity crosses (`cut.rs`) instead of
+    /// dropping them.
+    cutting: bool,
+    cuts: Vec<CutTriangle>,
     /// Vertices split whatever `sel` says (one bit per grid vertex; empty
     /// for none): the outlines' (`outline.rs`).
     forced: &'a [u64],
@@ -29,6 +37,8 @@ struct Walk<'a, S> {
 /// What a walk found besides its triangles.
 pub(super) struct Walked {
     pub(super) dropped: usize,
+    /// The triangles drawn as cuts (a cutting walk's only).
+    pub(super) cuts: Vec<CutTriangle>,
     pub(super) clearance: f64,
     pub(super) culled: Vec<(DVec3, f64)>,
 }
@@ -57,8 +67,9 @@ impl<S: Select> Walk<'_, S> {
         if l.0.abs_diff(r.0) == 1 && l.1.abs_diff(r.1) == 1 {
             let cell = (l.0.min(r.0), l.1.min(r.1));
             if self.mesh.flags[g.index(cell)].cell(cell_half(cell, a)) {
-                self.dropped += 1;
-                self.skip();
+                // A full-resolution triangle's samples are its corners,
+                // which its cut's parts pass through: any cut is exact.
+                self.cut_or_drop([l, r, a]);
             } else if mask != 0 && {
                 let c = 0.5 * (pl + pr);
                 let radius = norm_bound(pl - c).max(norm_bound(pa - c));
@@ -100,7 +111,7 @@ impl<S: Select> Walk<'_, S> {
                 }
             }
         };
-        let err2 = self.mesh.err2[mi];
+        let err2 = self.err2[mi];
         if self.sel.active(err2, pm, radius) || bit(self.forced, mi) {
             self.tri((l, pl), (a, pa), (m, pm), mask);
             self.tri((a, pa), (r, pr), (m, pm), mask);
@@ -110,10 +121,20 @@ impl<S: Select> Walk<'_, S> {
             self.clearance = self.clearance.min(self.sel.left_out(pm, radius));
         }
         if flags.any {
-            self.dropped += 1;
-            self.skip();
+            self.cut_or_drop([l, r, a]);
         } else {
             self.emit(l, r, a);
+        }
+    }
+
+    /// A segmented triangle left unsplit: cut when the walk cuts and it has
+    /// a cut (the cutting errors make every unsplit one within the
+    /// tolerance), else dropped as DMesh Sec. 5.3 drops it.
+    fn cut_or_drop(&mut self, tri: [Pt; 3]) {
+        self.skip();
+        match self.cutting.then(|| self.mesh.samples().fit(tri)).flatten() {
+            Some(fit) => self.cuts.push(fit.cut),
+            None => self.dropped += 1,
         }
     }
 
@@ -162,10 +183,22 @@ pub(crate) const NEAR_CULLED: f64 = 0.25;
 const CULL_MIN_SPAN: u32 = 8;
 
 impl Hierarchy {
-    pub(super) fn walk<S: Select>(&self, sel: &S, tris: &mut Vec<[u32; 3]>, forced: &[u64]) -> Walked {
+    /// Walks the hierarchy for `sel`, splitting the `forced` vertices too;
+    /// with `cut_err2`, selecting by those errors and cutting the
+    /// segmented triangles left unsplit (`cut.rs`).
+    pub(super) fn walk<S: Select>(
+        &self,
+        sel: &S,
+        tris: &mut Vec<[u32; 3]>,
+        forced: &[u64],
+        cut_err2: Option<&[f32]>,
+    ) -> Walked {
         let mut walk = Walk {
             mesh: self,
             sel,
+            err2: cut_err2.unwrap_or(&self.err2),
+            cutting: cut_err2.is_some(),
+            cuts: Vec::new(),
             forced,
             tris: std::mem::take(tris),
             dropped: 0,
@@ -192,6 +225,7 @@ impl Hierarchy {
         *tris = walk.tris;
         Walked {
             dropped: walk.dropped,
+            cuts: walk.cuts,
             clearance: walk.clearance,
             culled: walk.culled,
         }

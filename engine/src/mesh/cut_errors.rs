@@ -1,0 +1,103 @@
+//! The saturated errors of an extraction that cuts outlines (`cut.rs`):
+//! per split vertex, the largest deviation its diamond's halves would have
+//! if drawn whole or cut, nested over the hierarchy so that selection stays
+//! monotone (DMesh Sec. 4.2-4.3 with Lindstrom and Pascucci's saturation).
+//!
+//! The build's errors (`levels.rs`) count a partly segmented half's
+//! footprint, and the border's vertices are forced (`border.rs`): both
+//! make an extraction refine along outlines down to single cells, which is
+//! what a cut replaces. Here a vertex's own error is, over its halves:
+//! - a fully segmented half: 0 (nothing of it is drawn);
+//! - an unflagged half: the largest `|z - z_lin|` over its samples;
+//! - a partly segmented half: the largest deviation of its cut
+//!   ([`Samples::fit`]), or [`FORCED`] when it has no cut (always split,
+//!   as the outline refinement splits it).
+//!
+//! and its saturated error the largest of its own and those of the
+//! vertices that depend on it (the midpoints of its halves' legs), so a
+//! vertex left out leaves both halves drawable within the tolerance. Only
+//! vertices whose subtree holds an outline or the border are computed
+//! this way ("dirty"); everywhere else the build's saturated error is
+//! already the geometric one, and is kept. A vertex below which some half
+//! has no cut is forced without computing its own error: the saturation
+//! would force it anyway.
+
+use super::border::FORCED;
+use super::cut::Samples;
+use super::grid::{Kind, Pt};
+use super::levels::round_up;
+
+/// The saturated squared errors of a cutting extraction, one per grid
+/// vertex (root corners 0).
+pub(crate) fn cut_errors(samples: Samples<'_>, err2: &[f32]) -> Vec<f32> {
+    let g = samples.grid;
+    let (gw, gh) = (g.gw(), g.gh());
+    // `out` holds the dependents' largest error until a vertex is done.
+    let mut out = vec![0.0f32; g.len()];
+    let mut dirty = vec![false; g.len()];
+    let mut visit = |v: Pt| {
+        let vi = g.index(v);
+        let Some(d) = g.diamond(v) else {
+            return;
+        };
+        let fl = samples.flags[vi];
+        let is_dirty = dirty[vi] || fl.partial_halves() != 0 || err2[vi] == FORCED;
+        let e = if !is_dirty {
+            err2[vi]
+        } else if out[vi] == FORCED {
+            FORCED
+        } else {
+            let mut e = out[vi];
+            for (h, apex) in d.apex.into_iter().enumerate() {
+                if e == FORCED || !g.contains(apex.0, apex.1) {
+                    continue;
+                }
+                let tri = [d.a, d.b, apex].map(|(x, y)| (x as u32, y as u32));
+                let half = fl.half(h);
+                let own = if half.all {
+                    0.0
+                } else if !half.any {
+                    round_up(samples.plane_deviation(tri).powi(2))
+                } else {
+                    samples
+                        .fit(tri)
+                        .map_or(FORCED, |fit| round_up(fit.deviation.powi(2)))
+                };
+                e = e.max(own);
+            }
+            e
+        };
+        out[vi] = e;
+        for (x, y) in d.apex {
+            if g.contains(x, y) {
+                let p = (x as u32, y as u32);
+                if g.kind(p) != Kind::Root {
+                    let pi = g.index(p);
+                    out[pi] = out[pi].max(e);
+                    dirty[pi] |= is_dirty;
+                }
+            }
+        }
+    };
+    // Finest first: at each scale h the edge midpoints, then the centres
+    // (a centre's dependents are the edge midpoints of its scale).
+    for t in 0..g.k {
+        let h = 1u32 << t;
+        for y in (0..gh).step_by(2 * h as usize) {
+            for x in (h..gw).step_by(2 * h as usize) {
+                visit((x, y));
+            }
+        }
+        for y in (h..gh).step_by(2 * h as usize) {
+            for x in (0..gw).step_by(2 * h as usize) {
+                visit((x, y));
+            }
+        }
+        for y in (h..gh).step_by(2 * h as usize) {
+            for x in (h..gw).step_by(2 * h as usize) {
+                visit((x, y));
+            }
+        }
+    }
+    out
+}
