@@ -15,10 +15,13 @@
 //!   invalid samples never jumps. The rule reads the step alone, so the two
 //!   triangles that share a lattice edge see the same jumps on it.
 //! - **A crossing is a jump on a triangle's edge.** It sits at the step's
-//!   midpoint, `(k + 1/2) / n` along an edge of `n` steps, so a part ends
-//!   half a sample past its last valid sample, as that sample's pixel does.
-//!   The step index `k` is the crossing's quantisation: exact, since a
-//!   jump can lie on no finer position, in `log2 n` bits.
+//!   midpoint, `(2k + 1) / 2n` along an edge of `n` steps, so a part ends
+//!   half a sample past its last valid sample, as that sample's pixel does;
+//!   except where the step leaves the image for the padding of a grid
+//!   larger than it, where it sits on the image's last sample, so nothing
+//!   is drawn outside the image. Its quantisation is the half step,
+//!   `2k + 1` (or `2k`, `2k + 2` at the image border) in `log2 n + 1`
+//!   bits: exact, since a jump has no finer position.
 //! - **A triangle is cut** when exactly two of its edges hold one crossing
 //!   each and the third none. The corner between the crossed edges is
 //!   alone on its side; the cut joins the two crossings. Every other
@@ -78,9 +81,9 @@ pub struct CutTriangle {
     /// then the other two, in the orientation of [`super::Mesh::triangles`].
     pub corners: [[u16; 2]; 3],
     /// Where the cut crosses the edges from the lone corner to corner 1
-    /// and to corner 2: the step `k` of the edge's `n`, the crossing lying
-    /// `(k + 1/2) / n` of the way from the lone corner.
-    pub steps: [u16; 2],
+    /// and to corner 2, in half steps from the lone corner: on an edge of
+    /// `n` steps, the crossing lies `at / 2n` of the way.
+    pub at: [u16; 2],
     /// Depths of the lone corner's part at the lone corner and the two
     /// crossings; `None` when that side is void (invalid samples).
     pub lone: Option<[f32; 3]>,
@@ -95,17 +98,23 @@ impl CutTriangle {
         let c = self.corners.map(|[x, y]| [f64::from(x), f64::from(y)]);
         [1, 2].map(|e| {
             let (dx, dy) = (c[e][0] - c[0][0], c[e][1] - c[0][1]);
-            // (k + 1/2) / n with n a power of two: exact in binary, so both
+            // at / 2n with n a power of two: exact in binary, so both
             // decoders place the crossing on the same bits.
-            let t = (f64::from(self.steps[e - 1]) + 0.5) / dx.abs().max(dy.abs());
+            let t = f64::from(self.at[e - 1]) / (2.0 * dx.abs().max(dy.abs()));
             [c[0][0] + t * dx, c[0][1] + t * dy]
         })
     }
 
     /// The triangles it draws, each as three `(u, v, z)` points, oriented
     /// as its corners are: the lone part's (one), then the other part's
-    /// (two, split along crossing 1 to corner 2). At most three.
+    /// (two, split along crossing 1 to corner 2), leaving out those of no
+    /// area (a crossing on a corner, at the image border). At most three.
     pub fn parts(&self) -> impl Iterator<Item = [DVec3; 3]> + '_ {
+        self.all_parts().filter(|&t| area2(t) != 0.0)
+    }
+
+    /// [`Self::parts`] with those of no area.
+    fn all_parts(&self) -> impl Iterator<Item = [DVec3; 3]> + '_ {
         let c = self.corners.map(|[x, y]| (f64::from(x), f64::from(y)));
         let [a, b] = self.crossings().map(|[x, y]| (x, y));
         let p = |(x, y): (f64, f64), z: f32| DVec3::new(x, y, f64::from(z));
@@ -121,7 +130,7 @@ impl CutTriangle {
 
     /// How many triangles it draws (0 to 3).
     pub fn drawn(&self) -> usize {
-        usize::from(self.lone.is_some()) + 2 * usize::from(self.other.is_some())
+        self.parts().count()
     }
 }
 
@@ -196,6 +205,19 @@ impl Samples<'_> {
         found
     }
 
+    /// Where a crossing at step `k` of the edge `p-q` lies, in half steps
+    /// from `p`: the step's midpoint, or its image end when the other end
+    /// is padding (outside the image).
+    fn crossing_at(&self, p: Pt, q: Pt, k: u32) -> u32 {
+        let (_, step) = steps(p, q);
+        let (s, t) = (offset_by(p, step, k), offset_by(p, step, k + 1));
+        match (self.grid.in_image(s), self.grid.in_image(t)) {
+            (true, false) => 2 * k,
+            (false, true) => 2 * k + 2,
+            _ => 2 * k + 1,
+        }
+    }
+
     /// The depths at a crossing at step `k` of the edge `p-q`: on `p`'s
     /// side and on `q`'s. Computed from the edge's canonical direction (the
     /// smaller grid index first), so both triangles sharing the edge get the
@@ -206,24 +228,30 @@ impl Samples<'_> {
             let (zq, zp) = self.crossing_depths(q, p, n - 1 - k);
             return (zp, zq);
         }
-        (self.side_depth(p, q, k), self.side_depth(q, p, n - 1 - k))
+        let at = self.crossing_at(p, q, k);
+        (
+            self.side_depth(p, q, k, at - 2 * k),
+            self.side_depth(q, p, n - 1 - k, 2 * (k + 1) - at),
+        )
     }
 
-    /// The depth on `p`'s side of a crossing at step `k` from `p` along
-    /// `p-q`: the line from `p` through the last sample on its side, `k`
-    /// steps from `p`, continued half a step; at least half that sample's
-    /// depth, so it stays positive. 0 when that side is invalid.
-    fn side_depth(&self, p: Pt, q: Pt, k: u32) -> f32 {
+    /// The depth on `p`'s side of a crossing `half` half steps past the
+    /// last sample on its side, `k` steps from `p` along `p-q`: the line
+    /// from `p` through that sample, continued to the crossing; at least
+    /// half that sample's depth, so it stays positive. 0 when that side is
+    /// invalid.
+    fn side_depth(&self, p: Pt, q: Pt, k: u32, half: u32) -> f32 {
         let (_, step) = steps(p, q);
-        let zp = f64::from(self.depth(p));
-        let zk = f64::from(self.depth(offset_by(p, step, k)));
-        if !(valid(zp as f32) && valid(zk as f32)) {
+        let zp = self.depth(p);
+        let zk = self.depth(offset_by(p, step, k));
+        if !(valid(zp) && valid(zk)) {
             return 0.0;
         }
-        if k == 0 {
-            return zk as f32;
+        if k == 0 || half == 0 {
+            return zk;
         }
-        let z = zk + 0.5 * (zk - zp) / f64::from(k);
+        let (zp, zk) = (f64::from(zp), f64::from(zk));
+        let z = zk + 0.5 * f64::from(half) * (zk - zp) / f64::from(k);
         z.max(0.5 * zk) as f32
     }
 
@@ -262,11 +290,11 @@ impl Samples<'_> {
         // corners' sides are valid alike (no jump along p1-p2).
         let cut = CutTriangle {
             corners: [p0, p1, p2].map(|(x, y)| [x as u16, y as u16]),
-            steps: [ka as u16, kb as u16],
+            at: [self.crossing_at(p0, p1, ka) as u16, self.crossing_at(p0, p2, kb) as u16],
             lone: valid(z0).then_some([z0, za0, zb0]),
             other: (valid(z1) && valid(z2)).then_some([za1, z1, z2, zb2]),
         };
-        if cut.lone.is_none() && cut.other.is_none() {
+        if cut.drawn() == 0 {
             return None;
         }
         let deviation = self.check(&cut, [p0, p1, p2])?;
@@ -284,7 +312,7 @@ impl Samples<'_> {
         let lone_sign = side(a, b, f(p0)).signum() / len;
         // Signed distance from the cut in samples, positive on the lone side.
         let which = |q: (f64, f64)| side(a, b, q) * lone_sign;
-        let parts: Vec<[DVec3; 3]> = cut.parts().collect();
+        let parts: Vec<[DVec3; 3]> = cut.all_parts().collect();
         let lone_part = cut.lone.map(|_| parts[0]);
         let other_parts = cut.other.map(|_| {
             let o = usize::from(cut.lone.is_some());
@@ -304,8 +332,12 @@ impl Samples<'_> {
             };
             let on_other = |z: f32| match other_parts {
                 Some([t0, t1]) => valid(z).then(|| {
-                    // The quadrilateral's diagonal runs from crossing a to p2.
-                    let t = if side(a, f(p2), q) * side(a, f(p2), f(p1)) >= 0.0 {
+                    // The quadrilateral's diagonal runs from crossing a to
+                    // p2; a crossing on a corner leaves one of its
+                    // triangles without area, and the other holds it all.
+                    let t = if area2(t0) == 0.0 {
+                        t1
+                    } else if area2(t1) == 0.0 || side(a, f(p2), q) * side(a, f(p2), f(p1)) >= 0.0 {
                         t0
                     } else {
                         t1
@@ -407,6 +439,11 @@ fn side(a: (f64, f64), b: (f64, f64), q: (f64, f64)) -> f64 {
     (b.0 - a.0) * (q.1 - a.1) - (b.1 - a.1) * (q.0 - a.0)
 }
 
+/// Twice the signed area of a part in `(u, v)`.
+fn area2(t: [DVec3; 3]) -> f64 {
+    (t[1].x - t[0].x) * (t[2].y - t[0].y) - (t[1].y - t[0].y) * (t[2].x - t[0].x)
+}
+
 /// True when `q` lies inside or on the triangle `t`.
 fn inside(t: [(f64, f64); 3], q: (f64, f64)) -> bool {
     let s = [side(t[0], t[1], q), side(t[1], t[2], q), side(t[2], t[0], q)];
@@ -441,3 +478,4 @@ pub(crate) fn for_each_sample(tri: [Pt; 3], mut f: impl FnMut(Pt)) {
         }
     }
 }
+
