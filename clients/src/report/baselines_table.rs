@@ -94,7 +94,7 @@ pub fn markdown(rows: &[Row]) -> String {
         rates.sort_by(f64::total_cmp);
         rates.dedup();
         for rate in rates {
-            for variant in ["rqt", "rqt_dropping", "rqt_shared_cut"] {
+            for variant in ["rqt", "rqt_dropping", "rqt_cut", "rqt_shared_cut"] {
                 let Some(rqt) = find(scene, variant, rate) else {
                     continue;
                 };

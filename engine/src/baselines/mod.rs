@@ -126,13 +126,18 @@ pub trait Mesher: Sync {
 
 /// Every mesher of the comparison, the restricted quadtree first (as the
 /// service extracts it, keeping outlines; then dropping the coarse
-/// triangles a discontinuity crosses as DMesh Sec. 5.3 does; then as
-/// served, but segmented by the baselines' own cut, [`shared_cut`]).
+/// triangles a discontinuity crosses as DMesh Sec. 5.3 does; then cutting
+/// them along the discontinuity, `mesh/cut.rs`; then as served, but
+/// segmented by the baselines' own cut, [`shared_cut`]).
 pub fn all() -> Vec<Box<dyn Mesher>> {
     vec![
         Box::new(rqt::Rqt::default()),
         Box::new(rqt::Rqt {
             outlines: crate::mesh::Outlines::Dropped,
+            ..rqt::Rqt::default()
+        }),
+        Box::new(rqt::Rqt {
+            outlines: crate::mesh::Outlines::Cut,
             ..rqt::Rqt::default()
         }),
         Box::new(rqt::Rqt {

@@ -148,14 +148,20 @@ impl Rqt {
 
     fn mesh_of(&self, hierarchy: &Hierarchy, lod: Lod<'_>) -> Result<TriMesh> {
         let mesh = hierarchy.extract_as(lod, StripOrder::Traversal, self.outlines)?;
-        Ok(TriMesh {
-            vertices: mesh
-                .vertices
-                .iter()
-                .map(|v| [f32::from(v.i), f32::from(v.j), v.depth])
-                .collect(),
-            triangles: mesh.triangles,
-        })
+        let mut vertices: Vec<[f32; 3]> = mesh
+            .vertices
+            .iter()
+            .map(|v| [f32::from(v.i), f32::from(v.j), v.depth])
+            .collect();
+        let mut triangles = mesh.triangles;
+        // A cut triangle's parts as the triangles they draw, each with its
+        // own corners (a crossing's two sides differ in depth).
+        for part in mesh.cuts.iter().flat_map(|c| c.parts()) {
+            let base = vertices.len() as u32;
+            vertices.extend(part.map(|p| [p.x as f32, p.y as f32, p.z as f32]));
+            triangles.push([base, base + 1, base + 2]);
+        }
+        Ok(TriMesh { vertices, triangles })
     }
 }
 
@@ -179,6 +185,11 @@ mod tests {
             ..Rqt::default()
         };
         super::super::tests::check_mesher(&dropping, true, &[5.0, 20.0]);
+        let cutting = Rqt {
+            outlines: Outlines::Cut,
+            ..Rqt::default()
+        };
+        super::super::tests::check_mesher(&cutting, true, &[5.0, 20.0]);
     }
 
     #[test]

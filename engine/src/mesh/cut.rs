@@ -53,7 +53,7 @@ use super::grid::{Grid, Pt};
 
 /// How far from the cut, in samples, a sample may lie on the side that is
 /// not its own: an outline's position is kept to within this.
-pub(crate) const BAND: f64 = 1.0;
+pub(crate) static BAND_: std::sync::LazyLock<f64> = std::sync::LazyLock::new(|| std::env::var("BAND").ok().and_then(|s| s.parse().ok()).unwrap_or(1.0));
 
 /// The samples a cut reads: the grid, its depths (0 where invalid) and
 /// the segmentation flags.
@@ -68,8 +68,9 @@ pub(crate) struct Samples<'a> {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Crossing {
     None,
-    /// One jump, at step `k` counted from the edge's first end.
-    One(u32),
+    /// One run of consecutive jumping steps, `first..=last` counted from
+    /// the edge's first end.
+    One(u32, u32),
     Many,
 }
 
@@ -187,7 +188,8 @@ impl Samples<'_> {
         })
     }
 
-    /// The crossings on the lattice edge `p-q`, counted from `p`.
+    /// The crossings on the lattice edge `p-q`, counted from `p`: a run of
+    /// consecutive jumping steps (a jump spread over mixed samples) is one.
     fn crossing(&self, p: Pt, q: Pt) -> Crossing {
         let (n, step) = steps(p, q);
         let mut found = Crossing::None;
@@ -195,44 +197,60 @@ impl Samples<'_> {
         for k in 0..n {
             let t = offset(s, step);
             if self.jumps(s, t) {
-                if found != Crossing::None {
-                    return Crossing::Many;
-                }
-                found = Crossing::One(k);
+                found = match found {
+                    Crossing::None => Crossing::One(k, k),
+                    Crossing::One(first, last) if last + 1 == k => Crossing::One(first, k),
+                    _ => return Crossing::Many,
+                };
             }
             s = t;
         }
         found
     }
 
-    /// Where a crossing at step `k` of the edge `p-q` lies, in half steps
-    /// from `p`: the step's midpoint, or its image end when the other end
-    /// is padding (outside the image).
-    fn crossing_at(&self, p: Pt, q: Pt, k: u32) -> u32 {
+    /// Where a crossing of the steps `first..=last` of the edge `p-q` lies,
+    /// in half steps from `p`: the run's middle, or, for one step that
+    /// leaves the image for the padding, its image end.
+    fn crossing_at(&self, p: Pt, q: Pt, (first, last): (u32, u32)) -> u32 {
         let (_, step) = steps(p, q);
-        let (s, t) = (offset_by(p, step, k), offset_by(p, step, k + 1));
-        match (self.grid.in_image(s), self.grid.in_image(t)) {
-            (true, false) => 2 * k,
-            (false, true) => 2 * k + 2,
-            _ => 2 * k + 1,
+        let (s, t) = (offset_by(p, step, first), offset_by(p, step, first + 1));
+        match (first == last, self.grid.in_image(s), self.grid.in_image(t)) {
+            (true, true, false) => 2 * first,
+            (true, false, true) => 2 * first + 2,
+            _ => first + last + 1,
         }
     }
 
-    /// The depths at a crossing at step `k` of the edge `p-q`: on `p`'s
-    /// side and on `q`'s. Computed from the edge's canonical direction (the
-    /// smaller grid index first), so both triangles sharing the edge get the
-    /// same bits.
-    fn crossing_depths(&self, p: Pt, q: Pt, k: u32) -> (f32, f32) {
+    /// The depths at a crossing of the steps `first..=last` of the edge
+    /// `p-q`: on `p`'s side and on `q`'s. Computed from the edge's
+    /// canonical direction (the smaller grid index first), so both
+    /// triangles sharing the edge get the same bits.
+    fn crossing_depths(&self, p: Pt, q: Pt, (first, last): (u32, u32)) -> (f32, f32) {
         let (n, _) = steps(p, q);
         if self.grid.index(p) > self.grid.index(q) {
-            let (zq, zp) = self.crossing_depths(q, p, n - 1 - k);
+            let (zq, zp) = self.crossing_depths(q, p, (n - 1 - last, n - 1 - first));
             return (zp, zq);
         }
-        let at = self.crossing_at(p, q, k);
+        let at = self.crossing_at(p, q, (first, last));
         (
-            self.side_depth(p, q, k, at - 2 * k),
-            self.side_depth(q, p, n - 1 - k, 2 * (k + 1) - at),
+            self.side_depth(p, q, first, at - 2 * first),
+            self.side_depth(q, p, n - 1 - last, 2 * (last + 1) - at),
         )
+    }
+
+    /// True when every full-resolution triangle with `s` as a corner is
+    /// segmented: the sample lies in a jump, on no surface.
+    fn in_jump(&self, (x, y): Pt) -> bool {
+        let g = &self.grid;
+        let cells = [(x.wrapping_sub(1), y.wrapping_sub(1)), (x, y.wrapping_sub(1)), (x.wrapping_sub(1), y), (x, y)];
+        cells
+            .into_iter()
+            .filter(|&(cx, cy)| cx < g.gw() - 1 && cy < g.gh() - 1)
+            .all(|c| {
+                (0..2)
+                    .filter(|&h| g.cell_triangle(c, h).contains(&(x, y)))
+                    .all(|h| self.flags[g.index(c)].cell(h))
+            })
     }
 
     /// The depth on `p`'s side of a crossing `half` half steps past the
@@ -279,7 +297,7 @@ impl Samples<'_> {
         let lone = if (e0 + 1) % 3 == e1 { e1 } else { e0 };
         let (p0, p1, p2) = (tri[lone], tri[(lone + 1) % 3], tri[(lone + 2) % 3]);
         let k = |a: Pt, b: Pt| match self.crossing(a, b) {
-            Crossing::One(k) => Some(k),
+            Crossing::One(first, last) => Some((first, last)),
             _ => None,
         };
         let (ka, kb) = (k(p0, p1)?, k(p0, p2)?);
@@ -347,9 +365,9 @@ impl Samples<'_> {
                 None => (!valid(z)).then_some(0.0),
             };
             let w = which(q);
-            let d = if w > BAND {
+            let band = *BAND_; let d = if w > band {
                 on_lone(z)
-            } else if w < -BAND {
+            } else if w < -band {
                 on_other(z)
             } else {
                 match (on_lone(z), on_other(z)) {
@@ -385,8 +403,8 @@ impl Samples<'_> {
                         continue;
                     }
                     let sides = t.map(|c| which(f(c)));
-                    let drawn_lone = cut.lone.is_some() && sides.iter().all(|&w| w > BAND);
-                    let drawn_other = cut.other.is_some() && sides.iter().all(|&w| w < -BAND);
+                    let drawn_lone = cut.lone.is_some() && sides.iter().all(|&w| w > *BAND_);
+                    let drawn_other = cut.other.is_some() && sides.iter().all(|&w| w < -*BAND_);
                     if drawn_lone || drawn_other {
                         return None;
                     }
@@ -479,3 +497,50 @@ pub(crate) fn for_each_sample(tri: [Pt; 3], mut f: impl FnMut(Pt)) {
     }
 }
 
+
+#[cfg(test)]
+mod probe {
+    use super::*;
+    use crate::image::{decode_depth, DepthKind, DepthOptions, Limits};
+    use crate::mesh::{Hierarchy, Segmentation};
+
+    #[test]
+    fn probe_art() {
+        let camera = crate::camera::camera_from_json(&std::fs::read_to_string("../examples/cameras/art.json").unwrap()).unwrap();
+        let opts = DepthOptions { kind: DepthKind::Disparity, scale: 0.5, offset: 100.0, focal_baseline: Some(299.2), channel: None };
+        let depth = decode_depth(&std::fs::read("../../shared/data/art/disp1.png").unwrap(), &opts, &camera, &Limits::default()).unwrap();
+        let hier = Hierarchy::build(&depth, &camera, &Segmentation::default()).unwrap();
+        let s = hier.samples();
+        let g = s.grid;
+        let mut stats = std::collections::BTreeMap::<(u32, &str), usize>::new();
+        for y in 0..g.gh() {
+            for x in 0..g.gw() {
+                let Some(d) = g.diamond((x, y)) else { continue };
+                for (hh, apex) in d.apex.into_iter().enumerate() {
+                    if !g.contains(apex.0, apex.1) { continue; }
+                    let half = s.flags[g.index((x, y))].half(hh);
+                    if !(half.any && !half.all) { continue; }
+                    let size = d.a.0.abs_diff(d.b.0).max(d.a.1.abs_diff(d.b.1)) as u32;
+                    let tri = [d.a, d.b, apex].map(|(x, y)| (x as u32, y as u32));
+                    let edges = [0, 1, 2].map(|e| s.crossing(tri[e], tri[(e + 1) % 3]));
+                    let many = edges.contains(&Crossing::Many);
+                    let n = edges.iter().filter(|e| **e != Crossing::None).count();
+                    let why = if many { "many" } else if n != 2 { if n == 0 { "none crossed" } else { "3 crossed" } } else {
+                        match s.fit(tri) { None => "check failed", Some(f) if f.deviation > 0.01 => "dev > 1cm", Some(_) => "ok" }
+                    };
+                    *stats.entry((size, why)).or_default() += 1;
+                }
+            }
+        }
+        for (k, v) in stats { if k.1 != "ok" { eprintln!("{k:?} {v}"); } }
+        let mesh = hier.extract_as(crate::mesh::Lod::Epsilon(0.01), crate::mesh::StripOrder::Traversal, crate::mesh::Outlines::Cut).unwrap();
+        let mut sizes = std::collections::BTreeMap::<(u16, usize), usize>::new();
+        for c in &mesh.cuts {
+            let k = c.corners;
+            let size = k.iter().map(|a| k.iter().map(|b| a[0].abs_diff(b[0]).max(a[1].abs_diff(b[1]))).max().unwrap()).max().unwrap();
+            *sizes.entry((size, c.drawn())).or_default() += 1;
+        }
+        for (k, v) in sizes { eprintln!("cut size {k:?}: {v}"); }
+        panic!();
+    }
+}
