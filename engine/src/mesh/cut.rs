@@ -53,7 +53,7 @@ use super::grid::{Grid, Pt};
 
 /// How far from the cut, in samples, a sample may lie on the side that is
 /// not its own: an outline's position is kept to within this.
-pub(crate) static BAND_: std::sync::LazyLock<f64> = std::sync::LazyLock::new(|| std::env::var("BAND").ok().and_then(|s| s.parse().ok()).unwrap_or(1.0));
+pub(crate) const BAND: f64 = 1.0;
 
 /// The samples a cut reads: the grid, its depths (0 where invalid) and
 /// the segmentation flags.
@@ -365,9 +365,9 @@ impl Samples<'_> {
                 None => (!valid(z)).then_some(0.0),
             };
             let w = which(q);
-            let band = *BAND_; let d = if w > band {
+            let d = if w > BAND {
                 on_lone(z)
-            } else if w < -band {
+            } else if w < -BAND {
                 on_other(z)
             } else {
                 match (on_lone(z), on_other(z)) {
@@ -403,8 +403,8 @@ impl Samples<'_> {
                         continue;
                     }
                     let sides = t.map(|c| which(f(c)));
-                    let drawn_lone = cut.lone.is_some() && sides.iter().all(|&w| w > *BAND_);
-                    let drawn_other = cut.other.is_some() && sides.iter().all(|&w| w < -*BAND_);
+                    let drawn_lone = cut.lone.is_some() && sides.iter().all(|&w| w > BAND);
+                    let drawn_other = cut.other.is_some() && sides.iter().all(|&w| w < -BAND);
                     if drawn_lone || drawn_other {
                         return None;
                     }
@@ -498,49 +498,3 @@ pub(crate) fn for_each_sample(tri: [Pt; 3], mut f: impl FnMut(Pt)) {
 }
 
 
-#[cfg(test)]
-mod probe {
-    use super::*;
-    use crate::image::{decode_depth, DepthKind, DepthOptions, Limits};
-    use crate::mesh::{Hierarchy, Segmentation};
-
-    #[test]
-    fn probe_art() {
-        let camera = crate::camera::camera_from_json(&std::fs::read_to_string("../examples/cameras/art.json").unwrap()).unwrap();
-        let opts = DepthOptions { kind: DepthKind::Disparity, scale: 0.5, offset: 100.0, focal_baseline: Some(299.2), channel: None };
-        let depth = decode_depth(&std::fs::read("../../shared/data/art/disp1.png").unwrap(), &opts, &camera, &Limits::default()).unwrap();
-        let hier = Hierarchy::build(&depth, &camera, &Segmentation::default()).unwrap();
-        let s = hier.samples();
-        let g = s.grid;
-        let mut stats = std::collections::BTreeMap::<(u32, &str), usize>::new();
-        for y in 0..g.gh() {
-            for x in 0..g.gw() {
-                let Some(d) = g.diamond((x, y)) else { continue };
-                for (hh, apex) in d.apex.into_iter().enumerate() {
-                    if !g.contains(apex.0, apex.1) { continue; }
-                    let half = s.flags[g.index((x, y))].half(hh);
-                    if !(half.any && !half.all) { continue; }
-                    let size = d.a.0.abs_diff(d.b.0).max(d.a.1.abs_diff(d.b.1)) as u32;
-                    let tri = [d.a, d.b, apex].map(|(x, y)| (x as u32, y as u32));
-                    let edges = [0, 1, 2].map(|e| s.crossing(tri[e], tri[(e + 1) % 3]));
-                    let many = edges.contains(&Crossing::Many);
-                    let n = edges.iter().filter(|e| **e != Crossing::None).count();
-                    let why = if many { "many" } else if n != 2 { if n == 0 { "none crossed" } else { "3 crossed" } } else {
-                        match s.fit(tri) { None => "check failed", Some(f) if f.deviation > 0.01 => "dev > 1cm", Some(_) => "ok" }
-                    };
-                    *stats.entry((size, why)).or_default() += 1;
-                }
-            }
-        }
-        for (k, v) in stats { if k.1 != "ok" { eprintln!("{k:?} {v}"); } }
-        let mesh = hier.extract_as(crate::mesh::Lod::Epsilon(0.01), crate::mesh::StripOrder::Traversal, crate::mesh::Outlines::Cut).unwrap();
-        let mut sizes = std::collections::BTreeMap::<(u16, usize), usize>::new();
-        for c in &mesh.cuts {
-            let k = c.corners;
-            let size = k.iter().map(|a| k.iter().map(|b| a[0].abs_diff(b[0]).max(a[1].abs_diff(b[1]))).max().unwrap()).max().unwrap();
-            *sizes.entry((size, c.drawn())).or_default() += 1;
-        }
-        for (k, v) in sizes { eprintln!("cut size {k:?}: {v}"); }
-        panic!();
-    }
-}
