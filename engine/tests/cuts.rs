@@ -5,7 +5,8 @@
 //! - every crossing is shared: the leaf across a crossed edge is cut at the
 //!   same point with the same two depths, bit for bit, or there is none;
 //! - every sample under a drawn part is valid and within epsilon of that
-//!   part's surface (within one sample of the cut, of either part's), and
+//!   part's surface (within one sample of the cut, of either part's, or
+//!   in the jump: every full-resolution triangle around it segmented), and
 //!   every sample under a void part is invalid;
 //! - nothing is NaN, infinite or non-positive;
 //! - on a box over a floor at a camera's size (never `2^k + 1`), the
@@ -66,8 +67,25 @@ fn corners(c: &CutTriangle) -> [(i64, i64); 3] {
     c.corners.map(|[x, y]| (i64::from(x), i64::from(y)))
 }
 
+/// True when every full-resolution triangle with `(x, y)` as a corner is
+/// segmented: a sample in a jump, on no surface.
+fn in_jump(h: &Hierarchy, (x, y): (i64, i64)) -> bool {
+    let g = h.grid();
+    let mut cells = Vec::new();
+    for (cx, cy) in [(x - 1, y - 1), (x, y - 1), (x - 1, y), (x, y)] {
+        if cx >= 0 && cy >= 0 && cx < i64::from(g.gw()) - 1 && cy < i64::from(g.gh()) - 1 {
+            cells.push((cx as u32, cy as u32));
+        }
+    }
+    cells.into_iter().all(|c| {
+        (0..2)
+            .filter(|&k| g.cell_triangle(c, k).contains(&(x as u32, y as u32)))
+            .all(|k| h.cell_segmented(c, k))
+    })
+}
+
 /// Every sample of a cut triangle against its parts (see the module doc).
-fn assert_cut_within(c: &CutTriangle, depth: &DepthImage, eps: f64) {
+fn assert_cut_within(h: &Hierarchy, c: &CutTriangle, depth: &DepthImage, eps: f64) {
     let k = corners(c);
     let f = |p: (i64, i64)| (p.0 as f64, p.1 as f64);
     let [a, b] = c.crossings().map(|[x, y]| (x, y));
@@ -121,7 +139,7 @@ fn assert_cut_within(c: &CutTriangle, depth: &DepthImage, eps: f64) {
             } else if d < -BAND {
                 fits_other
             } else {
-                fits_lone || fits_other
+                fits_lone || fits_other || in_jump(h, (x, y))
             };
             assert!(ok, "sample ({x}, {y}), depth {z}, breaks cut {c:?} at epsilon {eps}");
         }
@@ -208,7 +226,7 @@ fn check(depth: &DepthImage, cam: &Camera, seg: &Segmentation, eps: f64) -> Mesh
     assert_strips_match(&mesh);
     assert_epsilon_bound(&mesh, depth, eps);
     for c in &mesh.cuts {
-        assert_cut_within(c, depth, eps);
+        assert_cut_within(&h, c, depth, eps);
     }
     assert_watertight(&mesh);
     mesh

@@ -44,7 +44,14 @@
 //!   tolerance of that part's surface, its depth interpolated affinely over
 //!   the pixel grid; every sample on a void side is invalid; and no
 //!   segmented full-resolution triangle lies wholly on a drawn side. The
-//!   largest deviation is the triangle's error as a cut (`cut_errors.rs`).
+//!   outline's position is kept to within [`BAND`] samples: a sample that
+//!   close to the cut may fit either part, or be in the jump (every
+//!   full-resolution triangle around it segmented: a mixed sample, or a
+//!   one-sample hole, which no surface holds, as no emitted triangle holds
+//!   it without cuts). A straight cut through a staircase outline needs
+//!   this: without it, Art at 1 cm drew 2 % more triangles, and a jump
+//!   spread over two steps had no cut at all. The largest deviation is the
+//!   triangle's error as a cut (`cut_errors.rs`).
 
 use glam::DVec3;
 
@@ -372,6 +379,9 @@ impl Samples<'_> {
             } else {
                 match (on_lone(z), on_other(z)) {
                     (Some(x), Some(y)) => Some(x.min(y)),
+                    // Near the cut, a sample in the jump (a mixed sample,
+                    // a one-sample hole) belongs to neither surface.
+                    (None, None) if self.in_jump(s) => Some(0.0),
                     (x, y) => x.or(y),
                 }
             };
