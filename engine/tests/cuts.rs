@@ -101,8 +101,14 @@ fn assert_cut_within(h: &Hierarchy, c: &CutTriangle, depth: &DepthImage, eps: f6
             [p3(a, z[0]), p3(f(k[2]), z[2]), p3(b, z[3])],
         ]
     });
-    let (x0, x1) = (k.iter().map(|p| p.0).min().unwrap(), k.iter().map(|p| p.0).max().unwrap());
-    let (y0, y1) = (k.iter().map(|p| p.1).min().unwrap(), k.iter().map(|p| p.1).max().unwrap());
+    let (x0, x1) = (
+        k.iter().map(|p| p.0).min().unwrap(),
+        k.iter().map(|p| p.0).max().unwrap(),
+    );
+    let (y0, y1) = (
+        k.iter().map(|p| p.1).min().unwrap(),
+        k.iter().map(|p| p.1).max().unwrap(),
+    );
     for y in y0..=y1 {
         for x in x0..=x1 {
             let q = (x as f64, y as f64);
@@ -168,7 +174,9 @@ fn assert_watertight(mesh: &Mesh) {
     // Per lattice edge: the crossing and each end's depth, as each leaf
     // that has the edge states it.
     type Key = ((i64, i64), (i64, i64));
-    let mut crossed: HashMap<Key, Vec<([u64; 2], [u32; 2])>> = HashMap::new();
+    /// A crossing's point and its two sides' depths, as bits.
+    type Stated = ([u64; 2], [u32; 2]);
+    let mut crossed: HashMap<Key, Vec<Stated>> = HashMap::new();
     for c in &mesh.cuts {
         let k = corners(c);
         let [a, b] = c.crossings();
@@ -202,7 +210,10 @@ fn assert_watertight(mesh: &Mesh) {
         for e in 0..3 {
             let (a, b) = (p[e], p[(e + 1) % 3]);
             let key = if a < b { (a, b) } else { (b, a) };
-            assert!(!crossed.contains_key(&key), "whole triangle {p:?} shares crossed edge {key:?}");
+            assert!(
+                !crossed.contains_key(&key),
+                "whole triangle {p:?} shares crossed edge {key:?}"
+            );
         }
     }
 }
@@ -323,12 +334,21 @@ fn a_box_on_a_floor_keeps_its_outline_in_coarse_triangles() {
             dropped.triangles.len()
         );
         let covered = coverage(&cut, &depth);
-        assert!(covered >= 0.995, "epsilon {eps}: {covered} of the valid samples covered");
+        assert!(
+            covered >= 0.995,
+            "epsilon {eps}: {covered} of the valid samples covered"
+        );
         // Dropping outlines loses what the cut keeps.
         let lost = coverage(&dropped, &depth);
-        assert!(lost <= covered, "epsilon {eps}: dropping covers {lost}, cutting {covered}");
+        assert!(
+            lost <= covered,
+            "epsilon {eps}: dropping covers {lost}, cutting {covered}"
+        );
         if eps >= 0.1 {
-            assert!(lost < 0.99, "epsilon {eps}: dropping coarse outlines should lose samples, covers {lost}");
+            assert!(
+                lost < 0.99,
+                "epsilon {eps}: dropping coarse outlines should lose samples, covers {lost}"
+            );
         }
     }
 }
@@ -343,7 +363,11 @@ fn view_dependent_cuts_keep_their_guarantees() {
         let mesh = extract(&hier, Lod::Tau { tau, view: &cam });
         assert_cut_finite(&mesh);
         assert_watertight(&mesh);
-        assert!(coverage(&mesh, &depth) >= 0.995, "tau {tau}: {}", coverage(&mesh, &depth));
+        assert!(
+            coverage(&mesh, &depth) >= 0.995,
+            "tau {tau}: {}",
+            coverage(&mesh, &depth)
+        );
     }
 }
 

@@ -181,9 +181,15 @@ impl Samples<'_> {
         }
         // A row or column step: one half of each cell on either side.
         let cells: [Option<Pt>; 2] = if s.1 == t.1 {
-            [y0.checked_sub(1).map(|y| (x0, y)), (y0 + 1 < g.gh()).then_some((x0, y0))]
+            [
+                y0.checked_sub(1).map(|y| (x0, y)),
+                (y0 + 1 < g.gh()).then_some((x0, y0)),
+            ]
         } else {
-            [x0.checked_sub(1).map(|x| (x, y0)), (x0 + 1 < g.gw()).then_some((x0, y0))]
+            [
+                x0.checked_sub(1).map(|x| (x, y0)),
+                (x0 + 1 < g.gw()).then_some((x0, y0)),
+            ]
         };
         cells.into_iter().flatten().all(|c| {
             (0..2)
@@ -249,7 +255,12 @@ impl Samples<'_> {
     /// segmented: the sample lies in a jump, on no surface.
     fn in_jump(&self, (x, y): Pt) -> bool {
         let g = &self.grid;
-        let cells = [(x.wrapping_sub(1), y.wrapping_sub(1)), (x, y.wrapping_sub(1)), (x.wrapping_sub(1), y), (x, y)];
+        let cells = [
+            (x.wrapping_sub(1), y.wrapping_sub(1)),
+            (x, y.wrapping_sub(1)),
+            (x.wrapping_sub(1), y),
+            (x, y),
+        ];
         cells
             .into_iter()
             .filter(|&(cx, cy)| cx < g.gw() - 1 && cy < g.gh() - 1)
@@ -493,8 +504,14 @@ fn interpolate(t: [DVec3; 3], q: (f64, f64)) -> f64 {
 
 /// Calls `f` for every lattice point inside or on the triangle `tri`.
 pub(crate) fn for_each_sample(tri: [Pt; 3], mut f: impl FnMut(Pt)) {
-    let (x0, y0) = (tri[0].0.min(tri[1].0).min(tri[2].0), tri[0].1.min(tri[1].1).min(tri[2].1));
-    let (x1, y1) = (tri[0].0.max(tri[1].0).max(tri[2].0), tri[0].1.max(tri[1].1).max(tri[2].1));
+    let (x0, y0) = (
+        tri[0].0.min(tri[1].0).min(tri[2].0),
+        tri[0].1.min(tri[1].1).min(tri[2].1),
+    );
+    let (x1, y1) = (
+        tri[0].0.max(tri[1].0).max(tri[2].0),
+        tri[0].1.max(tri[1].1).max(tri[2].1),
+    );
     let sign = cross2(tri[0], tri[1], tri[2]).signum();
     for y in y0..=y1 {
         for x in x0..=x1 {
@@ -506,5 +523,3 @@ pub(crate) fn for_each_sample(tri: [Pt; 3], mut f: impl FnMut(Pt)) {
         }
     }
 }
-
-

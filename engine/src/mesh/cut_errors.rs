@@ -59,9 +59,7 @@ pub(crate) fn cut_errors(samples: Samples<'_>, err2: &[f32]) -> Vec<f32> {
                 } else if !half.any {
                     round_up(samples.plane_deviation(tri).powi(2))
                 } else {
-                    samples
-                        .fit(tri)
-                        .map_or(FORCED, |fit| round_up(fit.deviation.powi(2)))
+                    samples.fit(tri).map_or(FORCED, |fit| round_up(fit.deviation.powi(2)))
                 };
                 e = e.max(own);
             }
