@@ -31,6 +31,10 @@ fn extract(h: &Hierarchy, lod: Lod<'_>) -> Mesh {
     h.extract_as(lod, StripOrder::Traversal, Outlines::Cut).unwrap()
 }
 
+fn check(depth: &DepthImage, cam: &Camera, seg: &Segmentation, eps: f64) -> Mesh {
+    check_as(depth, cam, seg, eps, Outlines::Cut)
+}
+
 fn depth_at(depth: &DepthImage, (x, y): (i64, i64)) -> f64 {
     if x < i64::from(depth.width) && y < i64::from(depth.height) {
         f64::from(depth.z[(y * i64::from(depth.width) + x) as usize])
@@ -229,9 +233,11 @@ fn assert_cut_finite(mesh: &Mesh) {
     }
 }
 
-fn check(depth: &DepthImage, cam: &Camera, seg: &Segmentation, eps: f64) -> Mesh {
+fn check_as(depth: &DepthImage, cam: &Camera, seg: &Segmentation, eps: f64, outlines: Outlines) -> Mesh {
     let h = Hierarchy::build(depth, cam, seg).unwrap();
-    let mesh = extract(&h, Lod::Epsilon(eps));
+    let mesh = h
+        .extract_as(Lod::Epsilon(eps), StripOrder::Traversal, outlines)
+        .unwrap();
     assert_finite(&mesh, depth.width, depth.height);
     assert_cut_finite(&mesh);
     assert_strips_match(&mesh);
@@ -351,6 +357,35 @@ fn a_box_on_a_floor_keeps_its_outline_in_coarse_triangles() {
             );
         }
     }
+}
+
+/// Dropping what no cut holds, up to a span, keeps every guarantee of the
+/// cuts and draws no more.
+#[test]
+fn cutting_or_dropping_keeps_the_guarantees_for_fewer_triangles() {
+    let depth = depth_from(120, 90, |x, y| {
+        // A disc before a wall: a curved outline, with a thin stick.
+        let (dx, dy) = (x as f32 - 60.0, y as f32 - 45.0);
+        if dx * dx + dy * dy < 900.0 || (x == 100 && y > 10) {
+            1.5
+        } else {
+            3.0 + 0.002 * x as f32
+        }
+    });
+    let cam = camera(120, 90);
+    let seg = Segmentation::default();
+    let cut = check_as(&depth, &cam, &seg, 0.01, Outlines::Cut);
+    let mut last = cut.drawn_triangles();
+    for span in [2, 8, 32] {
+        let mesh = check_as(&depth, &cam, &seg, 0.01, Outlines::CutOrDrop(span));
+        assert!(
+            mesh.drawn_triangles() <= last,
+            "span {span}: {} > {last}",
+            mesh.drawn_triangles()
+        );
+        last = mesh.drawn_triangles();
+    }
+    assert!(last < cut.drawn_triangles(), "dropping never helped: {last}");
 }
 
 #[test]

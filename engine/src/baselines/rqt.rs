@@ -49,7 +49,7 @@ impl Mesher for Rqt {
         }
         match self.outlines {
             Outlines::Dropped => "rqt_dropping",
-            Outlines::Cut => "rqt_cut",
+            Outlines::Cut | Outlines::CutOrDrop(_) => "rqt_cut",
             Outlines::Refined(_) | Outlines::NearSide(_) | Outlines::Kept => "rqt",
         }
     }
@@ -62,6 +62,7 @@ impl Mesher for Rqt {
             Outlines::Kept => format!("{knob}, edges to 1"),
             Outlines::Dropped => knob.to_string(),
             Outlines::Cut => format!("{knob}, edges cut"),
+            Outlines::CutOrDrop(span) => format!("{knob}, edges cut, uncut up to {span} dropped"),
         }
     }
 
@@ -98,6 +99,16 @@ impl Mesher for Rqt {
     /// same depth on the near side only, then the next coarser depth, then
     /// none; for those `tau` cannot reach, `epsilon`.
     fn fallback(&self) -> Option<Box<dyn Mesher>> {
+        // Cutting: then dropping what no cut holds, up to 2, 4, ..., 64
+        // samples across, then the object-space knob.
+        let cut = match self.outlines {
+            Outlines::Cut => Some(Outlines::CutOrDrop(2)),
+            Outlines::CutOrDrop(span) if span < 64 => Some(Outlines::CutOrDrop(2 * span)),
+            _ => None,
+        };
+        if let Some(outlines) = cut {
+            return Some(Box::new(Rqt { outlines, ..*self }));
+        }
         let outlines = self.outlines.rung().map(|rung| Outlines::from(next_rung(rung)));
         let next = match (outlines, self.object_space) {
             (Some(outlines), _) => Rqt { outlines, ..*self },
@@ -189,7 +200,9 @@ mod tests {
             outlines: Outlines::Cut,
             ..Rqt::default()
         };
-        super::super::tests::check_mesher(&cutting, true, &[5.0, 20.0]);
+        // Past its floor (the boxes' outlines cut), rate 70 takes the
+        // fallback that drops what no cut holds.
+        super::super::tests::check_mesher(&cutting, true, &[5.0, 20.0, 70.0]);
     }
 
     #[test]

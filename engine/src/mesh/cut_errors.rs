@@ -28,8 +28,10 @@ use super::grid::{Kind, Pt};
 use super::levels::round_up;
 
 /// The saturated squared errors of a cutting extraction, one per grid
-/// vertex (root corners 0).
-pub(crate) fn cut_errors(samples: Samples<'_>, err2: &[f32]) -> Vec<f32> {
+/// vertex (root corners 0). A partly segmented half that has no cut is
+/// forced, unless its hypotenuse spans at most `drop_span` samples: then
+/// its own error is 0 and, left unsplit, it is dropped whole.
+pub(crate) fn cut_errors(samples: Samples<'_>, err2: &[f32], drop_span: u32) -> Vec<f32> {
     let g = samples.grid;
     let (gw, gh) = (g.gw(), g.gh());
     // `out` holds the dependents' largest error until a vertex is done.
@@ -59,7 +61,9 @@ pub(crate) fn cut_errors(samples: Samples<'_>, err2: &[f32]) -> Vec<f32> {
                 } else if !half.any {
                     round_up(samples.plane_deviation(tri).powi(2))
                 } else {
-                    samples.fit(tri).map_or(FORCED, |fit| round_up(fit.deviation.powi(2)))
+                    let span = d.a.0.abs_diff(d.b.0).max(d.a.1.abs_diff(d.b.1));
+                    let none = if span <= u64::from(drop_span) { 0.0 } else { FORCED };
+                    samples.fit(tri).map_or(none, |fit| round_up(fit.deviation.powi(2)))
                 };
                 e = e.max(own);
             }

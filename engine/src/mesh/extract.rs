@@ -31,6 +31,7 @@ use std::time::Instant;
 use glam::DVec3;
 
 use super::cut::{CutTriangle, Samples};
+use super::cut_errors::cut_errors;
 use super::hierarchy::Hierarchy;
 use super::lod::Lod;
 use super::outline::Rung;
@@ -77,7 +78,8 @@ pub struct Mesh {
     /// before the mesh stops meeting its tolerance or misses culled parts.
     pub reach: Option<Reach>,
     /// Triangles a discontinuity crosses, drawn as the parts on either
-    /// side of one straight cut ([`Outlines::Cut`] only; `cut.rs`). They
+    /// side of one straight cut ([`Outlines::Cut`] and
+    /// [`Outlines::CutOrDrop`] only; `cut.rs`). They
     /// are not in `triangles` or `strips`.
     pub cuts: Vec<CutTriangle>,
 }
@@ -134,6 +136,13 @@ pub enum Outlines {
     /// are cut alike. Tolerances only, for now: a triangle budget is
     /// refused.
     Cut,
+    /// [`Self::Cut`], but a triangle that a discontinuity crosses and no
+    /// cut holds is dropped whole, as DMesh Sec. 5.3 drops it, when it is
+    /// at most this many samples across (its hypotenuse's span), instead of
+    /// refined: fewer triangles for an outline eroded by up to that much.
+    /// Its errors are computed for each extraction (the comparison's
+    /// fallback, not a served mode).
+    CutOrDrop(u32),
     /// `Refined(1)` for a tolerance; for a triangle budget, the first of
     /// `Refined(1)`, `NearSide(1)`, `Refined(2)`, `NearSide(2)`, ... whose
     /// forced triangles take at most half the budget, or none when no
@@ -146,7 +155,7 @@ impl Outlines {
     /// The refinement it asks of a tolerance (`Kept`: `Refined(1)`).
     pub(crate) fn rung(self) -> Option<Rung> {
         match self {
-            Self::Dropped | Self::Cut => None,
+            Self::Dropped | Self::Cut | Self::CutOrDrop(_) => None,
             Self::Refined(finest) => Some(Rung {
                 finest,
                 near_side: false,
@@ -211,7 +220,7 @@ impl Hierarchy {
                 let max = u64::from(max);
                 // Resolved to `Epsilon` or `Tau` with the refinement it counted.
                 let (lod, rung) = match (outlines, outlines.rung()) {
-                    (Outlines::Cut, _) => {
+                    (Outlines::Cut | Outlines::CutOrDrop(_), _) => {
                         return Err(Error::invalid(
                             "max_triangles is not resolved for cut outlines yet; ask for epsilon or tau".to_string(),
                         ))
@@ -231,7 +240,15 @@ impl Hierarchy {
             _ => outlines.rung(),
         };
         let forced: &[u64] = finest.map_or(&[], |rung| &self.outline(rung).forced);
-        let cut = (outlines == Outlines::Cut).then(|| self.cut_err2());
+        let own;
+        let cut = match outlines {
+            Outlines::Cut => Some(self.cut_err2()),
+            Outlines::CutOrDrop(span) => {
+                own = cut_errors(self.samples(), &self.err2, span);
+                Some(&own[..])
+            }
+            _ => None,
+        };
         let mut mesh = match lod {
             Lod::Epsilon(eps) => {
                 if !(eps.is_finite() && eps >= 0.0) {

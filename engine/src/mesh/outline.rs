@@ -144,7 +144,7 @@ impl OutlineCache {
     /// The saturated squared errors of a cutting extraction, computed on
     /// first use from the hierarchy's samples and errors.
     pub(crate) fn cut(&self, samples: Samples<'_>, err2: &[f32]) -> &[f32] {
-        self.cut.get_or_init(|| cut_errors(samples, err2))
+        self.cut.get_or_init(|| cut_errors(samples, err2, 0))
     }
 
     /// The most heap bytes the outlines of `grid` will keep, each with its
