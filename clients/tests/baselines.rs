@@ -110,6 +110,14 @@ fn every_mesher_meets_the_rate_on_cones_and_the_files_are_written() {
     let md = std::fs::read_to_string(dir.path().join("baselines.md")).unwrap();
     assert_eq!(md, markdown(&rows));
     assert!(md.contains("### cones") && md.contains("| 10 | qem |"));
+    // The cut outlines' verdicts are counted from these rows.
+    let cut = rows.iter().find(|r| r.mesher == "rqt_cut").unwrap();
+    let plane = rows.iter().find(|r| r.mesher == "quadtree_plane").unwrap();
+    let above = usize::from(cut.psnr_common >= plane.psnr_common);
+    assert!(
+        md.contains(&format!("`rqt_cut` is at or above `quadtree_plane` on {above} of 1 rows")),
+        "{md}"
+    );
 }
 
 /// The committed comparison (`docs/baselines`, regenerated with the

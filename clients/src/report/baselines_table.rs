@@ -124,6 +124,90 @@ pub fn markdown(rows: &[Row]) -> String {
             }
         }
     }
+    let _ = writeln!(out);
+    out.push_str(&cut_verdicts(rows));
+    out
+}
+
+/// The outlines cut (`rqt_cut`) against the plane-fit quadtree and QEM, with
+/// the verdicts computed from the rows: "at or above" when `rqt_cut`'s
+/// PSNR on the common mask is at least the other's at the same scene and
+/// rate, counted over the rows where both met the rate within [`MET`]; and
+/// on art at rate 70, whether `rqt_cut` closes at least half the gap from
+/// `rqt` to `qem` in the same run.
+pub fn cut_verdicts(rows: &[Row]) -> String {
+    use std::fmt::Write;
+    let met = |r: &&Row| (r.achieved_rate / r.rate - 1.0).abs() <= MET;
+    let find = |scene: &str, mesher: &str, rate: f64| {
+        rows.iter()
+            .find(|r| r.scene == scene && r.mesher == mesher && r.rate == rate)
+            .filter(met)
+    };
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "### Outlines cut
+"
+    );
+    let _ = writeln!(
+        out,
+        "PSNR in dB on the common mask; a row counts where both met the rate within {:.0} %.\n",
+        MET * 100.0
+    );
+    let _ = writeln!(out, "| scene | rate | rqt_cut | rqt | quadtree_plane | qem |");
+    let _ = writeln!(out, "|---|---|---|---|---|---|");
+    let (mut rows_plane, mut above_plane, mut rows_qem, mut above_qem) = (0, 0, 0, 0);
+    let cell = |r: Option<&Row>| r.map_or("-".to_string(), |r| format!("{:.2}", r.psnr_common));
+    for scene in scenes(rows) {
+        let mut rates: Vec<f64> = rows
+            .iter()
+            .filter(|r| r.scene == scene && r.mesher == "rqt_cut")
+            .map(|r| r.rate)
+            .collect();
+        rates.sort_by(f64::total_cmp);
+        for rate in rates {
+            let cut = find(scene, "rqt_cut", rate);
+            let plane = find(scene, "quadtree_plane", rate);
+            let qem = find(scene, "qem", rate);
+            if let (Some(c), Some(p)) = (cut, plane) {
+                rows_plane += 1;
+                above_plane += usize::from(c.psnr_common >= p.psnr_common);
+            }
+            if let (Some(c), Some(q)) = (cut, qem) {
+                rows_qem += 1;
+                above_qem += usize::from(c.psnr_common >= q.psnr_common);
+            }
+            let _ = writeln!(
+                out,
+                "| {scene} | {rate} | {} | {} | {} | {} |",
+                cell(cut),
+                cell(find(scene, "rqt", rate)),
+                cell(plane),
+                cell(qem)
+            );
+        }
+    }
+    let _ = writeln!(
+        out,
+        "\n`rqt_cut` is at or above `quadtree_plane` on {above_plane} of {rows_plane} rows, and at or above `qem` on {above_qem} of {rows_qem}."
+    );
+    if let (Some(c), Some(r), Some(q)) = (
+        find("art", "rqt_cut", 70.0),
+        find("art", "rqt", 70.0),
+        find("art", "qem", 70.0),
+    ) {
+        let goal = r.psnr_common + 0.5 * (q.psnr_common - r.psnr_common);
+        let verdict = if c.psnr_common >= goal {
+            "closes"
+        } else {
+            "does not close"
+        };
+        let _ = writeln!(
+            out,
+            "On art at rate 70 `rqt_cut` scores {:.2} dB: it {verdict} half the gap from `rqt`'s {:.2} to `qem`'s {:.2} ({goal:.2}).",
+            c.psnr_common, r.psnr_common, q.psnr_common
+        );
+    }
     out
 }
 
