@@ -115,7 +115,9 @@ fn every_mesher_meets_the_rate_on_cones_and_the_files_are_written() {
     let plane = rows.iter().find(|r| r.mesher == "quadtree_plane").unwrap();
     let above = usize::from(cut.psnr_common >= plane.psnr_common);
     assert!(
-        md.contains(&format!("`rqt_cut` is at or above `quadtree_plane` on {above} of 1 rows")),
+        md.contains(&format!(
+            "`rqt_cut` is at or above `quadtree_plane` on {above} of 1 rows"
+        )),
         "{md}"
     );
 }

@@ -40,7 +40,8 @@ use crate::image::DepthImage;
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct TriMesh {
     /// `[u, v, z]`: reference pixel (integers are sample centres, not
-    /// necessarily integral) and depth `z` in metres, finite and positive.
+    /// necessarily integral; from 0 to half a pixel past the last sample)
+    /// and depth `z` in metres, finite and positive.
     pub vertices: Vec<[f32; 3]>,
     /// Vertex indices.
     pub triangles: Vec<[u32; 3]>,
@@ -48,9 +49,12 @@ pub struct TriMesh {
 
 impl TriMesh {
     /// Checks what every mesher promises: finite positive depths, positions
-    /// inside the image, indices in range, no triangle repeating a vertex.
+    /// inside the image's pixels, indices in range, no triangle repeating a
+    /// vertex.
     pub fn validate(&self, width: u32, height: u32) -> Result<()> {
-        let (w, h) = (width as f32 - 1.0, height as f32 - 1.0);
+        // A cut outline ends half a sample past its last sample, at the
+        // image border too (`mesh/cut.rs`): the last pixel's far edge.
+        let (w, h) = (width as f32 - 0.5, height as f32 - 0.5);
         for (k, &[u, v, z]) in self.vertices.iter().enumerate() {
             let inside = (0.0..=w).contains(&u) && (0.0..=h).contains(&v);
             if !(inside && z.is_finite() && z > 0.0) {

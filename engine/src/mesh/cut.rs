@@ -15,12 +15,13 @@
 //!   invalid samples never jumps. The rule reads the step alone, so the two
 //!   triangles that share a lattice edge see the same jumps on it.
 //! - **A crossing is a jump on a triangle's edge.** It sits at the step's
-//!   midpoint, `(2k + 1) / 2n` along an edge of `n` steps, so a part ends
-//!   half a sample past its last valid sample, as that sample's pixel does;
-//!   except where the step leaves the image for the padding of a grid
-//!   larger than it, where it sits on the image's last sample, so nothing
-//!   is drawn outside the image. Its quantisation is the half step,
-//!   `2k + 1` (or `2k`, `2k + 2` at the image border) in `log2 n + 1`
+//!   midpoint, `(2k + 1) / 2n` along an edge of `n` steps (a run of
+//!   jumping steps: the run's middle), so a part ends half a sample past
+//!   its last valid sample, where that sample's pixel ends. At the image
+//!   border of a padded grid that is the last pixel's far edge: a
+//!   rasteriser's top-left rule then fills the image's last row and column
+//!   as it fills its first ones, which a mesh ending on the last samples
+//!   leaves unfilled. Its quantisation is the half step, in `log2 n + 1`
 //!   bits: exact, since a jump has no finer position.
 //! - **A triangle is cut** when exactly two of its edges hold one crossing
 //!   each and the third none. The corner between the crossed edges is
@@ -221,19 +222,6 @@ impl Samples<'_> {
         found
     }
 
-    /// Where a crossing of the steps `first..=last` of the edge `p-q` lies,
-    /// in half steps from `p`: the run's middle, or, for one step that
-    /// leaves the image for the padding, its image end.
-    fn crossing_at(&self, p: Pt, q: Pt, (first, last): (u32, u32)) -> u32 {
-        let (_, step) = steps(p, q);
-        let (s, t) = (offset_by(p, step, first), offset_by(p, step, first + 1));
-        match (first == last, self.grid.in_image(s), self.grid.in_image(t)) {
-            (true, true, false) => 2 * first,
-            (true, false, true) => 2 * first + 2,
-            _ => first + last + 1,
-        }
-    }
-
     /// The depths at a crossing of the steps `first..=last` of the edge
     /// `p-q`: on `p`'s side and on `q`'s. Computed from the edge's
     /// canonical direction (the smaller grid index first), so both
@@ -244,7 +232,7 @@ impl Samples<'_> {
             let (zq, zp) = self.crossing_depths(q, p, (n - 1 - last, n - 1 - first));
             return (zp, zq);
         }
-        let at = self.crossing_at(p, q, (first, last));
+        let at = crossing_at((first, last));
         (
             self.side_depth(p, q, first, at - 2 * first),
             self.side_depth(q, p, n - 1 - last, 2 * (last + 1) - at),
@@ -326,7 +314,7 @@ impl Samples<'_> {
         // corners' sides are valid alike (no jump along p1-p2).
         let cut = CutTriangle {
             corners: [p0, p1, p2].map(|(x, y)| [x as u16, y as u16]),
-            at: [self.crossing_at(p0, p1, ka) as u16, self.crossing_at(p0, p2, kb) as u16],
+            at: [crossing_at(ka) as u16, crossing_at(kb) as u16],
             lone: valid(z0).then_some([z0, za0, zb0]),
             other: (valid(z1) && valid(z2)).then_some([za1, z1, z2, zb2]),
         };
@@ -448,6 +436,12 @@ impl Samples<'_> {
         });
         worst
     }
+}
+
+/// Where a crossing of the steps `first..=last` of an edge lies, in half
+/// steps from the edge's first end: the run's middle.
+fn crossing_at((first, last): (u32, u32)) -> u32 {
+    first + last + 1
 }
 
 /// The unit steps of the lattice edge `p-q`: how many, and each one's

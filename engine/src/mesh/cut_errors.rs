@@ -7,7 +7,9 @@
 //! footprint, and the border's vertices are forced (`border.rs`): both
 //! make an extraction refine along outlines down to single cells, which is
 //! what a cut replaces. Here a vertex's own error is, over its halves:
-//! - a fully segmented half: 0 (nothing of it is drawn);
+//! - a fully segmented half: the largest deviation of its cut, when one
+//!   draws a valid corner it holds (at a padded border), else 0 (nothing
+//!   of it is drawn);
 //! - an unflagged half: the largest `|z - z_lin|` over its samples;
 //! - a partly segmented half: the largest deviation of its cut
 //!   ([`Samples::fit`]), or [`FORCED`] when it has no cut (always split,
@@ -16,8 +18,8 @@
 //! and its saturated error the largest of its own and those of the
 //! vertices that depend on it (the midpoints of its halves' legs), so a
 //! vertex left out leaves both halves drawable within the tolerance. Only
-//! vertices whose subtree holds an outline or the border are computed
-//! this way ("dirty"); everywhere else the build's saturated error is
+//! vertices whose subtree holds a segmented triangle or the border are
+//! computed this way ("dirty"); everywhere else the build's saturated error is
 //! already the geometric one, and is kept. A vertex below which some half
 //! has no cut is forced without computing its own error: the saturation
 //! would force it anyway.
@@ -43,7 +45,10 @@ pub(crate) fn cut_errors(samples: Samples<'_>, err2: &[f32], drop_span: u32) -> 
             return;
         };
         let fl = samples.flags[vi];
-        let is_dirty = dirty[vi] || fl.partial_halves() != 0 || err2[vi] == FORCED;
+        // Any segmented half: a partial one's cut, or a wholly segmented
+        // one's (at a border), decides its error, not the build's.
+        let segmented = fl.half(0).any || fl.half(1).any;
+        let is_dirty = dirty[vi] || segmented || err2[vi] == FORCED;
         let e = if !is_dirty {
             err2[vi]
         } else if out[vi] == FORCED {
@@ -57,7 +62,8 @@ pub(crate) fn cut_errors(samples: Samples<'_>, err2: &[f32], drop_span: u32) -> 
                 let tri = [d.a, d.b, apex].map(|(x, y)| (x as u32, y as u32));
                 let half = fl.half(h);
                 let own = if half.all {
-                    0.0
+                    // Dropped, unless a cut draws a valid corner of it.
+                    samples.fit(tri).map_or(0.0, |fit| round_up(fit.deviation.powi(2)))
                 } else if !half.any {
                     round_up(samples.plane_deviation(tri).powi(2))
                 } else {

@@ -88,7 +88,9 @@ impl<S: Select> Walk<'_, S> {
         let m = ((l.0 + r.0) / 2, (l.1 + r.1) / 2);
         let mi = g.index(m);
         let flags = self.mesh.flags[mi].half(half_of(m, a));
-        if flags.all {
+        // A cutting walk goes on into a wholly segmented triangle: a cut
+        // may still draw the valid corner it holds (at a padded border).
+        if flags.all && !self.cutting {
             self.dropped += 1;
             self.skip();
             return;
