@@ -406,19 +406,51 @@ fn view_dependent_cuts_keep_their_guarantees() {
     }
 }
 
+/// A triangle budget counts each cut triangle as the triangles it draws:
+/// the mesh draws at most the budget, static or view-dependent, down to
+/// budgets below the coarsest cut mesh (then what no cut holds is dropped,
+/// then the outlines); and a larger budget never draws fewer.
 #[test]
-fn a_budget_with_cuts_is_refused_with_a_reason() {
-    let depth = box_on_floor(40, 30);
-    let cam = camera(40, 30);
+fn a_triangle_budget_holds_with_cuts_counted() {
+    let (w, h) = (160, 120);
+    let depth = box_on_floor(w, h);
+    let cam = camera(w, h);
     let hier = Hierarchy::build(&depth, &cam, &Segmentation::default()).unwrap();
-    let err = hier
-        .extract_as(
-            Lod::Triangles { max: 100, view: None },
-            StripOrder::Traversal,
-            Outlines::Cut,
-        )
-        .unwrap_err();
-    assert!(err.to_string().contains("epsilon or tau"), "{err}");
+    let full = hier
+        .extract_as(Lod::Epsilon(0.0), StripOrder::Traversal, Outlines::Cut)
+        .unwrap();
+    for view in [None, Some(&cam)] {
+        let mut last = 0;
+        let mut met = 0;
+        for max in [8u32, 40, 120, 400, 1500, 2000, 20_000] {
+            let mesh = match hier.extract_as(Lod::Triangles { max, view }, StripOrder::Traversal, Outlines::Cut) {
+                Ok(mesh) => mesh,
+                // Below what dropping every outline provably meets: refused
+                // with the reason, as a budget without cuts is.
+                Err(e) => {
+                    assert!(
+                        max < 1500 && e.to_string().contains("max_triangles is"),
+                        "budget {max}: {e}"
+                    );
+                    continue;
+                }
+            };
+            met += 1;
+            let drawn = mesh.drawn_triangles();
+            assert!(drawn <= max as usize, "budget {max}: {drawn} drawn");
+            assert!(drawn >= last, "budget {max} drew {drawn}, a smaller one {last}");
+            assert!(matches!(
+                mesh.lod,
+                dmesh_proto::Lod::Epsilon(_) | dmesh_proto::Lod::Tau(_)
+            ));
+            last = drawn;
+        }
+        assert!(met >= 3, "only {met} budgets met");
+        assert!(
+            last >= full.drawn_triangles().min(20_000) / 2,
+            "the largest budget drew {last}"
+        );
+    }
 }
 
 proptest! {

@@ -82,7 +82,7 @@ pub struct MeshArgs {
     /// Cut a triangle that a discontinuity crosses along one straight line
     /// into two parts, each within the tolerance, instead of refining it
     /// down to the segmented cells (docs/engine.md "Outlines as cuts").
-    /// Tolerances only: not with --max-triangles.
+    /// --max-triangles then counts a cut triangle as the triangles it draws.
     #[arg(long)]
     cut_outlines: bool,
     /// Largest accepted image, in pixels.

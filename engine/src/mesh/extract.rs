@@ -133,8 +133,8 @@ pub enum Outlines {
     /// those parts, nothing spanning the jump; any other is split, down to
     /// the full-resolution triangles, which are cut where they can be and
     /// dropped otherwise. Padded borders and the edges of missing samples
-    /// are cut alike. Tolerances only, for now: a triangle budget is
-    /// refused.
+    /// are cut alike. A triangle budget counts a cut triangle as the
+    /// triangles it draws (`cut_budget.rs`).
     Cut,
     /// [`Self::Cut`], but a triangle that a discontinuity crosses and no
     /// cut holds is dropped whole, as DMesh Sec. 5.3 drops it, when it is
@@ -221,9 +221,10 @@ impl Hierarchy {
                 // Resolved to `Epsilon` or `Tau` with the refinement it counted.
                 let (lod, rung) = match (outlines, outlines.rung()) {
                     (Outlines::Cut | Outlines::CutOrDrop(_), _) => {
-                        return Err(Error::invalid(
-                            "max_triangles is not resolved for cut outlines yet; ask for epsilon or tau".to_string(),
-                        ))
+                        // Met by counting extractions (`cut_budget.rs`).
+                        let mut mesh = self.cut_for_triangles(max, view, strips, outlines)?;
+                        mesh.extract_ms = start.elapsed().as_secs_f64() * 1e3;
+                        return Ok(mesh);
                     }
                     (Outlines::Kept, _) => {
                         let (lod, outline) = self.outline_lod_for_triangles(max, view)?;

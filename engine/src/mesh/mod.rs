@@ -21,7 +21,8 @@
 //!   triangles a discontinuity crosses, with the budget counting them (Sec. 5.3);
 //! - [`cut`]: outlines as cuts, a triangle that a discontinuity crosses
 //!   drawn as two parts on either side of one straight cut, with
-//!   `cut_errors`: the saturated errors of an extraction that cuts;
+//!   `cut_errors`: the saturated errors of an extraction that cuts, and
+//!   `cut_budget`: a triangle budget met with cuts counted;
 //! - `surface_side`: which of those triangles hold the near surface, so a
 //!   refinement may spare the far side;
 //! - [`strips`]: generalised strips with primitive restart (Fig. 13): the
@@ -33,6 +34,7 @@ pub mod border;
 pub mod budget;
 mod coarse_rows;
 pub mod cut;
+mod cut_budget;
 mod cut_errors;
 pub mod derived_normals;
 mod deviation;
