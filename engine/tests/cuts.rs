@@ -267,36 +267,41 @@ fn box_on_floor(w: u32, h: u32) -> DepthImage {
     })
 }
 
-/// The share of valid samples inside or on a drawn triangle.
-fn coverage(mesh: &Mesh, depth: &DepthImage) -> f64 {
+/// Every drawn triangle in grid coordinates: the whole ones, then the cut
+/// triangles' parts.
+fn drawn(mesh: &Mesh) -> Vec<[(f64, f64); 3]> {
+    let whole = mesh.triangles.iter().map(|t| {
+        t.map(|v| {
+            let v = mesh.vertices[v as usize];
+            (f64::from(v.i), f64::from(v.j))
+        })
+    });
+    let parts = mesh.cuts.iter().flat_map(|c| c.parts()).map(|t| t.map(|p| (p.x, p.y)));
+    whole.chain(parts).collect()
+}
+
+/// The share of valid samples that some drawn triangle holds by `holds`.
+fn share_held(mesh: &Mesh, depth: &DepthImage, holds: fn([(f64, f64); 3], (f64, f64)) -> bool) -> f64 {
     let (w, h) = (depth.width as usize, depth.height as usize);
-    let mut covered = vec![false; w * h];
-    let mut mark = |t: [(f64, f64); 3]| {
+    let mut held = vec![false; w * h];
+    for t in drawn(mesh) {
         let x0 = t.iter().map(|p| p.0).fold(f64::MAX, f64::min).floor().max(0.0) as usize;
         let x1 = (t.iter().map(|p| p.0).fold(f64::MIN, f64::max).ceil() as usize).min(w - 1);
         let y0 = t.iter().map(|p| p.1).fold(f64::MAX, f64::min).floor().max(0.0) as usize;
         let y1 = (t.iter().map(|p| p.1).fold(f64::MIN, f64::max).ceil() as usize).min(h - 1);
         for y in y0..=y1 {
             for x in x0..=x1 {
-                if inside(t, (x as f64, y as f64)) {
-                    covered[y * w + x] = true;
-                }
+                held[y * w + x] |= holds(t, (x as f64, y as f64));
             }
-        }
-    };
-    for t in &mesh.triangles {
-        mark(t.map(|v| {
-            let v = mesh.vertices[v as usize];
-            (f64::from(v.i), f64::from(v.j))
-        }));
-    }
-    for c in &mesh.cuts {
-        for t in c.parts() {
-            mark(t.map(|p| (p.x, p.y)));
         }
     }
     let valid: Vec<usize> = (0..w * h).filter(|&i| depth.z[i] > 0.0).collect();
-    valid.iter().filter(|&&i| covered[i]).count() as f64 / valid.len() as f64
+    valid.iter().filter(|&&i| held[i]).count() as f64 / valid.len() as f64
+}
+
+/// The share of valid samples inside or on a drawn triangle.
+fn coverage(mesh: &Mesh, depth: &DepthImage) -> f64 {
+    share_held(mesh, depth, inside)
 }
 
 #[test]
@@ -499,55 +504,21 @@ proptest! {
 /// a top or left one (the rule GPUs follow, so a shared edge is filled
 /// once and an outline's edge on one side of an object not at all).
 fn filled(mesh: &Mesh, depth: &DepthImage) -> f64 {
-    let (w, h) = (depth.width as i64, depth.height as i64);
-    let mut fill = vec![false; (w * h) as usize];
-    let mut raster = |t: [(f64, f64); 3]| {
+    fn top_left(t: [(f64, f64); 3], q: (f64, f64)) -> bool {
         // Counter-clockwise in (x right, y down): positive area.
         let t = if side(t[0], t[1], t[2]) < 0.0 {
             [t[0], t[2], t[1]]
         } else {
             t
         };
-        let x0 = t.iter().map(|p| p.0).fold(f64::MAX, f64::min).floor().max(0.0) as i64;
-        let x1 = (t.iter().map(|p| p.0).fold(f64::MIN, f64::max).ceil() as i64).min(w - 1);
-        let y0 = t.iter().map(|p| p.1).fold(f64::MAX, f64::min).floor().max(0.0) as i64;
-        let y1 = (t.iter().map(|p| p.1).fold(f64::MIN, f64::max).ceil() as i64).min(h - 1);
-        for y in y0..=y1 {
-            for x in x0..=x1 {
-                let q = (x as f64, y as f64);
-                let inside = (0..3).all(|e| {
-                    let (a, b) = (t[e], t[(e + 1) % 3]);
-                    let s = side(a, b, q);
-                    let (dx, dy) = (b.0 - a.0, b.1 - a.1);
-                    s > 0.0 || (s == 0.0 && (dy < 0.0 || (dy == 0.0 && dx > 0.0)))
-                });
-                if inside {
-                    fill[(y * w + x) as usize] = true;
-                }
-            }
-        }
-    };
-    for t in &mesh.triangles {
-        raster(t.map(|v| {
-            let v = mesh.vertices[v as usize];
-            (f64::from(v.i), f64::from(v.j))
-        }));
+        (0..3).all(|e| {
+            let (a, b) = (t[e], t[(e + 1) % 3]);
+            let s = side(a, b, q);
+            let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+            s > 0.0 || (s == 0.0 && (dy < 0.0 || (dy == 0.0 && dx > 0.0)))
+        })
     }
-    for c in &mesh.cuts {
-        for t in c.parts() {
-            raster(t.map(|p| (p.x, p.y)));
-        }
-    }
-    let valid: Vec<usize> = (0..(w * h) as usize).filter(|&i| depth.z[i] > 0.0).collect();
-    if std::env::var("DEBUG_FILL").is_ok() {
-        let miss: Vec<(i64, i64)> = valid
-            .iter()
-            .filter(|&&i| !fill[i])
-            .map(|&i| (i as i64 % w, i as i64 / w))
-            .collect();
-        eprintln!("{} missed: {:?}", miss.len(), &miss[..miss.len().min(40)]);
-    }
-    valid.iter().filter(|&&i| fill[i]).count() as f64 / valid.len() as f64
+    share_held(mesh, depth, top_left)
 }
 
 /// The demo scene's fringe: drawn from its own reference camera, a view
