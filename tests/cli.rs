@@ -138,7 +138,7 @@ fn a_triangle_budget_is_met_and_its_tolerance_printed() {
 }
 
 #[test]
-fn outlines_are_kept_unless_dropped_on_request() {
+fn outlines_are_kept_unless_dropped_or_cut_on_request() {
     let dir = tempfile::tempdir().unwrap();
     let (depth, _, cam) = scene(dir.path());
     let triangles = |extra: &[&str]| {
@@ -156,12 +156,37 @@ fn outlines_are_kept_unless_dropped_on_request() {
         let (code, out, err) = dmesh(&args);
         assert_eq!(code, 0, "{err}");
         let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
-        v["triangles"].as_u64().unwrap()
+        v["drawn_triangles"].as_u64().unwrap()
     };
     // At a coarse tolerance the step's outline is refined down to its
     // cells; dropping whole the coarse triangles across it keeps fewer.
     let (kept, dropped) = (triangles(&[]), triangles(&["--drop-outlines"]));
     assert!(dropped < kept, "dropped {dropped}, kept {kept}");
+    // Cutting them draws what the refinement's dropped cells leave out:
+    // this grid's roots are 2 samples across (40 x 30 pads least so), so
+    // every cut is a cell's, and it draws parts the others leave out.
+    let mut args = vec!["mesh", "--depth", &depth, "--camera", &cam, "--epsilon", "0.5"];
+    args.extend(["--json", "--cut-outlines"]);
+    let (code, out, err) = dmesh(&args);
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
+    let (whole, cut) = (v["triangles"].as_u64().unwrap(), v["cut_triangles"].as_u64().unwrap());
+    let drawn = v["drawn_triangles"].as_u64().unwrap();
+    assert!(cut > 0 && drawn > whole && drawn <= whole + 3 * cut, "{out}");
+    // Both at once is refused, in one line.
+    let (code, _, err) = dmesh(&[
+        "mesh",
+        "--depth",
+        &depth,
+        "--camera",
+        &cam,
+        "--epsilon",
+        "0.5",
+        "--drop-outlines",
+        "--cut-outlines",
+    ]);
+    assert_ne!(code, 0);
+    assert!(err.contains("--cut-outlines"), "{err}");
 }
 
 #[test]
