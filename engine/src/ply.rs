@@ -15,11 +15,16 @@ use crate::image::ColorImage;
 use crate::mesh::normals::oct_decode;
 use crate::mesh::Mesh;
 
+/// A cut triangle's part as written: its corners' positions in the camera
+/// frame, its face's normal and its corners' pixels `(u, v)`.
+type Part = ([DVec3; 3], DVec3, [(f64, f64); 3]);
+
 /// Encodes `mesh`, built for `camera`, as a binary PLY file; `color` (same
 /// size as the depth image) adds per-vertex colours.
 pub fn encode_ply(mesh: &Mesh, camera: &Camera, color: Option<&ColorImage>) -> Vec<u8> {
-    // The cut parts' corners: position, normal and rho, and their pixel.
-    let mut parts: Vec<([DVec3; 3], DVec3, [(f64, f64); 3])> = Vec::new();
+    // The cut parts: their corners' positions, the face's normal, and the
+    // corners' pixels.
+    let mut parts: Vec<Part> = Vec::new();
     for t in mesh.cuts.iter().flat_map(|c| c.parts()) {
         let p = t.map(|q| camera.back_project(q.x, q.y, q.z));
         let n = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
