@@ -280,8 +280,11 @@ fn drawn(mesh: &Mesh) -> Vec<[(f64, f64); 3]> {
     whole.chain(parts).collect()
 }
 
+/// A triangle in grid coordinates.
+type Tri = [(f64, f64); 3];
+
 /// The share of valid samples that some drawn triangle holds by `holds`.
-fn share_held(mesh: &Mesh, depth: &DepthImage, holds: fn([(f64, f64); 3], (f64, f64)) -> bool) -> f64 {
+fn share_held(mesh: &Mesh, depth: &DepthImage, holds: fn(Tri, (f64, f64)) -> bool) -> f64 {
     let (w, h) = (depth.width as usize, depth.height as usize);
     let mut held = vec![false; w * h];
     for t in drawn(mesh) {
