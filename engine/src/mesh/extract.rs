@@ -10,7 +10,9 @@
 //! descending into it. A coarse triangle that is partly segmented is split
 //! further, down to the segmented cells, when the extraction keeps outlines
 //! ([`Outlines::Kept`], the default: the vertices this forces are
-//! `outline.rs`'s), and dropped whole as Sec. 5.3 drops it otherwise.
+//! `outline.rs`'s), and dropped whole as Sec. 5.3 drops it otherwise. With
+//! [`Outlines::Cut`] it is drawn as the two parts of its cut (`cut.rs`),
+//! selected by the cutting errors (`cut_errors.rs`) instead of the build's.
 //! Because selection is monotone (`select.rs`) and the forced set closed
 //! under dependency, the emitted triangles form a conforming triangulation:
 //! no cracks, no T-junctions.
