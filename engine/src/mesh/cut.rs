@@ -192,14 +192,12 @@ impl Samples<'_> {
                 (x0 + 1 < g.gw()).then_some((x0, y0)),
             ]
         };
-        cells.into_iter().flatten().all(|c| {
-            (0..2)
-                .filter(|&h| {
-                    let tri = g.cell_triangle(c, h);
-                    tri.contains(&s) && tri.contains(&t)
-                })
-                .all(|h| seg(c, h))
-        })
+        // A cell's diagonal joins its corners whose coordinates are both odd
+        // or both even (`Grid::cell`); a side belongs to the half whose apex
+        // is the side's other corner, half 1 when that apex is right of the
+        // cell's min corner.
+        let apex = if s.0 % 2 != s.1 % 2 { s } else { t };
+        cells.into_iter().flatten().all(|c| seg(c, usize::from(apex.0 != c.0)))
     }
 
     /// The crossings on the lattice edge `p-q`, counted from `p`: a run of
@@ -302,11 +300,15 @@ impl Samples<'_> {
         };
         let lone = if (e0 + 1) % 3 == e1 { e1 } else { e0 };
         let (p0, p1, p2) = (tri[lone], tri[(lone + 1) % 3], tri[(lone + 2) % 3]);
-        let k = |a: Pt, b: Pt| match self.crossing(a, b) {
+        // The runs from the lone corner: along its outgoing edge as found,
+        // along its incoming one reversed.
+        let run = |e: usize| match edges[e] {
             Crossing::One(first, last) => Some((first, last)),
             _ => None,
         };
-        let (ka, kb) = (k(p0, p1)?, k(p0, p2)?);
+        let ka = run(lone)?;
+        let (n2, _) = steps(p0, p2);
+        let kb = run((lone + 2) % 3).map(|(first, last)| (n2 - 1 - last, n2 - 1 - first))?;
         let (za0, za1) = self.crossing_depths(p0, p1, ka);
         let (zb0, zb2) = self.crossing_depths(p0, p2, kb);
         let (z0, z1, z2) = (self.depth(p0), self.depth(p1), self.depth(p2));
@@ -513,6 +515,30 @@ pub(crate) fn for_each_sample(tri: [Pt; 3], mut f: impl FnMut(Pt)) {
             let inside = (0..3).all(|e| cross2(tri[e], tri[(e + 1) % 3], p) * sign >= 0);
             if inside {
                 f(p);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::mesh::grid::Grid;
+
+    /// The parity rule of `jumps` names the half of a cell that has a row
+    /// or column side as an edge, as the grid's cells lay them out.
+    #[test]
+    fn a_sides_half_is_its_odd_corners() {
+        let g = Grid::for_image(37, 21);
+        for cy in 0..g.gh() - 1 {
+            for cx in 0..g.gw() - 1 {
+                let c = (cx, cy);
+                let corners = [(cx, cy), (cx + 1, cy), (cx + 1, cy + 1), (cx, cy + 1)];
+                for k in 0..4 {
+                    let (s, t) = (corners[k], corners[(k + 1) % 4]);
+                    let apex = if s.0 % 2 != s.1 % 2 { s } else { t };
+                    let tri = g.cell_triangle(c, usize::from(apex.0 != c.0));
+                    assert!(tri.contains(&s) && tri.contains(&t), "cell {c:?} side {s:?}-{t:?}");
+                }
             }
         }
     }
