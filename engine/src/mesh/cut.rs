@@ -45,7 +45,7 @@
 //!   tolerance of that part's surface, its depth interpolated affinely over
 //!   the pixel grid; every sample on a void side is invalid; and no
 //!   segmented full-resolution triangle lies wholly on a drawn side. The
-//!   outline's position is kept to within [`BAND`] samples: a sample that
+//!   outline's position is kept to within `BAND` (one) sample: a sample that
 //!   close to the cut may fit either part, or be in the jump (every
 //!   full-resolution triangle around it segmented: a mixed sample, or a
 //!   one-sample hole, which no surface holds, as no emitted triangle holds
