@@ -30,7 +30,7 @@
 //!   inside) is not a cut, and the triangle is refined as before.
 //! - **Each side of a crossing has its own depth**, a function of the
 //!   edge alone: from the edge's end on that side through the last sample
-//!   on that side, continued half a step to the crossing. The triangles on
+//!   on that side, continued to the crossing. The triangles on
 //!   both sides of the edge compute the same two depths bit for bit, so
 //!   near meets near and far meets far at every crossing: no crack.
 //! - **A side of invalid samples is void**: nothing is drawn there. The
@@ -49,10 +49,11 @@
 //!   close to the cut may fit either part, or be in the jump (every
 //!   full-resolution triangle around it segmented: a mixed sample, or a
 //!   one-sample hole, which no surface holds, as no emitted triangle holds
-//!   it without cuts). A straight cut through a staircase outline needs
-//!   this: without it, Art at 1 cm drew 2 % more triangles, and a jump
-//!   spread over two steps had no cut at all. The largest deviation is the
-//!   triangle's error as a cut (`cut_errors.rs`).
+//!   it without cuts). A straight cut through a staircase outline, or
+//!   through a jump spread over mixed samples, needs this. The largest
+//!   deviation is the triangle's error as a cut (`cut_errors.rs`).
+//! - **A wholly segmented triangle** may be cut too, where a cut draws a
+//!   valid corner it holds (at a padded border); otherwise it is dropped.
 
 use glam::DVec3;
 
