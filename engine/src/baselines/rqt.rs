@@ -101,12 +101,7 @@ impl Mesher for Rqt {
     fn fallback(&self) -> Option<Box<dyn Mesher>> {
         // Cutting: then dropping what no cut holds, up to 2, 4, ..., 64
         // samples across, then the object-space knob.
-        let cut = match self.outlines {
-            Outlines::Cut => Some(Outlines::CutOrDrop(2)),
-            Outlines::CutOrDrop(span) if span < 64 => Some(Outlines::CutOrDrop(2 * span)),
-            _ => None,
-        };
-        if let Some(outlines) = cut {
+        if let Some(outlines) = self.outlines.coarser_cut() {
             return Some(Box::new(Rqt { outlines, ..*self }));
         }
         let outlines = self.outlines.rung().map(|rung| Outlines::from(next_rung(rung)));

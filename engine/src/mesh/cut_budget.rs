@@ -51,10 +51,9 @@ impl Hierarchy {
         let fits = |m: &Mesh| m.drawn_triangles() as u64 <= max;
         let coarsest = self.extract_as(lod(COARSEST), strips, outlines)?;
         if !fits(&coarsest) {
-            let next = match outlines {
-                Outlines::Cut => Outlines::CutOrDrop(2),
-                Outlines::CutOrDrop(span) if span < 64 => Outlines::CutOrDrop(2 * span),
-                Outlines::CutOrDrop(_) => Outlines::Dropped,
+            let next = match (outlines, outlines.coarser_cut()) {
+                (_, Some(next)) => next,
+                (Outlines::CutOrDrop(_), None) => Outlines::Dropped,
                 _ => {
                     return Err(Error::unattainable(format!(
                         "max_triangles is {max}; the coarsest mesh of this view draws {} triangles",

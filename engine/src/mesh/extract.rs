@@ -172,7 +172,21 @@ impl Outlines {
             }),
         }
     }
+
+    /// The next coarser way of cutting, for a budget or a rate the cuts
+    /// cannot reach: dropping what no cut holds up to 2, 4, ..., 64
+    /// samples across; `None` past that and for the modes that do not cut.
+    pub(crate) fn coarser_cut(self) -> Option<Self> {
+        match self {
+            Self::Cut => Some(Self::CutOrDrop(2)),
+            Self::CutOrDrop(span) if span < MAX_DROP_SPAN => Some(Self::CutOrDrop(2 * span)),
+            _ => None,
+        }
+    }
 }
+
+/// The largest span [`Outlines::coarser_cut`] drops what no cut holds up to.
+const MAX_DROP_SPAN: u32 = 64;
 
 impl From<Option<Rung>> for Outlines {
     fn from(rung: Option<Rung>) -> Self {
