@@ -141,7 +141,7 @@ fn a_triangle_budget_is_met_and_its_tolerance_printed() {
 fn outlines_are_kept_unless_dropped_or_cut_on_request() {
     let dir = tempfile::tempdir().unwrap();
     let (depth, _, cam) = scene(dir.path());
-    let triangles = |extra: &[&str]| {
+    let figures = |extra: &[&str]| {
         let mut args = vec![
             "mesh",
             "--depth",
@@ -155,9 +155,9 @@ fn outlines_are_kept_unless_dropped_or_cut_on_request() {
         args.extend_from_slice(extra);
         let (code, out, err) = dmesh(&args);
         assert_eq!(code, 0, "{err}");
-        let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
-        v["drawn_triangles"].as_u64().unwrap()
+        serde_json::from_str::<serde_json::Value>(out.trim()).unwrap()
     };
+    let triangles = |extra: &[&str]| figures(extra)["drawn_triangles"].as_u64().unwrap();
     // At a coarse tolerance the step's outline is refined down to its
     // cells; dropping whole the coarse triangles across it keeps fewer.
     let (kept, dropped) = (triangles(&[]), triangles(&["--drop-outlines"]));
@@ -165,14 +165,10 @@ fn outlines_are_kept_unless_dropped_or_cut_on_request() {
     // Cutting them draws what the refinement's dropped cells leave out:
     // this grid's roots are 2 samples across (40 x 30 pads least so), so
     // every cut is a cell's, and it draws parts the others leave out.
-    let mut args = vec!["mesh", "--depth", &depth, "--camera", &cam, "--epsilon", "0.5"];
-    args.extend(["--json", "--cut-outlines"]);
-    let (code, out, err) = dmesh(&args);
-    assert_eq!(code, 0, "{err}");
-    let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
+    let v = figures(&["--cut-outlines"]);
     let (whole, cut) = (v["triangles"].as_u64().unwrap(), v["cut_triangles"].as_u64().unwrap());
     let drawn = v["drawn_triangles"].as_u64().unwrap();
-    assert!(cut > 0 && drawn > whole && drawn <= whole + 3 * cut, "{out}");
+    assert!(cut > 0 && drawn > whole && drawn <= whole + 3 * cut, "{v}");
     // Both at once is refused, in one line.
     let (code, _, err) = dmesh(&[
         "mesh",
