@@ -75,10 +75,7 @@ pub fn markdown(rows: &[Row]) -> String {
         }
         let _ = writeln!(out);
     }
-    let find = |scene: &str, mesher: &str, rate: f64| {
-        rows.iter()
-            .find(|r| r.scene == scene && r.mesher == mesher && r.rate == rate)
-    };
+    let find = |scene: &str, mesher: &str, rate: f64| row(rows, scene, mesher, rate);
     let _ = writeln!(out, "### The RQT against the plane-fit quadtree and QEM\n");
     let _ = writeln!(
         out,
@@ -129,6 +126,12 @@ pub fn markdown(rows: &[Row]) -> String {
     out
 }
 
+/// The row of `mesher` on `scene` at `rate`, if the comparison has one.
+fn row<'a>(rows: &'a [Row], scene: &str, mesher: &str, rate: f64) -> Option<&'a Row> {
+    rows.iter()
+        .find(|r| r.scene == scene && r.mesher == mesher && r.rate == rate)
+}
+
 /// The outlines cut (`rqt_cut`) against the plane-fit quadtree and QEM, with
 /// the verdicts computed from the rows: "at or above" when `rqt_cut`'s
 /// PSNR on the common mask is at least the other's at the same scene and
@@ -138,11 +141,7 @@ pub fn markdown(rows: &[Row]) -> String {
 pub fn cut_verdicts(rows: &[Row]) -> String {
     use std::fmt::Write;
     let met = |r: &&Row| (r.achieved_rate / r.rate - 1.0).abs() <= MET;
-    let find = |scene: &str, mesher: &str, rate: f64| {
-        rows.iter()
-            .find(|r| r.scene == scene && r.mesher == mesher && r.rate == rate)
-            .filter(met)
-    };
+    let find = |scene: &str, mesher: &str, rate: f64| row(rows, scene, mesher, rate).filter(met);
     let mut out = String::new();
     let _ = writeln!(
         out,
