@@ -58,7 +58,7 @@
 use glam::DVec3;
 
 use super::flags::Flags;
-use super::grid::{Grid, Pt};
+use super::grid::{cell_half, Grid, Pt};
 
 /// How far from the cut, in samples, a sample may lie on the side that is
 /// not its own: an outline's position is kept to within this.
@@ -193,12 +193,10 @@ impl Samples<'_> {
                 (x0 + 1 < g.gw()).then_some((x0, y0)),
             ]
         };
-        // A cell's diagonal joins its corners whose coordinates are both odd
-        // or both even (`Grid::cell`); a side belongs to the half whose apex
-        // is the side's other corner, half 1 when that apex is right of the
-        // cell's min corner.
-        let apex = if s.0 % 2 != s.1 % 2 { s } else { t };
-        cells.into_iter().flatten().all(|c| seg(c, usize::from(apex.0 != c.0)))
+        // A side belongs to the half whose apex is its corner off the
+        // cell's diagonal.
+        let apex = if on_diagonal(s) { t } else { s };
+        cells.into_iter().flatten().all(|c| seg(c, cell_half(c, apex)))
     }
 
     /// The crossings on the lattice edge `p-q`, counted from `p`: a run of
@@ -248,13 +246,18 @@ impl Samples<'_> {
             (x.wrapping_sub(1), y),
             (x, y),
         ];
+        let seg = |c: Pt, h: usize| self.flags[g.index(c)].cell(h);
         cells
             .into_iter()
             .filter(|&(cx, cy)| cx < g.gw() - 1 && cy < g.gh() - 1)
             .all(|c| {
-                (0..2)
-                    .filter(|&h| g.cell_triangle(c, h).contains(&(x, y)))
-                    .all(|h| self.flags[g.index(c)].cell(h))
+                // A corner on the cell's diagonal is in both halves, an
+                // apex in its own.
+                if on_diagonal((x, y)) {
+                    seg(c, 0) && seg(c, 1)
+                } else {
+                    seg(c, cell_half(c, (x, y)))
+                }
             })
     }
 
@@ -441,6 +444,13 @@ impl Samples<'_> {
     }
 }
 
+/// True when the lattice point is on the diagonal of every cell it is a
+/// corner of: a cell's diagonal joins its corners whose coordinates are both
+/// odd or both even (`Grid::cell`).
+fn on_diagonal((x, y): Pt) -> bool {
+    x % 2 == y % 2
+}
+
 /// Where a crossing of the steps `first..=last` of an edge lies, in half
 /// steps from the edge's first end: the run's middle.
 fn crossing_at((first, last): (u32, u32)) -> u32 {
@@ -525,8 +535,8 @@ pub(crate) fn for_each_sample(tri: [Pt; 3], mut f: impl FnMut(Pt)) {
 mod tests {
     use crate::mesh::grid::Grid;
 
-    /// The parity rule of `jumps` names the half of a cell that has a row
-    /// or column side as an edge, as the grid's cells lay them out.
+    /// The parity rule of `jumps` and `in_jump` names the halves of a cell
+    /// that have a side, or a corner, as the grid's cells lay them out.
     #[test]
     fn a_sides_half_is_its_odd_corners() {
         let g = Grid::for_image(37, 21);
@@ -536,9 +546,20 @@ mod tests {
                 let corners = [(cx, cy), (cx + 1, cy), (cx + 1, cy + 1), (cx, cy + 1)];
                 for k in 0..4 {
                     let (s, t) = (corners[k], corners[(k + 1) % 4]);
-                    let apex = if s.0 % 2 != s.1 % 2 { s } else { t };
-                    let tri = g.cell_triangle(c, usize::from(apex.0 != c.0));
+                    let apex = if super::on_diagonal(s) { t } else { s };
+                    let tri = g.cell_triangle(c, super::cell_half(c, apex));
                     assert!(tri.contains(&s) && tri.contains(&t), "cell {c:?} side {s:?}-{t:?}");
+                    // A corner on the diagonal is in both halves, an apex
+                    // in the half `cell_half` names only.
+                    for p in [s, t] {
+                        let halves: Vec<usize> = (0..2).filter(|&h| g.cell_triangle(c, h).contains(&p)).collect();
+                        let expected = if super::on_diagonal(p) {
+                            vec![0, 1]
+                        } else {
+                            vec![super::cell_half(c, p)]
+                        };
+                        assert_eq!(halves, expected, "cell {c:?} corner {p:?}");
+                    }
                 }
             }
         }
