@@ -97,7 +97,7 @@ fn part(
     weight: f64,
 ) -> Result<Part> {
     let hierarchy = Hierarchy::build(&depth, &camera, &Segmentation::default())?;
-    let (mesh, _) = render_plan::extract_mesh(&hierarchy, ask, |ms| ms * 1e4)?;
+    let (mesh, _) = render_plan::extract_mesh(&hierarchy, ask, dmesh_engine::mesh::Outlines::Kept, |ms| ms * 1e4)?;
     Ok(Part {
         name: name.to_string(),
         camera,

@@ -14,6 +14,10 @@
 //! their neighbours (`holes.rs`). Pixel `(x, y)` is the sample at integer
 //! coordinates, as everywhere in dmesh; coverage follows the top-left rule so
 //! a pixel on a shared edge is drawn once.
+//!
+//! A cut triangle of the compact stream (protocol 7) draws its parts as
+//! triangles of their own, with vertices of their own on each side of the
+//! cut: nothing spans the depth edge, as nothing spans a segmented cell.
 
 use dmesh_engine::camera::Camera;
 use dmesh_engine::mesh::{decode_strips, normals::oct_decode};
@@ -166,11 +170,11 @@ pub struct SurfacePoint {
 }
 
 impl<'a> Surface<'a> {
-    /// The surface of a strip response.
+    /// The surface of a strip response, its cut triangles' parts included.
     pub fn from_strips(view: &ViewInput<'a>) -> anyhow::Result<Self> {
         let s = view.strips;
         let depths = s.decode_depths()?;
-        Ok(Self {
+        let mut surface = Self {
             camera: Camera::try_from(&s.camera)?,
             weight: view.weight,
             texture: view.texture,
@@ -187,7 +191,34 @@ impl<'a> Surface<'a> {
                 })
                 .collect(),
             triangles: decode_strips(&s.indices.to_u32()),
-        })
+        };
+        for part in s.cuts.iter().flat_map(|c| c.parts()) {
+            surface.push_part(part);
+        }
+        Ok(surface)
+    }
+
+    /// Adds one part of a cut triangle, `(u, v, z)` corners, with its own
+    /// vertices: the part's plane's normal, turned to face the reference
+    /// camera, and rho from it as `derived_normals` gives a vertex's.
+    fn push_part(&mut self, part: [[f64; 3]; 3]) {
+        let c = &self.camera;
+        let p = part.map(|[u, v, z]| c.back_project(u, v, z));
+        let n = (p[1] - p[0]).cross(p[2] - p[0]);
+        let ortho = matches!(c.projection, dmesh_engine::camera::Projection::Orthographic { .. });
+        let first = self.points.len() as u32;
+        for (k, &[u, v, z]) in part.iter().enumerate() {
+            let ray = if ortho { DVec3::Z } else { p[k] };
+            let nn = n.length() * ray.length();
+            let (normal, rho) = if nn > 0.0 && nn.is_finite() {
+                let facing = if n.dot(ray) > 0.0 { -n } else { n };
+                (facing.normalize(), n.dot(ray).abs() / nn)
+            } else {
+                (-ray.normalize_or_zero(), 0.0)
+            };
+            self.points.push(SurfacePoint { u, v, z, rho, normal });
+        }
+        self.triangles.push([first, first + 1, first + 2]);
     }
 }
 
@@ -409,6 +440,7 @@ mod tests {
             triangles: 2,
             extract_ms: 0.0,
             reach: None,
+            cuts: Vec::new(),
         }
     }
 

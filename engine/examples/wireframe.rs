@@ -51,7 +51,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         for t in c.parts() {
             for k in 0..3 {
                 let (p, q) = (t[k], t[(k + 1) % 3]);
-                line([p.x, p.y], [q.x, q.y], [255, 220, 0]);
+                line([p[0], p[1]], [q[0], q[1]], [255, 220, 0]);
             }
         }
         let [p, q] = c.crossings();

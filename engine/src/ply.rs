@@ -26,7 +26,7 @@ pub fn encode_ply(mesh: &Mesh, camera: &Camera, color: Option<&ColorImage>) -> V
     // corners' pixels.
     let mut parts: Vec<Part> = Vec::new();
     for t in mesh.cuts.iter().flat_map(|c| c.parts()) {
-        let p = t.map(|q| camera.back_project(q.x, q.y, q.z));
+        let p = t.map(|[u, v, z]| camera.back_project(u, v, z));
         let n = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
         // Facing the reference camera, as the vertices' normals do.
         let n = match n {
@@ -34,7 +34,7 @@ pub fn encode_ply(mesh: &Mesh, camera: &Camera, color: Option<&ColorImage>) -> V
             n if n.dot(p[0]) > 0.0 => -n,
             n => n,
         };
-        parts.push((p, n, t.map(|q| (q.x, q.y))));
+        parts.push((p, n, t.map(|[u, v, _]| (u, v))));
     }
     let color_props = if color.is_some() {
         "property uchar red\nproperty uchar green\nproperty uchar blue\n"

@@ -11,7 +11,7 @@ use dmesh_proto::{Lod as WireLod, RawGrid, StripResponse};
 
 use crate::camera::Camera;
 use crate::error::{Error, Result};
-use crate::mesh::{Hierarchy, Lod};
+use crate::mesh::{Hierarchy, Lod, Outlines, StripOrder};
 use crate::scene::{select_views, SelectionRule, Weighted};
 use crate::wire::{strip_response, DepthCoding};
 
@@ -254,7 +254,7 @@ pub fn extract(
     ask: &Ask,
     triangles_for_ms: impl FnOnce(f64) -> f64,
 ) -> Result<Extracted> {
-    let (mesh, allowed) = extract_mesh(hierarchy, ask, triangles_for_ms)?;
+    let (mesh, allowed) = extract_mesh(hierarchy, ask, Outlines::Kept, triangles_for_ms)?;
     let coding = DepthCoding {
         bits: ask.bits(),
         root_side: hierarchy.grid().side(),
@@ -265,15 +265,17 @@ pub fn extract(
     Ok(Extracted { response, allowed })
 }
 
-/// Extracts `hierarchy` for `ask` (`triangles_for_ms` as in [`Ask::lod`]),
-/// with what a time budget allowed.
+/// Extracts `hierarchy` for `ask` with the `outlines` of the answer's
+/// wire (kept for protocol 5's strips, cut for the compact stream's), and
+/// `triangles_for_ms` as in [`Ask::lod`]; with what a time budget allowed.
 pub fn extract_mesh(
     hierarchy: &Hierarchy,
     ask: &Ask,
+    outlines: Outlines,
     triangles_for_ms: impl FnOnce(f64) -> f64,
 ) -> Result<(crate::mesh::Mesh, Option<u64>)> {
     let (lod, allowed) = ask.lod(hierarchy, triangles_for_ms);
-    Ok((hierarchy.extract(lod)?, allowed))
+    Ok((hierarchy.extract_as(lod, StripOrder::Traversal, outlines)?, allowed))
 }
 
 #[cfg(test)]

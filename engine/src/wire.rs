@@ -125,6 +125,7 @@ pub fn strip_response(
                 })
                 .collect(),
         }),
+        cuts: mesh.cuts.clone(),
     })
 }
 

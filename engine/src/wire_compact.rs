@@ -38,7 +38,7 @@ pub fn mesh_stream(
 /// a change against it needs ([`DecodedMesh::held`]).
 pub fn held(mesh: &Mesh, raw_grid: Option<dmesh_proto::RawGrid>, planes: Option<u8>) -> DecodedMesh {
     let (ij, depths) = vertex_arrays(mesh);
-    DecodedMesh::held(&ij, &depths, &mesh.triangles, raw_grid, planes.is_none())
+    DecodedMesh::held(&ij, &depths, &mesh.triangles, &mesh.cuts, raw_grid, planes.is_none())
 }
 
 /// The grid coordinates and depths of `mesh`'s vertices, as the coder takes them.
@@ -89,6 +89,7 @@ fn with_input<T>(
         ij: &ij,
         depths: &depths,
         triangles: &mesh.triangles,
+        cuts: &mesh.cuts,
         raw_grid,
         reach: mesh
             .reach
@@ -183,6 +184,7 @@ pub fn decoded_response(
         triangles: stream.triangles,
         extract_ms: stream.extract_ms,
         reach,
+        cuts: decoded.cuts,
     })
 }
 

@@ -1,12 +1,17 @@
-//! Protocol 6 over the engine's own meshes: decode(encode(mesh)) gives
-//! exactly the vertices and triangles extraction produced, and depths within
-//! the stated bound, for random depths with holes and steps (so segmentation
-//! drops triangles), static and view-dependent tolerances, budgets, odd
-//! sizes, perspective and orthographic cameras, every plane count.
+//! Protocol 7 over the engine's own meshes: decode(encode(mesh)) gives
+//! exactly the vertices, triangles and cut triangles extraction produced,
+//! and depths within the stated bound, for random depths with holes and
+//! steps (so segmentation drops or cuts triangles), outlines kept or cut,
+//! static and view-dependent tolerances, budgets, odd sizes, perspective
+//! and orthographic cameras, every plane count; and the decoded cuts are
+//! watertight: a crossing shared by two cuts has one place and one depth
+//! per side, bit for bit, whatever planes were sent.
 
 use dmesh_engine::camera::Camera;
 use dmesh_engine::image::DepthImage;
-use dmesh_engine::mesh::{decode_strips, Hierarchy, Lod, Segmentation};
+use std::collections::HashMap;
+
+use dmesh_engine::mesh::{decode_strips, CutTriangle, Hierarchy, Lod, Mesh, Outlines, Segmentation, StripOrder};
 use dmesh_engine::wire_compact::{held as held_of, mesh_change, mesh_stream, strip_response};
 use dmesh_proto::{Depths, RawGrid};
 use proptest::prelude::*;
@@ -36,6 +41,51 @@ fn depth(w: u32, h: u32, seed: u64, lattice: bool) -> DepthImage {
     DepthImage::from_z(w, h, z).unwrap()
 }
 
+/// Extracts with outlines cut or kept.
+fn extract(h: &Hierarchy, lod: Lod<'_>, cut: bool) -> Mesh {
+    let outlines = if cut { Outlines::Cut } else { Outlines::Kept };
+    h.extract_as(lod, StripOrder::Traversal, outlines).unwrap()
+}
+
+/// The cut triangles without their depths, in a canonical order.
+fn cut_shapes(cuts: &[CutTriangle]) -> Vec<([[u16; 2]; 3], [u16; 2], bool, bool)> {
+    let mut v: Vec<_> = cuts
+        .iter()
+        .map(|c| (c.corners, c.at, c.lone.is_some(), c.other.is_some()))
+        .collect();
+    v.sort_unstable();
+    v
+}
+
+/// Every crossing of `cuts` has one place and one depth per side, bit
+/// for bit, in every cut that crosses its edge.
+fn assert_crossings_shared(cuts: &[CutTriangle]) {
+    let mut seen: HashMap<([u16; 2], [u16; 2]), ([u64; 2], [Option<u32>; 2])> = HashMap::new();
+    for c in cuts {
+        let crossings = c.crossings();
+        for e in 0..2 {
+            let (p, q) = (c.corners[0], c.corners[e + 1]);
+            let near = c.lone.map(|z| z[1 + e].to_bits());
+            let far = c.other.map(|z| z[if e == 0 { 0 } else { 3 }].to_bits());
+            let (key, sides) = if p < q {
+                ((p, q), [near, far])
+            } else {
+                ((q, p), [far, near])
+            };
+            let at = crossings[e].map(f64::to_bits);
+            if let Some(before) = seen.insert(key, (at, sides)) {
+                assert_eq!(before, (at, sides), "crossing on {key:?}");
+            }
+        }
+        for t in c.parts() {
+            assert!(
+                t.iter().flatten().all(|v| v.is_finite()) && t.iter().all(|p| p[2] > 0.0),
+                "{c:?}"
+            );
+        }
+    }
+}
+
 fn camera(w: u32, h: u32, ortho: bool) -> Camera {
     let (cx, cy) = (f64::from(w - 1) / 2.0, f64::from(h - 1) / 2.0);
     if ortho {
@@ -52,6 +102,7 @@ proptest! {
     fn compact_streams_decode_to_the_extracted_mesh(
         w in 2u32..90, h in 2u32..70, seed in any::<u64>(), ortho in any::<bool>(),
         lattice in any::<bool>(), kind in 0u8..3, tol in 0.0f64..0.05, planes in prop::option::of(0u8..18),
+        cut in any::<bool>(),
     ) {
         let d = depth(w, h, seed, lattice);
         let cam = camera(w, h, ortho);
@@ -63,7 +114,7 @@ proptest! {
             1 => Lod::Tau { tau: tol * 40.0, view: &novel },
             _ => Lod::Triangles { max: u32::try_from(hier.coarsest_triangles() + (tol * 4000.0) as u64).unwrap(), view: None },
         };
-        let mesh = hier.extract(lod).unwrap();
+        let mesh = extract(&hier, lod, cut);
         let raw = lattice.then_some(RawGrid { scale: 0.001, offset: 0.0 });
         let s = mesh_stream(&mesh, hier.grid(), "s", "v", &cam, raw, planes, "\"e\"".into()).unwrap();
         let bytes = dmesh_proto::to_bincode(&s).unwrap();
@@ -71,16 +122,47 @@ proptest! {
         let r = strip_response(&back, Some(&novel)).unwrap();
         let ij: Vec<(u16, u16)> = r.vertices.iter().map(|v| (v.i, v.j)).collect();
         let want: Vec<(u16, u16)> = mesh.vertices.iter().map(|v| (v.i, v.j)).collect();
-        prop_assert_eq!(ij, want);
-        prop_assert_eq!(decode_strips(&r.indices.to_u32()), mesh.triangles.clone());
+        let tris = decode_strips(&r.indices.to_u32());
+        if mesh.cuts.is_empty() {
+            // Numbered as the engine numbers them.
+            prop_assert_eq!(&ij, &want);
+            prop_assert_eq!(&tris, &mesh.triangles);
+        }
+        // The same triangles, corner for corner; the cuts' drawn corners
+        // are vertices too.
+        let at = |v: &[(u16, u16)], t: &[[u32; 3]]| -> Vec<[(u16, u16); 3]> {
+            t.iter().map(|t| t.map(|k| v[k as usize])).collect()
+        };
+        prop_assert_eq!(at(&ij, &tris), at(&want, &mesh.triangles));
+        prop_assert_eq!(cut_shapes(&r.cuts), cut_shapes(&mesh.cuts));
+        prop_assert_eq!(r.cuts.len(), back.cut_triangles as usize);
+        assert_crossings_shared(&r.cuts);
         let Depths::Exact(z) = &r.depths else { panic!("exact depths expected") };
         let bound = back.max_error;
-        for (a, v) in z.iter().zip(&mesh.vertices) {
-            prop_assert!(a.is_finite() && *a > 0.0);
+        let decoded: HashMap<(u16, u16), f32> = ij.iter().copied().zip(z.iter().copied()).collect();
+        for v in &mesh.vertices {
+            let a = decoded[&(v.i, v.j)];
+            prop_assert!(a.is_finite() && a > 0.0);
             prop_assert!((a - v.depth).abs() <= bound, "{} vs {} beyond {}", a, v.depth, bound);
         }
+        let engine: HashMap<_, _> = mesh.cuts.iter().map(|c| (c.corners, c)).collect();
+        for c in &r.cuts {
+            let e = engine[&c.corners];
+            let (got, want) = (c.lone.iter().flatten().chain(c.other.iter().flatten()), e.lone.iter().flatten().chain(e.other.iter().flatten()));
+            for (a, b) in got.zip(want) {
+                prop_assert!((a - b).abs() <= bound, "cut depth {} vs {} beyond {}", a, b, bound);
+            }
+        }
         if lattice && planes.is_none() {
-            prop_assert_eq!(bound, 0.0, "all planes on a lattice are lossless");
+            // Vertices are lossless; a crossing's side depth, extrapolated
+            // off the lattice, is rounded onto it.
+            for v in &mesh.vertices {
+                prop_assert_eq!(decoded[&(v.i, v.j)], v.depth, "all planes on a lattice are lossless");
+            }
+            prop_assert!(bound <= 0.0005 * 1.0001, "half a lattice step: {}", bound);
+            if mesh.cuts.is_empty() {
+                prop_assert_eq!(bound, 0.0);
+            }
         }
         for v in &r.vertices {
             prop_assert!(u32::from(v.i) < w && u32::from(v.j) < h);
@@ -98,6 +180,7 @@ proptest! {
     fn changes_between_engine_meshes_are_exact(
         w in 2u32..90, h in 2u32..70, seed in any::<u64>(), ortho in any::<bool>(), lattice in any::<bool>(),
         tols in (0.05f64..8.0, 0.05f64..8.0), shift in -0.3f64..0.3, planes in prop::option::of(0u8..18),
+        cut in any::<bool>(),
     ) {
         let d = depth(w, h, seed, lattice);
         let cam = camera(w, h, ortho);
@@ -106,12 +189,12 @@ proptest! {
         before.translation.x += 0.1;
         after.translation.x += 0.1 + shift;
         let raw = lattice.then_some(RawGrid { scale: 0.001, offset: 0.0 });
-        let held_mesh = hier.extract(Lod::Tau { tau: tols.0, view: &before }).unwrap();
+        let held_mesh = extract(&hier, Lod::Tau { tau: tols.0, view: &before }, cut);
         let held = mesh_stream(&held_mesh, hier.grid(), "s", "v", &cam, raw, planes, String::new())
             .unwrap()
             .decode()
             .unwrap();
-        let mesh = hier.extract(Lod::Tau { tau: tols.1, view: &after }).unwrap();
+        let mesh = extract(&hier, Lod::Tau { tau: tols.1, view: &after }, cut);
         let whole = mesh_stream(&mesh, hier.grid(), "s", "v", &cam, raw, planes, String::new()).unwrap();
         let change = mesh_change(&mesh, hier.grid(), "s", "v", &cam, raw, planes, String::new(), &held).unwrap();
         // What the server codes against (the held mesh derived, not decoded) gives the same change.
@@ -122,6 +205,7 @@ proptest! {
         let want = whole.decode().unwrap();
         prop_assert_eq!(&got.shape, &want.shape);
         prop_assert_eq!(&got.depths, &want.depths);
+        prop_assert_eq!(&got.cuts, &want.cuts);
         prop_assert_eq!(got.max_error, want.max_error);
         prop_assert_eq!(change.reuses_depths, planes.is_none() && held.lattice == want.lattice);
     }
@@ -144,4 +228,38 @@ fn a_large_full_resolution_mesh_round_trips() {
     assert_eq!(decoded.shape.triangles, mesh.triangles);
     let exact: Vec<f32> = mesh.vertices.iter().map(|v| v.depth).collect();
     assert_eq!(decoded.depths, exact);
+}
+
+/// A scene with a step and a hole at a camera's size: the cut mesh has
+/// cuts, decodes to them at every plane count, and costs fewer bytes than
+/// the mesh that refines its outlines.
+#[test]
+fn a_cut_mesh_round_trips_and_is_smaller() {
+    let (w, h) = (320, 240);
+    let d = depth(w, h, 9, true);
+    let cam = camera(w, h, false);
+    let hier = Hierarchy::build(&d, &cam, &Segmentation::default()).unwrap();
+    let raw = Some(RawGrid {
+        scale: 0.001,
+        offset: 0.0,
+    });
+    let size = |mesh: &Mesh| {
+        let s = mesh_stream(mesh, hier.grid(), "s", "v", &cam, raw, None, String::new()).unwrap();
+        dmesh_proto::to_bincode(&s).unwrap().len()
+    };
+    let kept = extract(&hier, Lod::Epsilon(0.01), false);
+    let cut = extract(&hier, Lod::Epsilon(0.01), true);
+    assert!(cut.cuts.len() > 20, "{} cuts", cut.cuts.len());
+    assert!(
+        size(&cut) < size(&kept),
+        "{} bytes cut, {} kept",
+        size(&cut),
+        size(&kept)
+    );
+    for planes in [Some(0), Some(3), Some(8), None] {
+        let s = mesh_stream(&cut, hier.grid(), "s", "v", &cam, raw, planes, String::new()).unwrap();
+        let decoded = s.decode().unwrap();
+        assert_eq!(cut_shapes(&decoded.cuts), cut_shapes(&cut.cuts));
+        assert_crossings_shared(&decoded.cuts);
+    }
 }

@@ -226,7 +226,10 @@ fn assert_cut_finite(mesh: &Mesh) {
     for c in &mesh.cuts {
         for t in c.parts() {
             for p in t {
-                assert!(p.is_finite() && p.z > 0.0, "cut part point {p:?} of {c:?}");
+                assert!(
+                    p.iter().all(|v| v.is_finite()) && p[2] > 0.0,
+                    "cut part point {p:?} of {c:?}"
+                );
             }
         }
         assert!(c.drawn() > 0, "a cut with nothing drawn: {c:?}");
@@ -276,7 +279,11 @@ fn drawn(mesh: &Mesh) -> Vec<[(f64, f64); 3]> {
             (f64::from(v.i), f64::from(v.j))
         })
     });
-    let parts = mesh.cuts.iter().flat_map(|c| c.parts()).map(|t| t.map(|p| (p.x, p.y)));
+    let parts = mesh
+        .cuts
+        .iter()
+        .flat_map(|c| c.parts())
+        .map(|t| t.map(|p| (p[0], p[1])));
     whole.chain(parts).collect()
 }
 

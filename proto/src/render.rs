@@ -122,6 +122,7 @@ mod tests {
             triangles: 0,
             extract_ms,
             reach: None,
+            cuts: Vec::new(),
         }
     }
 

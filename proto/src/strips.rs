@@ -190,6 +190,11 @@ pub struct StripResponse {
     /// before it must be fetched again; `None` for a static one.
     #[serde(default)]
     pub reach: Option<Reach>,
+    /// The cut triangles of a mesh that came in the compact stream
+    /// (protocol 7), decoded, with their parts drawn beside `indices`. Never
+    /// on the protocol 5 wire, whose meshes refine their outlines instead.
+    #[serde(skip)]
+    pub cuts: Vec<crate::compact::CutTriangle>,
 }
 
 /// What a view-dependent mesh still serves once the camera moves
@@ -272,6 +277,7 @@ mod tests {
             triangles: 2,
             extract_ms: 0.25,
             reach: None,
+            cuts: Vec::new(),
         }
     }
 

@@ -1,7 +1,8 @@
 //! Strip and render requests answered (DMesh Sec. 6.1-6.2 through the
 //! engine's render plan, `dmesh_engine::render_plan`): the views selected
 //! and loaded, a budget shared by weight, each mesh extracted and encoded
-//! as protocol 5 strips or the compact stream (protocol 6), with the ETag
+//! as protocol 5 strips (outlines refined) or the compact stream (protocol
+//! 7, outlines cut), with the ETag
 //! that names it and the timings. A time budget becomes triangles through
 //! the server's measured extraction rate and how far recent meshes fell
 //! short of their allowance. The HTTP layer only reads the request and
@@ -11,7 +12,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use dmesh_engine::camera::Camera;
-use dmesh_engine::mesh::Mesh;
+use dmesh_engine::mesh::{Mesh, Outlines};
 use dmesh_engine::render_plan::{self, Ask};
 use dmesh_engine::wire::{strip_response, DepthCoding};
 use dmesh_engine::wire_compact;
@@ -89,11 +90,13 @@ fn triangles_for_ms(state: &AppState, ms: f64) -> f64 {
     ms / state.metrics.ms_per_triangle() / state.metrics.budget_fill()
 }
 
-/// One view's mesh for `ask`, with the server's measured extraction rate
-/// turning a time budget into triangles (blocking).
-fn extract_mesh(state: &AppState, loaded: &Loaded, ask: &Ask) -> Result<Mesh, AppError> {
-    let (mesh, allowed) = render_plan::extract_mesh(&loaded.hierarchy, ask, |ms| triangles_for_ms(state, ms))?;
-    let triangles = mesh.triangles.len();
+/// One view's mesh for `ask`, its outlines as the answer's wire carries
+/// them, with the server's measured extraction rate turning a time budget
+/// into triangles (blocking).
+fn extract_mesh(state: &AppState, loaded: &Loaded, ask: &Ask, outlines: Outlines) -> Result<Mesh, AppError> {
+    let (mesh, allowed) =
+        render_plan::extract_mesh(&loaded.hierarchy, ask, outlines, |ms| triangles_for_ms(state, ms))?;
+    let triangles = mesh.drawn_triangles();
     state.metrics.extraction(mesh.extract_ms, triangles);
     if let Some(allowed) = allowed {
         state.metrics.budget_filled(triangles as f64 / allowed as f64);
@@ -103,7 +106,7 @@ fn extract_mesh(state: &AppState, loaded: &Loaded, ask: &Ask) -> Result<Mesh, Ap
 
 /// One view's strips for `ask` (protocol 5).
 fn extract(state: &AppState, scene: &str, view: &str, loaded: &Loaded, ask: &Ask) -> Result<StripResponse, AppError> {
-    let mesh = extract_mesh(state, loaded, ask)?;
+    let mesh = extract_mesh(state, loaded, ask, Outlines::Kept)?;
     let coding = DepthCoding {
         bits: ask.bits(),
         root_side: loaded.hierarchy.grid().side(),
@@ -150,13 +153,13 @@ fn extract_compact(
     tag: Option<&StreamTag>,
     held: Option<Held>,
 ) -> Result<(MeshBody, String), AppError> {
-    let mesh = extract_mesh(state, loaded, ask)?;
+    let mesh = extract_mesh(state, loaded, ask, Outlines::Cut)?;
     let etag = tag.map(StreamTag::etag).unwrap_or_default();
     let h = &loaded.hierarchy;
     let encoding = |e: dmesh_proto::compact::CompactError| AppError::Internal(format!("encoding the mesh: {e}"));
     if let Some(Held::Mesh(held)) = &held {
         // The held mesh as the client decoded it, derived again.
-        let (before, _) = render_plan::extract_mesh(h, held, |_| 0.0)?;
+        let (before, _) = render_plan::extract_mesh(h, held, Outlines::Cut, |_| 0.0)?;
         let decoded = wire_compact::held(&before, loaded.raw_grid, held.bits());
         let change = wire_compact::mesh_change(
             &mesh,

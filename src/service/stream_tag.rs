@@ -3,10 +3,11 @@
 //!
 //! A compact response's ETag states what determines it: the stored view's
 //! version, the request's level of detail and a hash of its camera, and the
-//! depth planes it carries:
-//! `"<view etag>.<lod><camera>.p<planes>"`, with `<lod>` one of `e<bits>`,
+//! depth planes it carries, and the stream's version:
+//! `"<view etag>.<lod><camera>.p<planes>.v7"`, with `<lod>` one of `e<bits>`,
 //! `t<bits>` (the f64 bits of epsilon or tau, hex) or `n<max triangles>`,
-//! `<camera>` empty or `c<hash>`, and `<planes>` a count or `a` for all. A
+//! `<camera>` empty or `c<hash>`, and `<planes>` a count or `a` for all
+//! (a tag of another version names a mesh of other rules: ignored). A
 //! request naming a held ETag of the same view version, level of detail and
 //! camera gets only the planes it lacks; one of the same view version with
 //! another level of detail or camera gets the change from it, the server
@@ -18,6 +19,10 @@
 use dmesh_engine::camera::Camera;
 use dmesh_engine::render_plan::Ask;
 use dmesh_proto::Lod as WireLod;
+
+/// The tag's last field: the version of the compact stream whose rules
+/// made the mesh it names.
+const VERSION: &str = ".v7";
 
 /// What a compact response is, parsed from or written to its ETag.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -55,6 +60,7 @@ impl StreamTag {
     /// Parses an ETag this module wrote; `None` for anything else.
     pub fn parse(etag: &str) -> Option<Self> {
         let inner = etag.trim().strip_prefix('"')?.strip_suffix('"')?;
+        let inner = inner.strip_suffix(VERSION)?;
         let (rest, planes) = inner.rsplit_once(".p")?;
         let (view, mesh) = rest.rsplit_once('.')?;
         let planes = match planes {
@@ -71,7 +77,7 @@ impl StreamTag {
     /// The ETag, quoted.
     pub fn etag(&self) -> String {
         let planes = self.planes.map_or("a".to_string(), |p| p.to_string());
-        format!("\"{}.{}.p{planes}\"", self.view, self.mesh)
+        format!("\"{}.{}.p{planes}{VERSION}\"", self.view, self.mesh)
     }
 
     /// The same tag with `planes`.
@@ -131,7 +137,8 @@ mod tests {
         let t = StreamTag::new("\"abc-1\"", &tau).unwrap();
         assert_eq!(StreamTag::parse(&t.etag()), Some(t.clone()));
         let all = t.with_planes(None);
-        assert!(all.etag().ends_with(".pa\""), "{}", all.etag());
+        assert!(all.etag().ends_with(".pa.v7\""), "{}", all.etag());
+        assert_eq!(super::VERSION, format!(".v{}", dmesh_proto::COMPACT_VERSION));
         assert_eq!(StreamTag::parse(&all.etag()), Some(all.clone()));
         assert!(t.same_mesh(&all));
         let mut moved = cam;

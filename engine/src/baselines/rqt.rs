@@ -164,7 +164,7 @@ impl Rqt {
         // own corners (a crossing's two sides differ in depth).
         for part in mesh.cuts.iter().flat_map(|c| c.parts()) {
             let base = vertices.len() as u32;
-            vertices.extend(part.map(|p| [p.x as f32, p.y as f32, p.z as f32]));
+            vertices.extend(part.map(|p| p.map(|v| v as f32)));
             triangles.push([base, base + 1, base + 2]);
         }
         Ok(TriMesh { vertices, triangles })

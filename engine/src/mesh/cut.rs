@@ -83,66 +83,10 @@ enum Crossing {
     Many,
 }
 
-/// A triangle drawn as two parts separated by one straight cut: the
-/// engine's form of a protocol 7 cut triangle.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct CutTriangle {
-    /// Grid corners `(i, j)`: the corner alone on its side of the cut,
-    /// then the other two, in the orientation of [`super::Mesh::triangles`].
-    pub corners: [[u16; 2]; 3],
-    /// Where the cut crosses the edges from the lone corner to corner 1
-    /// and to corner 2, in half steps from the lone corner: on an edge of
-    /// `n` steps, the crossing lies `at / 2n` of the way.
-    pub at: [u16; 2],
-    /// Depths of the lone corner's part at the lone corner and the two
-    /// crossings; `None` when that side is void (invalid samples).
-    pub lone: Option<[f32; 3]>,
-    /// Depths of the other part at crossing 1, corners 1 and 2, and
-    /// crossing 2; `None` when that side is void.
-    pub other: Option<[f32; 4]>,
-}
-
-impl CutTriangle {
-    /// The two crossings in grid coordinates.
-    pub fn crossings(&self) -> [[f64; 2]; 2] {
-        let c = self.corners.map(|[x, y]| [f64::from(x), f64::from(y)]);
-        [1, 2].map(|e| {
-            let (dx, dy) = (c[e][0] - c[0][0], c[e][1] - c[0][1]);
-            // at / 2n with n a power of two: exact in binary, so both
-            // decoders place the crossing on the same bits.
-            let t = f64::from(self.at[e - 1]) / (2.0 * dx.abs().max(dy.abs()));
-            [c[0][0] + t * dx, c[0][1] + t * dy]
-        })
-    }
-
-    /// The triangles it draws, each as three `(u, v, z)` points, oriented
-    /// as its corners are: the lone part's (one), then the other part's
-    /// (two, split along crossing 1 to corner 2), leaving out those of no
-    /// area (a crossing on a corner, at the image border). At most three.
-    pub fn parts(&self) -> impl Iterator<Item = [DVec3; 3]> + '_ {
-        self.all_parts().filter(|&t| area2(t) != 0.0)
-    }
-
-    /// [`Self::parts`] with those of no area.
-    fn all_parts(&self) -> impl Iterator<Item = [DVec3; 3]> + '_ {
-        let c = self.corners.map(|[x, y]| (f64::from(x), f64::from(y)));
-        let [a, b] = self.crossings().map(|[x, y]| (x, y));
-        let p = |(x, y): (f64, f64), z: f32| DVec3::new(x, y, f64::from(z));
-        let lone = self.lone.map(|z| [p(c[0], z[0]), p(a, z[1]), p(b, z[2])]);
-        let other = self.other.map(|z| {
-            [
-                [p(a, z[0]), p(c[1], z[1]), p(c[2], z[2])],
-                [p(a, z[0]), p(c[2], z[2]), p(b, z[3])],
-            ]
-        });
-        lone.into_iter().chain(other.into_iter().flatten())
-    }
-
-    /// How many triangles it draws (0 to 3).
-    pub fn drawn(&self) -> usize {
-        self.parts().count()
-    }
-}
+/// A triangle drawn as two parts separated by one straight cut, as
+/// protocol 7 carries it: both ends place its crossings and parts by one
+/// function.
+pub use dmesh_proto::compact::CutTriangle;
 
 /// A cut of one hierarchy triangle and its largest deviation.
 #[derive(Clone, Copy, Debug)]
@@ -342,7 +286,7 @@ impl Samples<'_> {
         let lone_sign = side(a, b, f(p0)).signum() / len;
         // Signed distance from the cut in samples, positive on the lone side.
         let which = |q: (f64, f64)| side(a, b, q) * lone_sign;
-        let parts: Vec<[DVec3; 3]> = cut.all_parts().collect();
+        let parts: Vec<[DVec3; 3]> = cut.all_parts().map(|t| t.map(DVec3::from_array)).collect();
         let lone_part = cut.lone.map(|_| parts[0]);
         let other_parts = cut.other.map(|_| {
             let o = usize::from(cut.lone.is_some());

@@ -27,6 +27,10 @@
 //! encoder runs the decoder at every plane count and states each one's
 //! largest error.
 //!
+//! The side depths of cut triangles' crossings (`cut.rs`) follow the
+//! vertices as one more level, the finest: each predicted from the vertex
+//! at its side's end of the crossed edge, coded as any vertex is.
+//!
 //! A reconstruction that is not a finite positive depth (a coarse answer
 //! far below a near surface) falls back to the prediction, in encoder and
 //! decoder alike, so no plane count ever yields an invalid depth.
@@ -119,6 +123,23 @@ fn predictors(forest: &Forest, vertices: &[Pt]) -> Vec<Pred> {
             .collect();
         (preds, vertices.iter().map(|&v| forest.index(v)).collect())
     })
+}
+
+/// Each value's predictor and level: the vertices' ([`predictors`]), then
+/// the `sides`', each from the vertex it names, on the level after the
+/// finest.
+fn predict_all(forest: &Forest, vertices: &[Pt], sides: &[u32]) -> Result<(Vec<Pred>, Vec<usize>), Error> {
+    if sides.iter().any(|&v| v as usize >= vertices.len()) {
+        return Err("a side depth's vertex is not in the mesh");
+    }
+    let mut preds = predictors(forest, vertices);
+    preds.extend(sides.iter().map(|&v| Pred::One(v)));
+    let level = vertices
+        .iter()
+        .map(|&v| forest.level(v) as usize)
+        .chain(sides.iter().map(|_| forest.levels()))
+        .collect();
+    Ok((preds, level))
 }
 
 /// The arithmetic both ends share.
@@ -234,19 +255,27 @@ pub fn on(g: RawGrid, z: f32) -> f32 {
 }
 
 /// Codes `depths` (finite, positive) of `vertices` (coarse to fine, as the
-/// connectivity decoder numbers them) on [`lattice_for`] `raw`, to be sent
-/// with `planes` planes (`None`: all). The vertices `known` marks are the
-/// client's already, on the same lattice: they predict, but cost nothing.
+/// connectivity decoder numbers them) and then of the cut sides predicted
+/// from the vertices `sides` names, on [`lattice_for`] `raw` (of the
+/// vertices' depths), to be sent with `planes` planes (`None`: all). The
+/// values `known` marks are the client's already, on the same lattice:
+/// they predict, but cost nothing.
 pub fn encode(
     forest: &Forest,
     vertices: &[Pt],
+    sides: &[u32],
     depths: &[f32],
     raw: Option<RawGrid>,
     planes: Option<u8>,
     known: Option<&[bool]>,
 ) -> Result<DepthCode, String> {
-    if vertices.len() != depths.len() {
-        return Err(format!("{} depths for {} vertices", depths.len(), vertices.len()));
+    if vertices.len() + sides.len() != depths.len() {
+        return Err(format!(
+            "{} depths for {} vertices and {} sides",
+            depths.len(),
+            vertices.len(),
+            sides.len()
+        ));
     }
     if known.is_some_and(|k| k.len() != depths.len()) {
         return Err("the known mask does not match the vertices".to_string());
@@ -254,16 +283,15 @@ pub fn encode(
     if let Some(z) = depths.iter().find(|z| !valid(**z)) {
         return Err(format!("depth {z} is not finite and positive"));
     }
-    let g = lattice_for(depths, raw);
+    let g = lattice_for(&depths[..vertices.len()], raw);
     let units = Units(Some(g));
     let is_known = |k: usize| known.is_some_and(|m| m[k]);
     // The depths as coded: on the lattice.
     let coded_depths: Vec<f32> = depths.iter().map(|&z| on(g, z)).collect();
-    let preds = predictors(forest, vertices);
-    let level: Vec<usize> = vertices.iter().map(|&v| forest.level(v) as usize).collect();
+    let (preds, level) = predict_all(forest, vertices, sides)?;
     let truth: Vec<f64> = coded_depths.iter().map(|&z| units.of(z)).collect();
     // Per level: the open-loop residuals.
-    let mut residuals = vec![Vec::new(); forest.levels()];
+    let mut residuals = vec![Vec::new(); forest.levels() + 1];
     for (k, &p) in preds.iter().enumerate() {
         if p != Pred::None && !is_known(k) {
             residuals[level[k]].push((truth[k] - units.predict(p, &truth)).abs());
@@ -278,12 +306,13 @@ pub fn encode(
         })
         .collect();
     // Closed loop at full precision.
-    let mut held = vec![0f64; vertices.len()];
-    let mut mags = vec![(0u32, false); vertices.len()];
-    let mut coded = vec![false; vertices.len()];
+    let n = depths.len();
+    let mut held = vec![0f64; n];
+    let mut mags = vec![(0u32, false); n];
+    let mut coded = vec![false; n];
     let mut exact: Vec<f32> = Vec::new();
     let mut escapes = crate::bits::BitWriter::default();
-    for k in 0..vertices.len() {
+    for k in 0..n {
         let p = preds[k];
         if is_known(k) {
             held[k] = truth[k];
@@ -336,11 +365,11 @@ pub fn encode(
     };
     // The error of the planes sent, from the magnitudes themselves: what
     // `decode_with` computes from the planes, without parsing them again.
-    let mut values = vec![0f64; vertices.len()];
+    let mut values = vec![0f64; n];
     {
         let b = sent;
         let mut err = 0f32;
-        for k in 0..vertices.len() {
+        for k in 0..n {
             let (z, u) = if coded[k] {
                 let lc = code.levels[level[k]];
                 let s = u32::from(lc.planes - lc.planes.min(b));

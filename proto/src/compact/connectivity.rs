@@ -7,30 +7,48 @@
 //! *leaf bit* (1: drawn, 0: left out, because it is segmented or outside
 //! the requesting view). A triangle whose split vertex the rules force is
 //! split without a bit; if the mesh left it out whole, its children are
-//! left out one by one, which draws the same triangles.
+//! left out one by one, which draws the same triangles. A leaf left out
+//! answers with a *cut bit* (1: drawn as a cut triangle, `cut.rs`).
 //!
 //! The decoder numbers the vertices as the engine does: in order of first
-//! use by the drawn triangles, then stably by level, coarse to fine.
+//! use by the drawn triangles, then by the cut triangles' drawn corners,
+//! then stably by level, coarse to fine.
 
+use super::cut::CutShape;
 use super::forest::{Decide, Forest, Node, Pt, Symbol};
 use crate::bits::{BitReader, BitWriter};
 
-/// The two bit fields.
+/// The three bit fields.
 #[derive(Clone, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Connectivity {
     /// Split bits, one per asked triangle larger than a cell.
     pub split: Vec<u8>,
     /// Leaf bits, one per triangle that is not split.
     pub leaf: Vec<u8>,
+    /// Cut bits, one per leaf left out: 1 when it is drawn as a cut.
+    pub cut: Vec<u8>,
 }
 
-/// A decoded mesh's shape: vertices coarse to fine, triangles indexing them.
+/// A decoded mesh's shape: vertices coarse to fine, triangles indexing
+/// them, and the cut triangles.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct Shape {
     /// Grid coordinates of the vertices.
     pub vertices: Vec<Pt>,
     /// Triangles in walk order, corners oriented to face the camera.
     pub triangles: Vec<[u32; 3]>,
+    /// Cut triangles in walk order, their depths apart.
+    pub cuts: Vec<CutShape>,
+}
+
+/// What a walk met: the drawn triangles and the cut leaves, in walk order,
+/// corners as [`Node::oriented`] gives them.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Leaves {
+    /// Drawn triangles.
+    pub drawn: Vec<[Pt; 3]>,
+    /// Leaves drawn as cuts.
+    pub cut: Vec<[Pt; 3]>,
 }
 
 /// What a client holds of another mesh of the same view, as the context a
@@ -118,6 +136,7 @@ impl Context {
 struct Fields<W> {
     split: W,
     leaf: W,
+    cut: W,
     fresh_split: W,
     fresh_leaf: W,
 }
@@ -187,11 +206,14 @@ struct Encoder<'a> {
     cells: Vec<u64>,
     /// Drawn larger triangles, by split vertex and half.
     drawn: Vec<u64>,
-    /// Triangles with a drawn triangle inside, by split vertex and half.
+    /// Leaves drawn as cuts, by split vertex (by cell for cells) and
+    /// half: larger triangles, then cells.
+    cut: [Vec<u64>; 2],
+    /// Triangles with a drawn or cut triangle inside, by split vertex and half.
     inside: Vec<u64>,
     bits: Fields<BitWriter>,
-    /// The drawn triangles in walk order, as the decoder will see them.
-    corners: Vec<[Pt; 3]>,
+    /// What the walk met, as the decoder will see it.
+    leaves: Leaves,
     /// A held mesh the bits are coded against.
     held: Option<&'a Context>,
 }
@@ -212,11 +234,11 @@ impl Decide for Encoder<'_> {
         if node.is_cell() {
             let drawn = get(&self.cells, key);
             leaf(drawn);
-            return Ok(if drawn { Symbol::Emit } else { Symbol::Skip });
+            return Ok(self.leaf_left_out(node, key, drawn));
         }
         let drawn = get(&self.drawn, key);
         if implied {
-            if drawn {
+            if drawn || get(&self.cut[0], key) {
                 return Err(format!(
                     "triangle {node:?} is drawn but its split vertex is forced: the mesh does not conform"
                 ));
@@ -237,52 +259,83 @@ impl Decide for Encoder<'_> {
             (None, true) => self.bits.fresh_leaf.bit(drawn),
             (None, false) => self.bits.leaf.bit(drawn),
         }
-        Ok(if drawn { Symbol::Emit } else { Symbol::Skip })
+        Ok(self.leaf_left_out(node, key, drawn))
     }
 
     fn emit(&mut self, corners: [Pt; 3]) -> Result<(), String> {
-        self.corners.push(corners);
+        self.leaves.drawn.push(corners);
         Ok(())
     }
 }
 
-/// Codes the triangles `triangles` (grid coordinates of their corners) of a
-/// mesh on `forest`, with the shape the decoder will rebuild: the bits, the
-/// fresh bits, the shape. Without `held` every bit is plain and the fresh
-/// bits are empty; against `held`, the bits of triangles the held mesh
-/// reached are differences from their fate there, and the others' are the
-/// fresh bits. Fails when a triangle is not one of the forest's, or the
+impl Encoder<'_> {
+    /// A leaf's symbol; a leaf left out answers its cut bit.
+    fn leaf_left_out(&mut self, node: &Node, key: usize, drawn: bool) -> Symbol {
+        if drawn {
+            return Symbol::Emit;
+        }
+        let cut = get(&self.cut[usize::from(node.is_cell())], key);
+        self.bits.cut.bit(cut);
+        if cut {
+            self.leaves.cut.push(node.oriented());
+        }
+        Symbol::Skip
+    }
+}
+
+/// Codes the triangles `triangles` (grid coordinates of their corners) and
+/// the cut leaves `cuts` of a mesh on `forest`, with what the decoder's walk
+/// will meet: the bits, the fresh bits, the leaves. Without `held` every
+/// bit is plain and the fresh bits are empty; against `held`, the split
+/// and leaf bits of triangles the held mesh reached are differences from
+/// their fate there, and the others' are the fresh bits (cut bits are
+/// always plain). Fails when a triangle is not one of the forest's, or the
 /// triangles are not the leaves of one conforming walk.
 pub fn encode(
     forest: &Forest,
     triangles: &[[Pt; 3]],
+    cuts: &[[Pt; 3]],
     held: Option<&Context>,
-) -> Result<(Connectivity, Connectivity, Shape), String> {
+) -> Result<(Connectivity, Connectivity, Leaves), String> {
     forest.check()?;
     let words = (2 * forest.len()).div_ceil(64);
     let mut enc = Encoder {
         forest,
         cells: vec![0; words],
         drawn: vec![0; words],
+        cut: [vec![0; words], vec![0; words]],
         inside: vec![0; words],
         bits: Fields {
             split: BitWriter::default(),
             leaf: BitWriter::default(),
+            cut: BitWriter::default(),
             fresh_split: BitWriter::default(),
             fresh_leaf: BitWriter::default(),
         },
-        corners: Vec::with_capacity(triangles.len()),
+        leaves: Leaves {
+            drawn: Vec::with_capacity(triangles.len()),
+            cut: Vec::with_capacity(cuts.len()),
+        },
         held,
     };
     let (gw, gh) = (forest.gw(), forest.gh());
-    for t in triangles {
+    for (k, t) in triangles.iter().chain(cuts).enumerate() {
         if t.iter().any(|p| p.0 >= gw || p.1 >= gh) {
             return Err(format!("triangle {t:?} lies outside the {gw} x {gh} grid"));
         }
         let node = node_of(forest, *t)?;
         let key = 2 * forest.index(node.mid()) + node.half();
-        let fresh = !set(if node.is_cell() { &mut enc.cells } else { &mut enc.drawn }, key);
-        if !fresh {
+        let (drawn, cut) = if node.is_cell() {
+            (&mut enc.cells, &mut enc.cut[1])
+        } else {
+            (&mut enc.drawn, &mut enc.cut[0])
+        };
+        let twice = if k >= triangles.len() {
+            set(cut, key) || get(drawn, key)
+        } else {
+            set(drawn, key)
+        };
+        if twice {
             return Err(format!("triangle {t:?} appears twice"));
         }
         let mut up = parent(forest, &node);
@@ -294,17 +347,18 @@ pub fn encode(
         }
     }
     forest.walk(&mut enc)?;
-    if enc.corners.len() != triangles.len() {
+    let met = enc.leaves.drawn.len() + enc.leaves.cut.len();
+    if met != triangles.len() + cuts.len() {
         return Err(format!(
             "{} of {} triangles lie under triangles the walk drew or left out: the mesh does not conform",
-            triangles.len() - enc.corners.len(),
-            triangles.len()
+            triangles.len() + cuts.len() - met,
+            triangles.len() + cuts.len()
         ));
     }
-    let shape = assemble(forest, &enc.corners);
     let Fields {
         split,
         leaf,
+        cut,
         fresh_split,
         fresh_leaf,
     } = enc.bits;
@@ -312,12 +366,14 @@ pub fn encode(
         Connectivity {
             split: split.finish(),
             leaf: leaf.finish(),
+            cut: cut.finish(),
         },
         Connectivity {
             split: fresh_split.finish(),
             leaf: fresh_leaf.finish(),
+            cut: Vec::new(),
         },
-        shape,
+        enc.leaves,
     ))
 }
 
@@ -325,9 +381,9 @@ struct Decoder<'a> {
     forest: &'a Forest,
     held: Option<&'a Context>,
     bits: Fields<BitReader<'a>>,
-    corners: Vec<[Pt; 3]>,
-    /// At most this many triangles (from the header).
-    limit: usize,
+    leaves: Leaves,
+    /// At most this many triangles and cuts (from the header).
+    limit: (usize, usize),
 }
 
 impl Decide for Decoder<'_> {
@@ -355,29 +411,39 @@ impl Decide for Decoder<'_> {
             (None, true) => b.fresh_leaf.bit()?,
             (None, false) => b.leaf.bit()?,
         };
-        Ok(if drawn { Symbol::Emit } else { Symbol::Skip })
+        if drawn {
+            return Ok(Symbol::Emit);
+        }
+        if b.cut.bit()? {
+            if self.leaves.cut.len() >= self.limit.1 {
+                return Err("connectivity cuts more triangles than the header says");
+            }
+            self.leaves.cut.push(node.oriented());
+        }
+        Ok(Symbol::Skip)
     }
 
     fn emit(&mut self, corners: [Pt; 3]) -> Result<(), &'static str> {
-        if self.corners.len() >= self.limit {
+        if self.leaves.drawn.len() >= self.limit.0 {
             return Err("connectivity draws more triangles than the header says");
         }
-        self.corners.push(corners);
+        self.leaves.drawn.push(corners);
         Ok(())
     }
 }
 
-/// Rebuilds the mesh that [`encode`] coded (against `held`, with its fresh
-/// bits `fresh`), expecting `triangles` of them.
+/// Walks the mesh that [`encode`] coded (against `held`, with its fresh
+/// bits `fresh`), expecting `triangles` drawn and `cuts` cut.
 pub fn decode(
     forest: &Forest,
     bits: &Connectivity,
     fresh: &Connectivity,
-    triangles: usize,
+    (triangles, cuts): (usize, usize),
     held: Option<&Context>,
-) -> Result<Shape, &'static str> {
+) -> Result<Leaves, &'static str> {
     forest.check()?;
-    if triangles > 2 * (forest.gw() as usize - 1) * (forest.gh() as usize - 1) {
+    let cells = 2 * (forest.gw() as usize - 1) * (forest.gh() as usize - 1);
+    if triangles > cells || cuts > cells {
         return Err("more triangles than the forest holds");
     }
     let mut dec = Decoder {
@@ -386,30 +452,52 @@ pub fn decode(
         bits: Fields {
             split: BitReader::new(&bits.split, "split bits end early or run on"),
             leaf: BitReader::new(&bits.leaf, "leaf bits end early or run on"),
+            cut: BitReader::new(&bits.cut, "cut bits end early or run on"),
             fresh_split: BitReader::new(&fresh.split, "fresh split bits end early or run on"),
             fresh_leaf: BitReader::new(&fresh.leaf, "fresh leaf bits end early or run on"),
         },
-        corners: Vec::with_capacity(triangles.min(1 << 24)),
-        limit: triangles,
+        leaves: Leaves {
+            drawn: Vec::with_capacity(triangles.min(1 << 24)),
+            cut: Vec::with_capacity(cuts.min(1 << 24)),
+        },
+        limit: (triangles, cuts),
     };
     forest.walk(&mut dec)?;
     dec.bits.split.end()?;
     dec.bits.leaf.end()?;
+    dec.bits.cut.end()?;
     dec.bits.fresh_split.end()?;
     dec.bits.fresh_leaf.end()?;
-    if dec.corners.len() != triangles {
+    if !fresh.cut.is_empty() {
+        return Err("fresh cut bits are not part of a change");
+    }
+    if dec.leaves.drawn.len() != triangles {
         return Err("connectivity draws fewer triangles than the header says");
     }
-    Ok(assemble(forest, &dec.corners))
+    if dec.leaves.cut.len() != cuts {
+        return Err("connectivity cuts fewer triangles than the header says");
+    }
+    Ok(dec.leaves)
 }
 
-/// Numbers the vertices of `corners` by first use, then stably by level,
-/// and indexes the triangles by that numbering.
+/// [`assemble_with`] of drawn triangles alone.
 pub fn assemble(forest: &Forest, corners: &[[Pt; 3]]) -> Shape {
+    assemble_with(forest, corners, &[])
+}
+
+/// Numbers the vertices of `corners` by first use, then the cuts' drawn
+/// corners by first use, then stably by level, and indexes the triangles
+/// by that numbering.
+pub fn assemble_with(forest: &Forest, corners: &[[Pt; 3]], cuts: &[CutShape]) -> Shape {
     super::forest::with_slot_map(forest.len(), |slot| {
         let mut used: Vec<(Pt, usize)> = Vec::with_capacity(corners.len() / 2 + 8);
         let mut per_level = vec![0u32; forest.levels() + 1];
-        for &p in corners.iter().flatten() {
+        for p in corners
+            .iter()
+            .flatten()
+            .copied()
+            .chain(cuts.iter().flat_map(CutShape::vertices))
+        {
             let i = forest.index(p);
             if slot[i] == u32::MAX {
                 slot[i] = 0;
@@ -430,6 +518,11 @@ pub fn assemble(forest: &Forest, corners: &[[Pt; 3]]) -> Shape {
         }
         let triangles = corners.iter().map(|t| t.map(|p| slot[forest.index(p)])).collect();
         let touched = vertices.iter().map(|&p| forest.index(p)).collect();
-        (Shape { vertices, triangles }, touched)
+        let shape = Shape {
+            vertices,
+            triangles,
+            cuts: cuts.to_vec(),
+        };
+        (shape, touched)
     })
 }

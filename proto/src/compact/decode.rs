@@ -1,11 +1,11 @@
 //! Decoding the compact stream: a whole mesh, a change against the mesh a
 //! client holds, and a plane update of a stream it holds (PROTOCOL.md,
-//! "Protocol 6").
+//! "Protocol 7").
 
 use super::forest::Pt;
 use super::{
-    bitplanes, connectivity, CompactError, Connectivity, DecodedMesh, DepthCode, Forest, MeshChange, MeshStream,
-    PlaneUpdate, Shape, COMPACT_VERSION,
+    bitplanes, connectivity, cut, pt, side_vertices, CompactError, Connectivity, CutTriangle, DecodedMesh, DepthCode,
+    Forest, MeshChange, MeshStream, PlaneUpdate, Shape, COMPACT_VERSION,
 };
 use crate::residual::RawGrid;
 
@@ -23,25 +23,43 @@ impl DecodedMesh {
     }
 
     /// A mesh as a client holding it decoded it, from the encoder's side:
-    /// vertices `ij` with `depths`, `triangles` indexing them, coded on
-    /// [`bitplanes::lattice_for`] `raw`. `complete` when the client holds
-    /// all its planes; only then are its depths the decoded ones (a change
-    /// reuses no others). What a server needs to code a change against it,
-    /// without coding it again.
+    /// vertices `ij` with `depths`, `triangles` indexing them, the `cuts`,
+    /// coded on [`bitplanes::lattice_for`] `raw`. `complete` when the
+    /// client holds all its planes; only then are its depths the decoded
+    /// ones (a change reuses no others). What a server needs to code a
+    /// change against it, without coding it again: its vertices (the cuts'
+    /// drawn corners among them) and drawn triangles.
     pub fn held(
         ij: &[(u16, u16)],
         depths: &[f32],
         triangles: &[[u32; 3]],
+        cuts: &[CutTriangle],
         raw: Option<RawGrid>,
         complete: bool,
     ) -> Self {
-        let lattice = bitplanes::lattice_for(depths, raw);
+        let mut vertices: Vec<Pt> = ij.iter().map(|&(i, j)| (u32::from(i), u32::from(j))).collect();
+        let mut depths = depths.to_vec();
+        let mut seen: std::collections::HashSet<Pt> = vertices.iter().copied().collect();
+        for c in cuts {
+            let [p0, p1, p2] = c.corners.map(pt);
+            let lone = c.lone.map(|z| [(p0, z[0])]);
+            let other = c.other.map(|z| [(p1, z[1]), (p2, z[2])]);
+            for (p, z) in lone.into_iter().flatten().chain(other.into_iter().flatten()) {
+                if seen.insert(p) {
+                    vertices.push(p);
+                    depths.push(z);
+                }
+            }
+        }
+        let lattice = bitplanes::lattice_for(&depths, raw);
         Self {
             shape: Shape {
-                vertices: ij.iter().map(|&(i, j)| (u32::from(i), u32::from(j))).collect(),
+                vertices,
                 triangles: triangles.to_vec(),
+                cuts: Vec::new(),
             },
             depths: depths.iter().map(|&z| bitplanes::on(lattice, z)).collect(),
+            cuts: cuts.to_vec(),
             max_error: 0.0,
             planes: 0,
             lattice: Some(lattice),
@@ -108,13 +126,15 @@ impl MeshStream {
             .transpose()
             .map_err(CompactError)?;
         let empty = Connectivity::default();
-        let shape = connectivity::decode(
+        let leaves = connectivity::decode(
             &f,
             &self.connectivity,
             held.map_or(&empty, |h| h.2),
-            self.triangles as usize,
+            (self.triangles as usize, self.cut_triangles as usize),
             context.as_ref(),
         )?;
+        let (shapes, sides) = cut::decode(&f, &leaves.cut, &self.cuts)?;
+        let shape = connectivity::assemble_with(&f, &leaves.drawn, &shapes);
         if shape.vertices.iter().any(|&(i, j)| i >= w || j >= h) {
             return Err("a vertex lies outside the reference image".into());
         }
@@ -123,7 +143,9 @@ impl MeshStream {
                 if !m.complete || m.lattice != self.lattice || self.lattice.is_none() {
                     return Err("the change reuses depths the held mesh does not have".into());
                 }
-                Some(m.depths_at(&shape.vertices))
+                let mut known = m.depths_at(&shape.vertices);
+                known.resize(shape.vertices.len() + sides.len(), None);
+                Some(known)
             }
             _ => None,
         };
@@ -137,10 +159,28 @@ impl MeshStream {
             sent: self.planes.len(),
             max_error: self.max_error,
         };
-        let depths = bitplanes::decode(&f, &shape.vertices, &code, self.planes.len(), known.as_deref())?;
+        let side_vertices = side_vertices(&shape, &sides)?;
+        let mut depths = bitplanes::decode(
+            &f,
+            &shape.vertices,
+            &side_vertices,
+            &code,
+            self.planes.len(),
+            known.as_deref(),
+        )?;
+        let side_depths = depths.split_off(shape.vertices.len());
+        let at: std::collections::HashMap<Pt, f32> =
+            shape.vertices.iter().copied().zip(depths.iter().copied()).collect();
+        let cuts = shape
+            .cuts
+            .iter()
+            .map(|c| c.with_depths(|p| at.get(&p).copied(), &side_depths))
+            .collect::<Option<Vec<CutTriangle>>>()
+            .ok_or("a cut's depths do not decode")?;
         Ok(DecodedMesh {
             shape,
             depths,
+            cuts,
             max_error: self.max_error,
             planes: self.planes.len(),
             lattice: self.lattice,

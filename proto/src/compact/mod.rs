@@ -1,9 +1,11 @@
-//! Protocol 6, the compact mesh stream (`application/vnd.dmesh.mesh`):
+//! Protocol 7, the compact mesh stream (`application/vnd.dmesh.mesh`):
 //! only the information a restricted-quadtree mesh holds (DESIGN.md "The
 //! compact stream"; PROTOCOL.md lays it out bit by bit).
 //!
-//! - [`connectivity`]: split and leaf bits of the one canonical walk of the
-//!   forest ([`forest`]); the rules' implications cost nothing;
+//! - [`connectivity`]: split, leaf and cut bits of the one canonical walk
+//!   of the forest ([`forest`]); the rules' implications cost nothing;
+//! - [`cut`]: the cut triangles' cases and crossings, and the side depths
+//!   their crossings carry;
 //! - [`bitplanes`]: depths as nested bit planes of parent-edge residuals,
 //!   anchors exact;
 //! - `reach`: the culled spheres of a view-dependent mesh, merged and quantised;
@@ -16,6 +18,7 @@
 
 pub mod bitplanes;
 pub mod connectivity;
+pub mod cut;
 mod decode;
 pub mod forest;
 mod reach;
@@ -24,6 +27,7 @@ use serde::{Deserialize, Serialize};
 
 pub use bitplanes::{DepthCode, LevelCode};
 pub use connectivity::{Connectivity, Shape};
+pub use cut::{CutCode, CutTriangle};
 pub use forest::Forest;
 
 use forest::Pt;
@@ -37,7 +41,7 @@ use crate::strips::Lod;
 pub const MESH_MEDIA_TYPE: &str = "application/vnd.dmesh.mesh";
 
 /// Version of the compact stream, in every body.
-pub const COMPACT_VERSION: u16 = 6;
+pub const COMPACT_VERSION: u16 = 7;
 
 /// Largest number of culled spheres a compact reach carries (the engine's
 /// are merged down to this, staying conservative): 8 bytes each.
@@ -58,7 +62,7 @@ pub enum MeshBody {
 
 /// Another mesh of a view (a finer or coarser tolerance, a moved camera),
 /// sent as its difference from a mesh of the same view the client holds
-/// (PROTOCOL.md, "Protocol 6: changes"). Applied to the held mesh it gives
+/// (PROTOCOL.md, "Protocol 7: changes"). Applied to the held mesh it gives
 /// exactly what the whole mesh decodes to.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct MeshChange {
@@ -95,10 +99,14 @@ pub struct MeshStream {
     pub roots_x: u32,
     /// Root quads down.
     pub roots_y: u32,
-    /// Triangles the mesh draws.
+    /// Triangles the mesh draws whole.
     pub triangles: u32,
+    /// Triangles the mesh draws as cuts.
+    pub cut_triangles: u32,
     /// How the connectivity is coded.
     pub connectivity: Connectivity,
+    /// The cut triangles' cases and crossings.
+    pub cuts: CutCode,
     /// The integer lattice depths are coded on, if any.
     pub lattice: Option<RawGrid>,
     /// Per level of the forest, coarse to fine: step and planes.
@@ -203,6 +211,8 @@ pub struct MeshInput<'a> {
     pub depths: &'a [f32],
     /// Triangles indexing the vertices.
     pub triangles: &'a [[u32; 3]],
+    /// Triangles drawn as cuts.
+    pub cuts: &'a [CutTriangle],
     /// The lattice the stored depths came from, if any.
     pub raw_grid: Option<RawGrid>,
     /// The reach, `([x, y, z, r] world spheres, clearance)`.
@@ -220,7 +230,9 @@ pub struct DecodedMesh {
     pub shape: Shape,
     /// Vertex depths in metres.
     pub depths: Vec<f32>,
-    /// Largest depth error of these depths, metres.
+    /// The cut triangles with their decoded depths, in walk order.
+    pub cuts: Vec<CutTriangle>,
+    /// Largest depth error of these depths and the cuts', metres.
     pub max_error: f32,
     /// Planes decoded.
     pub planes: usize,
@@ -267,10 +279,14 @@ fn encode_against(
         .transpose()
         .map_err(CompactError)?;
     let corners = corners_of(&input)?;
-    let (connectivity, fresh, shape) = connectivity::encode(&f, &corners, context.as_ref()).map_err(CompactError)?;
-    let depths = depths_in(&input, &shape)?;
+    let cut_corners: Vec<[Pt; 3]> = input.cuts.iter().map(|c| c.corners.map(pt)).collect();
+    let (connectivity, fresh, leaves) =
+        connectivity::encode(&f, &corners, &cut_corners, context.as_ref()).map_err(CompactError)?;
+    let (cut_code, shapes, sides, side_depths) = cut::encode(&f, &leaves.cut, input.cuts).map_err(CompactError)?;
+    let shape = connectivity::assemble_with(&f, &leaves.drawn, &shapes);
+    let mut depths = depths_in(&input, &shape)?;
+    let lattice = bitplanes::lattice_for(&depths, input.raw_grid);
     let known = held.filter(|h| h.complete && input.planes.is_none()).and_then(|h| {
-        let lattice = bitplanes::lattice_for(&depths, input.raw_grid);
         let at = h.depths_at(&shape.vertices);
         // The reuse holds only if the held depths are these depths' values.
         let agree = h.lattice == Some(lattice)
@@ -278,19 +294,45 @@ fn encode_against(
                 .iter()
                 .zip(&depths)
                 .all(|(h, &z)| h.is_none_or(|h| h == bitplanes::on(lattice, z)));
-        agree.then(|| at.iter().map(Option::is_some).collect::<Vec<bool>>())
+        agree.then(|| {
+            // Side depths are always sent.
+            let sides = std::iter::repeat_n(false, sides.len());
+            at.iter().map(Option::is_some).chain(sides).collect::<Vec<bool>>()
+        })
     });
+    let side_vertices = side_vertices(&shape, &sides)?;
+    depths.extend_from_slice(&side_depths);
     let code = bitplanes::encode(
         &f,
         &shape.vertices,
+        &side_vertices,
         &depths,
         input.raw_grid,
         input.planes,
         known.as_deref(),
     )
     .map_err(CompactError)?;
-    let stream = assemble_stream(input, connectivity, code, corners.len())?;
+    let stream = assemble_stream(input, (connectivity, cut_code), code, (corners.len(), shapes.len()))?;
     Ok((stream, fresh, known.is_some()))
+}
+
+/// A grid corner as a forest point.
+fn pt([x, y]: [u16; 2]) -> Pt {
+    (u32::from(x), u32::from(y))
+}
+
+/// The vertex number of each side's end in `shape`.
+fn side_vertices(shape: &Shape, sides: &[cut::Side]) -> Result<Vec<u32>, CompactError> {
+    let slot: std::collections::HashMap<Pt, u32> =
+        shape.vertices.iter().enumerate().map(|(k, &p)| (p, k as u32)).collect();
+    sides
+        .iter()
+        .map(|s| {
+            slot.get(&s.end)
+                .copied()
+                .ok_or("a crossing side ends on no vertex".into())
+        })
+        .collect()
 }
 
 /// The triangles of `input` as grid points.
@@ -326,6 +368,16 @@ fn depths_in(input: &MeshInput<'_>, shape: &Shape) -> Result<Vec<f32>, CompactEr
     for (&(i, j), &z) in input.ij.iter().zip(input.depths) {
         depth_at.insert((u32::from(i), u32::from(j)), z);
     }
+    for c in input.cuts {
+        let [p0, p1, p2] = c.corners.map(pt);
+        if let Some(z) = c.lone {
+            depth_at.insert(p0, z[0]);
+        }
+        if let Some(z) = c.other {
+            depth_at.insert(p1, z[1]);
+            depth_at.insert(p2, z[2]);
+        }
+    }
     Ok(shape
         .vertices
         .iter()
@@ -335,9 +387,9 @@ fn depths_in(input: &MeshInput<'_>, shape: &Shape) -> Result<Vec<f32>, CompactEr
 
 fn assemble_stream(
     input: MeshInput<'_>,
-    connectivity: Connectivity,
+    (connectivity, cuts): (Connectivity, CutCode),
     code: DepthCode,
-    triangles: usize,
+    (triangles, cut_triangles): (usize, usize),
 ) -> Result<MeshStream, CompactError> {
     let f = input.forest;
     let total_planes = code.total;
@@ -352,7 +404,9 @@ fn assemble_stream(
         roots_x: f.m,
         roots_y: f.n,
         triangles: u32::try_from(triangles).map_err(|_| "too many triangles")?,
+        cut_triangles: u32::try_from(cut_triangles).map_err(|_| "too many cut triangles")?,
         connectivity,
+        cuts,
         lattice: code.lattice,
         levels: code.levels,
         escapes: code.escapes,

@@ -90,6 +90,7 @@ fn input<'a>(
         ij,
         depths,
         triangles,
+        cuts: &[],
         raw_grid: raw,
         reach: None,
         planes: None,

@@ -2,25 +2,27 @@
 //! every validation of outside bytes before any arithmetic. The encoder
 //! runs it at every plane count (closed loop), so it is the one decoder.
 
-use super::{magnitude, predictors, reconstruct, valid, DepthCode, Error, Pred, Units, MAX_PLANES};
+use super::{magnitude, predict_all, reconstruct, valid, DepthCode, Error, Pred, Units, MAX_PLANES};
 use crate::bits::BitReader;
 use crate::compact::forest::{Forest, Pt};
 use crate::residual::MAX_RAW;
 
-/// Decodes the depths of `vertices` from the first `held` planes of `code`
-/// (the planes past `held` may be absent); `known` gives the depths the
-/// client already has, which the code skips.
+/// Decodes the depths of `vertices`, then of the cut sides predicted from
+/// the vertices `sides` names, from the first `held` planes of `code` (the
+/// planes past `held` may be absent); `known` gives the depths the client
+/// already has, which the code skips.
 pub fn decode(
     forest: &Forest,
     vertices: &[Pt],
+    sides: &[u32],
     code: &DepthCode,
     held: usize,
     known: Option<&[Option<f32>]>,
 ) -> Result<Vec<f32>, Error> {
-    if known.is_some_and(|k| k.len() != vertices.len()) {
+    if known.is_some_and(|k| k.len() != vertices.len() + sides.len()) {
         return Err("the known depths do not match the vertices");
     }
-    if code.levels.len() != forest.levels() {
+    if code.levels.len() != forest.levels() + 1 {
         return Err("depth levels do not match the forest");
     }
     if held > code.planes.len() {
@@ -44,8 +46,7 @@ pub fn decode(
             }
         }
     }
-    let preds = predictors(forest, vertices);
-    let level: Vec<usize> = vertices.iter().map(|&v| forest.level(v) as usize).collect();
+    let (preds, level) = predict_all(forest, vertices, sides)?;
     decode_with(&preds, &level, code, held, known)
 }
 
