@@ -21,7 +21,7 @@ pub struct Server {
 /// How meshes travel.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
 pub enum Wire {
-    /// Protocol 6, the compact stream, zstd-coded (the default).
+    /// Protocol 7, the compact stream, zstd-coded (the default).
     #[default]
     Compact,
     /// Protocol 5, bincode vertex records and strips, uncompressed.
@@ -29,7 +29,7 @@ pub enum Wire {
 }
 
 /// A compact mesh a client holds, which a later request of the same view
-/// names to receive only the change from it (protocol 6).
+/// names to receive only the change from it (protocol 7).
 #[derive(Clone, Debug)]
 pub struct HeldMesh {
     /// The ETag of the answer that made it.

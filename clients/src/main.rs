@@ -34,7 +34,7 @@ enum Command {
     /// ground truth (simulated, and Middlebury with --data): tables and curves.
     /// With --baselines, compare the thesis's meshers with the RQT instead.
     Report(commands::report::ReportArgs),
-    /// Decode a compact body (protocol 6, `application/vnd.dmesh.mesh`) and
+    /// Decode a compact body (protocol 7, `application/vnd.dmesh.mesh`) and
     /// print it as protocol 5 JSON: vertices, derived normals and rho, depths, triangles.
     Decode(commands::decode::DecodeArgs),
     /// Move along a camera path, drawing every frame from held meshes and

@@ -16,7 +16,7 @@
 //! - [`simd`]: run-time dispatch of the build's hot loops to AVX2 or AVX-512;
 //! - [`synthetic`]: built-in synthetic depth maps;
 //! - [`wire`]: extracted meshes as `dmesh-proto` strip responses;
-//! - [`wire_compact`]: extracted meshes as protocol 6, the compact stream, and back.
+//! - [`wire_compact`]: extracted meshes as protocol 7, the compact stream, and back.
 //!
 //! ```
 //! use dmesh_engine::{camera::Camera, image::DepthImage, mesh::{Hierarchy, Lod, Segmentation}};

@@ -1,4 +1,4 @@
-//! Extracted meshes as protocol 6, the compact stream (`dmesh_proto::compact`),
+//! Extracted meshes as protocol 7, the compact stream (`dmesh_proto::compact`),
 //! and back: a decoded stream as the strip response a client draws, with
 //! normals and rho derived from the mesh ([`crate::mesh::derived_normals`]).
 

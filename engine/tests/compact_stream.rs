@@ -47,8 +47,14 @@ fn extract(h: &Hierarchy, lod: Lod<'_>, cut: bool) -> Mesh {
     h.extract_as(lod, StripOrder::Traversal, outlines).unwrap()
 }
 
+/// A cut triangle without its depths: corners, crossings, parts drawn.
+type CutShape = ([[u16; 2]; 3], [u16; 2], bool, bool);
+
+/// A crossing's place and side depths, as bits.
+type Crossing = ([u64; 2], [Option<u32>; 2]);
+
 /// The cut triangles without their depths, in a canonical order.
-fn cut_shapes(cuts: &[CutTriangle]) -> Vec<([[u16; 2]; 3], [u16; 2], bool, bool)> {
+fn cut_shapes(cuts: &[CutTriangle]) -> Vec<CutShape> {
     let mut v: Vec<_> = cuts
         .iter()
         .map(|c| (c.corners, c.at, c.lone.is_some(), c.other.is_some()))
@@ -60,7 +66,7 @@ fn cut_shapes(cuts: &[CutTriangle]) -> Vec<([[u16; 2]; 3], [u16; 2], bool, bool)
 /// Every crossing of `cuts` has one place and one depth per side, bit
 /// for bit, in every cut that crosses its edge.
 fn assert_crossings_shared(cuts: &[CutTriangle]) {
-    let mut seen: HashMap<([u16; 2], [u16; 2]), ([u64; 2], [Option<u32>; 2])> = HashMap::new();
+    let mut seen: HashMap<([u16; 2], [u16; 2]), Crossing> = HashMap::new();
     for c in cuts {
         let crossings = c.crossings();
         for e in 0..2 {

@@ -1,8 +1,9 @@
-//! Protocol 6, the compact mesh stream, as a client decodes it: a strip
+//! Protocol 7, the compact mesh stream, as a client decodes it: a strip
 //! route's body (a mesh, a change from a held one, or planes for a held
 //! one) and a render body, then the mesh itself: an error, or vertices
-//! inside the reference image, triangles indexing them, and finite
-//! positive depths. A change is applied to nothing held, and to the mesh
+//! inside the reference image, triangles indexing them, finite positive
+//! depths, and cut triangles whose parts are finite with positive depths,
+//! at most three each. A change is applied to nothing held, and to the mesh
 //! its own bits decode to without a held one.
 #![no_main]
 
@@ -22,6 +23,11 @@ fn sound(s: &MeshStream, m: Result<DecodedMesh, CompactError>) {
         let n = m.shape.vertices.len() as u32;
         assert!(m.shape.triangles.iter().flatten().all(|&v| v < n));
         assert!(m.shape.vertices.iter().all(|&(i, j)| i < s.camera.width && j < s.camera.height));
+        assert_eq!(m.cuts.len(), s.cut_triangles as usize);
+        for c in &m.cuts {
+            assert!(c.drawn() <= 3);
+            assert!(c.parts().flatten().all(|p| p.iter().all(|v| v.is_finite()) && p[2] > 0.0));
+        }
     }
 }
 

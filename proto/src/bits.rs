@@ -1,5 +1,5 @@
 //! Bits packed least significant first into bytes, as the compact stream
-//! (PROTOCOL.md, "Protocol 6": each field byte-aligned on its own, so a
+//! (PROTOCOL.md, "Protocol 7": each field byte-aligned on its own, so a
 //! general-purpose compressor sees like next to like) and the residual
 //! codes (`residual.rs`) write them.
 

@@ -12,7 +12,7 @@
 //! - [`render`]: a novel-view request and its per-view answer;
 //! - [`error`]: the one error body;
 //! - [`diamond`]: the hierarchy's geometry, which edge each grid vertex bisects;
-//! - [`compact`]: protocol 6, the compact mesh stream (`application/vnd.dmesh.mesh`).
+//! - [`compact`]: protocol 7, the compact mesh stream (`application/vnd.dmesh.mesh`).
 //!
 //! These types check shape only; the engine validates values. Binary bodies
 //! use [`to_bincode`] / [`from_bincode`]: bincode 2 with fixed-size

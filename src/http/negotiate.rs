@@ -1,4 +1,4 @@
-//! Content negotiation: the compact stream (protocol 6) when the client's
+//! Content negotiation: the compact stream (protocol 7) when the client's
 //! `Accept` names `application/vnd.dmesh.mesh` (mesh routes only), bincode
 //! when it names `application/x-bincode`, JSON otherwise.
 
@@ -19,7 +19,7 @@ pub fn wants_compact(headers: &HeaderMap) -> bool {
     accepts(headers, MESH_MEDIA_TYPE)
 }
 
-/// Encodes a compact body (bincode framing, PROTOCOL.md "Protocol 6").
+/// Encodes a compact body (bincode framing, PROTOCOL.md "Protocol 7").
 pub fn encode_compact<T: Serialize>(value: &T) -> Result<Response, AppError> {
     let body = dmesh_proto::to_bincode(value).map_err(|e| AppError::Internal(format!("compact stream: {e}")))?;
     Ok(([(header::CONTENT_TYPE, MESH_MEDIA_TYPE)], body).into_response())

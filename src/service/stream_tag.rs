@@ -1,4 +1,4 @@
-//! Names of compact responses (protocol 6) that a server can act on
+//! Names of compact responses (protocol 7) that a server can act on
 //! without remembering clients (DESIGN.md "The compact stream": stateless).
 //!
 //! A compact response's ETag states what determines it: the stored view's

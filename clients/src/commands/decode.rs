@@ -1,6 +1,7 @@
-//! `dmesh-client decode`: a compact body (protocol 6) as the protocol 5
+//! `dmesh-client decode`: a compact body (protocol 7) as the protocol 5
 //! JSON a tool reads: vertices with their derived normals and rho, exact
-//! depths as decoded, and the triangles as strips of one triangle each.
+//! depths as decoded, the triangles as strips of one triangle each, and
+//! beside them `cuts`, the cut triangles with their decoded depths.
 //! A change is decoded against the whole mesh it was asked against
 //! (`--held`). What the browser's decoder is checked against, and a way to
 //! look inside a body.
@@ -10,7 +11,8 @@ use std::path::PathBuf;
 use anyhow::{Context, Result};
 use dmesh_engine::camera::{camera_from_json, Camera};
 use dmesh_engine::wire_compact::{decoded_response, render_response, strip_response};
-use dmesh_proto::{MeshBody, RenderStream};
+use dmesh_proto::{MeshBody, RenderStream, StripResponse};
+use serde_json::Value;
 
 /// Options of `decode`.
 #[derive(clap::Args, Debug)]
@@ -44,11 +46,18 @@ pub fn run(args: DecodeArgs) -> Result<()> {
     let json = if args.render {
         let stream: RenderStream = dmesh_proto::from_bincode(&bytes).context("a compact render body")?;
         let novel = camera.context("a render body needs --camera, the novel camera")?;
-        serde_json::to_string(&render_response(&stream, &novel)?)?
+        let response = render_response(&stream, &novel)?;
+        let mut value = serde_json::to_value(&response)?;
+        if let Some(views) = value.get_mut("views").and_then(Value::as_array_mut) {
+            for (v, r) in views.iter_mut().zip(&response.views) {
+                v["strips"] = with_cuts(&r.strips)?;
+            }
+        }
+        value.to_string()
     } else {
         let body: MeshBody = dmesh_proto::from_bincode(&bytes).context("a compact strip body")?;
         match body {
-            MeshBody::Mesh(stream) => serde_json::to_string(&strip_response(&stream, camera.as_ref())?)?,
+            MeshBody::Mesh(stream) => with_cuts(&strip_response(&stream, camera.as_ref())?)?.to_string(),
             MeshBody::Change(change) => {
                 let path = args
                     .held
@@ -58,7 +67,7 @@ pub fn run(args: DecodeArgs) -> Result<()> {
                     anyhow::bail!("--held must be a whole mesh");
                 };
                 let decoded = change.apply(&held.decode()?)?;
-                serde_json::to_string(&decoded_response(&change.mesh, decoded, camera.as_ref())?)?
+                with_cuts(&decoded_response(&change.mesh, decoded, camera.as_ref())?)?.to_string()
             }
             MeshBody::Planes(_) => anyhow::bail!("the body holds planes for a held mesh, not a mesh"),
         }
@@ -67,4 +76,12 @@ pub fn run(args: DecodeArgs) -> Result<()> {
     use std::io::Write;
     let _ = writeln!(std::io::stdout().lock(), "{json}");
     Ok(())
+}
+
+/// A decoded mesh as JSON, its cut triangles (not part of protocol 5)
+/// under `cuts`.
+fn with_cuts(r: &StripResponse) -> Result<Value> {
+    let mut value = serde_json::to_value(r)?;
+    value["cuts"] = serde_json::to_value(&r.cuts)?;
+    Ok(value)
 }

@@ -24,7 +24,7 @@ pub struct DetailArgs {
     /// Most views per answer (server default 5).
     #[arg(long)]
     pub max_views: Option<u32>,
-    /// How meshes travel: the compact stream (protocol 6, zstd) or protocol 5 bincode.
+    /// How meshes travel: the compact stream (protocol 7, zstd) or protocol 5 bincode.
     #[arg(long, value_enum, default_value = "compact")]
     pub wire: dmesh_client::http::Wire,
 }

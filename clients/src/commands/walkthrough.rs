@@ -52,7 +52,7 @@ pub struct WalkthroughArgs {
     /// Residual bit-depth of the depths (0-16; default exact).
     #[arg(long)]
     pub bits: Option<u8>,
-    /// How meshes travel: the compact stream (protocol 6, zstd) or protocol 5 bincode.
+    /// How meshes travel: the compact stream (protocol 7, zstd) or protocol 5 bincode.
     #[arg(long, value_enum, default_value = "compact")]
     pub wire: dmesh_client::http::Wire,
     /// Refresh held meshes whole, not by the change from the held one (compact wire).

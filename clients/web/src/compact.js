@@ -1,14 +1,16 @@
-// Protocol 6, the compact mesh stream, in the browser (proto/PROTOCOL.md,
-// "Protocol 6"; dmesh_proto::compact is the reference). A body carries split
-// and leaf bits of the forest's one canonical walk, depths as nested bit
-// planes of parent-edge residuals and a small header; this module rebuilds
-// the vertices, an indexed triangle list, the depths and, as
-// engine/src/mesh/derived_normals.rs does with the same operations in the
-// same order, the normals and rho. Pure functions, for the worker and Node.
+// Protocol 7, the compact mesh stream, in the browser (proto/PROTOCOL.md,
+// "Protocol 7"; dmesh_proto::compact is the reference). A body carries split,
+// leaf and cut bits of the forest's one canonical walk, the cut triangles'
+// cases and crossings, depths as nested bit planes of parent-edge residuals
+// (crossing sides one level past the finest) and a small header; this module
+// rebuilds the vertices, an indexed triangle list, the depths, the cut
+// triangles and their parts (proto/src/compact/cut.rs, the same operations
+// in the same order) and, as engine/src/mesh/derived_normals.rs does, the
+// normals and rho. Pure functions, for the worker and Node.
 
 import { Reader, WireError, readCamera } from './protocol.js';
 
-export const COMPACT_VERSION = 6;
+export const COMPACT_VERSION = 7;
 export const MESH = 'application/vnd.dmesh.mesh';
 
 /** Largest grid a stream may describe (as the Rust decoder). */
@@ -43,8 +45,12 @@ function bytes(r, what) {
  * @property {number} rootsX
  * @property {number} rootsY
  * @property {number} triangles
+ * @property {number} cutTriangles
  * @property {Uint8Array} split
  * @property {Uint8Array} leaf
+ * @property {Uint8Array} cut
+ * @property {Uint8Array} cases  one byte per cut triangle: 3 x lone corner + void side
+ * @property {Uint8Array} crossings  per crossing edge met first: half steps - 1, log2 n + 1 bits
  * @property {{scale: number, offset: number} | null} lattice
  * @property {{step: number, planes: number}[]} levels
  * @property {Uint8Array} escapes
@@ -72,8 +78,12 @@ export function readMeshStream(r) {
   const rootsX = r.u32('roots_x');
   const rootsY = r.u32('roots_y');
   const triangles = r.u32('triangles');
+  const cutTriangles = r.u32('cut_triangles');
   const split = bytes(r, 'split bits');
   const leaf = bytes(r, 'leaf bits');
+  const cut = bytes(r, 'cut bits');
+  const cases = bytes(r, 'cut cases');
+  const crossings = bytes(r, 'crossings');
   const tag = r.u8('lattice');
   if (tag > 1) throw new WireError(`lattice option tag ${tag}`);
   const lattice = tag === 1 ? { scale: r.f64('lattice scale'), offset: r.f64('lattice offset') } : null;
@@ -102,8 +112,8 @@ export function readMeshStream(r) {
     reach = { clearance, lo, unit, culled };
   }
   return {
-    version, scene, view, lod, camera, extract_ms, rootSide, rootsX, rootsY, triangles,
-    split, leaf, lattice, levels, escapes, exact, planes, totalPlanes, maxError, reach, etag: '',
+    version, scene, view, lod, camera, extract_ms, rootSide, rootsX, rootsY, triangles, cutTriangles,
+    split, leaf, cut, cases, crossings, lattice, levels, escapes, exact, planes, totalPlanes, maxError, reach, etag: '',
   };
 }
 
@@ -127,6 +137,7 @@ export function readMeshBody(buffer, etag = '') {
     if (flag > 1) throw new WireError(`reuses_depths is ${flag}`);
     const reusesDepths = flag === 1;
     const fresh = { split: bytes(r, 'fresh split bits'), leaf: bytes(r, 'fresh leaf bits') };
+    if (bytes(r, 'fresh cut bits').length !== 0) throw new WireError('fresh cut bits are not part of a change');
     r.end();
     mesh.etag = etag;
     return { change: { mesh, reusesDepths, fresh } };
@@ -287,16 +298,18 @@ function heldContext(f, held) {
 }
 
 /**
- * Runs the canonical walk over `split` and `leaf` bits; returns the drawn
- * triangles' corners as grid indices (3 per triangle, oriented). Iterative,
- * with the bit readers inlined: this loop is most of a decode.
+ * Runs the canonical walk over `split`, `leaf` and `cut` bits; returns the
+ * drawn triangles' corners and the cut leaves' as grid indices (3 per
+ * triangle, oriented). Iterative, with the bit readers inlined: this loop
+ * is most of a decode.
  * @param {Forest} f @param {Uint8Array} splitBits @param {Uint8Array} leafBits @param {number} count
+ * @param {Uint8Array} cutBits @param {number} cutCount
  * @param {GridScratch} grid clean buffers of the forest's size
  * @param {{vert: Uint8Array, drawn: Uint8Array} | null} held a change's context: the bits of a
  *   triangle the held mesh reached are differences from its fate there; the others' are in `fresh`
  * @param {{split: Uint8Array, leaf: Uint8Array} | null} fresh
  */
-function walk(f, splitBits, leafBits, count, grid, held, fresh) {
+function walk(f, splitBits, leafBits, count, cutBits, cutCount, grid, held, fresh) {
   const gw = f.gw;
   const gh = f.gh;
   const { split, parent, levels, touched } = grid;
@@ -304,9 +317,13 @@ function walk(f, splitBits, leafBits, count, grid, held, fresh) {
   // other end is its mirror; 0: not split yet); `levels`: the level of each
   // split vertex (root corners stay 0); `touched`: what to clear afterwards.
   const out = new Uint32Array(3 * count);
+  const cutOut = new Uint32Array(3 * cutCount);
   let drawn = 0;
+  let cuts = 0;
   let sAt = 0;
   let lAt = 0;
+  let cAt = 0;
+  const cEnd = 8 * cutBits.length;
   const sEnd = 8 * splitBits.length;
   const lEnd = 8 * leafBits.length;
   const freshSplit = fresh ? fresh.split : new Uint8Array(0);
@@ -398,12 +415,24 @@ function walk(f, splitBits, leafBits, count, grid, held, fresh) {
           draw = (((leafBits[lAt >> 3] >> (lAt & 7)) & 1) ^ drawnHeld) === 1;
           lAt++;
         }
-        if (!draw) continue;
-        if (drawn >= count) throw new WireError('connectivity draws more triangles than the header says');
+        let into = out;
+        let o = 0;
+        if (draw) {
+          if (drawn >= count) throw new WireError('connectivity draws more triangles than the header says');
+          o = 3 * drawn++;
+        } else {
+          // A leaf left out: its cut bit.
+          if (cAt >= cEnd) throw new WireError('cut bits end early or run on');
+          const isCut = (cutBits[cAt >> 3] >> (cAt & 7)) & 1;
+          cAt++;
+          if (!isCut) continue;
+          if (cuts >= cutCount) throw new WireError('connectivity cuts more triangles than the header says');
+          into = cutOut;
+          o = 3 * cuts++;
+        }
         const cross = (rx - lx) * (ay - ly) - (ry - ly) * (ax - lx);
-        const o = 3 * drawn++;
-        if (cross > 0) { out[o] = ry * gw + rx; out[o + 1] = ly * gw + lx; } else { out[o] = ly * gw + lx; out[o + 1] = ry * gw + rx; }
-        out[o + 2] = ay * gw + ax;
+        if (cross > 0) { into[o] = ry * gw + rx; into[o + 1] = ly * gw + lx; } else { into[o] = ly * gw + lx; into[o + 1] = ry * gw + rx; }
+        into[o + 2] = ay * gw + ax;
       }
     }
   }
@@ -411,30 +440,109 @@ function walk(f, splitBits, leafBits, count, grid, held, fresh) {
     (at + 7) >> 3 === b.length && ((at & 7) === 0 || b[at >> 3] >> (at & 7) === 0);
   if (!clear(splitBits, sAt)) throw new WireError('split bits end early or run on');
   if (!clear(leafBits, lAt)) throw new WireError('leaf bits end early or run on');
+  if (!clear(cutBits, cAt)) throw new WireError('cut bits end early or run on');
   if (!clear(freshSplit, fsAt)) throw new WireError('fresh split bits end early or run on');
   if (!clear(freshLeaf, flAt)) throw new WireError('fresh leaf bits end early or run on');
   if (drawn !== count) throw new WireError('connectivity draws fewer triangles than the header says');
-  return { corners: out, parent, levels };
+  if (cuts !== cutCount) throw new WireError('connectivity cuts fewer triangles than the header says');
+  return { corners: out, cutCorners: cutOut, parent, levels };
 }
 
 /**
- * Numbers the vertices by first use, then stably by level (as the engine).
+ * @typedef {object} CutShapes  the cut triangles placed, depths to come (cut.rs, `CutShape`)
+ * @property {Uint32Array} corners  grid indices, 3 per cut, the lone corner first
+ * @property {Uint16Array} at  half steps from the lone corner along its two edges, 2 per cut
+ * @property {Uint8Array} drawn  bit 0: the lone part is drawn, bit 1: the other part
+ * @property {Int32Array} sides  per cut and crossing, the side depths' places (lone side, other side; -1: void)
+ * @property {number[]} ends  per side depth, the grid index of its edge's end on that side
+ */
+
+/**
+ * Reads the cut triangles' cases and crossings (cut.rs, `decode`): a crossing
+ * shared by two cuts is read once, its side depths placed once.
+ * @param {Forest} f @param {Uint32Array} leaves the cut leaves' oriented corners
+ * @param {Uint8Array} cases @param {Uint8Array} crossings @returns {CutShapes}
+ */
+function decodeCuts(f, leaves, cases, crossings) {
+  const c = leaves.length / 3;
+  if (cases.length !== c) throw new WireError('cut cases do not match the cut triangles');
+  const gw = f.gw;
+  const corners = new Uint32Array(3 * c);
+  const at = new Uint16Array(2 * c);
+  const drawn = new Uint8Array(c);
+  const sides = new Int32Array(4 * c);
+  /** @type {number[]} */
+  const ends = [];
+  /** @type {Map<number, number[]>} edge key -> [h from the first end, first end's side, second end's side] */
+  const met = new Map();
+  let bit = 0;
+  const end = 8 * crossings.length;
+  for (let k = 0; k < c; k++) {
+    const cs = cases[k];
+    if (cs >= 9) throw new WireError('a cut\'s case is not one of the nine');
+    const lone = (cs / 3) | 0;
+    const v = cs % 3;
+    const d0 = v !== 1; const d1 = v !== 2;
+    drawn[k] = (d0 ? 1 : 0) | (d1 ? 2 : 0);
+    for (let e = 0; e < 3; e++) corners[3 * k + e] = leaves[3 * k + ((lone + e) % 3)];
+    const p = corners[3 * k];
+    for (let e = 0; e < 2; e++) {
+      const q = corners[3 * k + 1 + e];
+      const px = p % gw; const py = (p - px) / gw; const qx = q % gw; const qy = (q - qx) / gw;
+      const n = Math.max(Math.abs(px - qx), Math.abs(py - qy));
+      const forward = p < q;
+      const key = forward ? p * 67108864 + q : q * 67108864 + p;
+      const first = forward ? d0 : d1; const second = forward ? d1 : d0;
+      let m = met.get(key);
+      if (m) {
+        if ((m[1] >= 0) !== first || (m[2] >= 0) !== second) throw new WireError('two cuts draw different sides of one crossing');
+      } else {
+        const width = ctz(n) + 1;
+        if (bit + width > end) throw new WireError('crossing bits end early or run on');
+        let h = 0;
+        for (let b = 0; b < width; b++, bit++) h |= ((crossings[bit >> 3] >> (bit & 7)) & 1) << b;
+        h += 1;
+        if (h >= 2 * n) throw new WireError('a crossing lies on an edge\'s end');
+        const s0 = first ? ends.push(forward ? p : q) - 1 : -1;
+        const s1 = second ? ends.push(forward ? q : p) - 1 : -1;
+        m = [h, s0, s1];
+        met.set(key, m);
+      }
+      at[2 * k + e] = forward ? m[0] : 2 * n - m[0];
+      sides[4 * k + 2 * e] = forward ? m[1] : m[2];
+      sides[4 * k + 2 * e + 1] = forward ? m[2] : m[1];
+    }
+  }
+  if ((bit + 7) >> 3 !== crossings.length || ((bit & 7) !== 0 && crossings[bit >> 3] >> (bit & 7) !== 0)) {
+    throw new WireError('crossing bits end early or run on');
+  }
+  return { corners, at, drawn, sides, ends };
+}
+
+/**
+ * Numbers the vertices by first use, then the cuts' drawn corners by first
+ * use, then stably by level (as the engine).
  * @param {Forest} f @param {Uint32Array} corners grid indices
+ * @param {CutShapes} cuts
  * @param {Uint8Array} levels each split vertex's level, by grid index
  * @param {Int32Array} slot the grid's scratch map, all -1 (left set for the vertices)
  */
-function assemble(f, corners, levels, slot) {
+function assemble(f, corners, cuts, levels, slot) {
   const gw = f.gw;
-  const used = new Int32Array(corners.length);
+  const used = new Int32Array(corners.length + cuts.corners.length);
   let n = 0;
   const perLevel = new Uint32Array(2 * f.k + 2);
-  for (let c = 0; c < corners.length; c++) {
-    const g = corners[c];
+  const use = (/** @type {number} */ g) => {
     if (slot[g] === -1) {
       slot[g] = 0;
       perLevel[levels[g] + 1]++;
       used[n++] = g;
     }
+  };
+  for (let c = 0; c < corners.length; c++) use(corners[c]);
+  for (let k = 0; k < cuts.drawn.length; k++) {
+    if (cuts.drawn[k] & 1) use(cuts.corners[3 * k]);
+    if (cuts.drawn[k] & 2) { use(cuts.corners[3 * k + 1]); use(cuts.corners[3 * k + 2]); }
   }
   for (let l = 1; l < perLevel.length; l++) perLevel[l] += perLevel[l - 1];
   const ij = new Uint16Array(2 * n);
@@ -467,10 +575,12 @@ function assemble(f, corners, levels, slot) {
  * @param {Forest} f @param {MeshStream} s @param {Uint16Array} ij @param {Uint8Array} level
  * @param {Int32Array} parent @param {Int32Array} slot @param {number} held
  * @param {Float32Array | null} known depths the client has (NaN where it has none), skipped by the code
+ * @param {Int32Array} sideEnds per crossing side, the vertex number it is predicted from; its depth
+ *   follows the vertices', on the level past the finest
  */
-function depths(f, s, ij, level, parent, slot, held, known) {
+function depths(f, s, ij, level, parent, slot, held, known, sideEnds) {
   const { lattice, levels } = s;
-  if (levels.length !== 2 * f.k + 1) throw new WireError('depth levels do not match the forest');
+  if (levels.length !== 2 * f.k + 2) throw new WireError('depth levels do not match the forest');
   if (held > s.planes.length) throw new WireError('fewer depth planes than stated');
   for (const l of levels) {
     if (l.planes > MAX_PLANES) throw new WireError('a level has more than 24 planes');
@@ -479,7 +589,8 @@ function depths(f, s, ij, level, parent, slot, held, known) {
   if (lattice && !(Number.isFinite(lattice.scale) && lattice.scale !== 0 && Number.isFinite(lattice.offset))) {
     throw new WireError('lattice scale must be finite and non-zero, offset finite');
   }
-  const n = ij.length / 2;
+  const nv = ij.length / 2;
+  const n = nv + sideEnds.length;
   const gw = f.gw;
   const gh = f.gh;
   // Predictors: two vertices (mean), one (its value: pb = -1) or none (pa = -1).
@@ -487,7 +598,8 @@ function depths(f, s, ij, level, parent, slot, held, known) {
   const pb = new Int32Array(n).fill(-1);
   const side = f.side;
   const at = (/** @type {number} */ x, /** @type {number} */ y) => (x >= 0 && y >= 0 && x < gw && y < gh ? slot[y * gw + x] : -1);
-  for (let k = 0; k < n; k++) {
+  for (let k = 0; k < sideEnds.length; k++) pa[nv + k] = sideEnds[k];
+  for (let k = 0; k < nv; k++) {
     const x = ij[2 * k]; const y = ij[2 * k + 1];
     if (x % side === 0 && y % side === 0) continue;
     // The edge it bisects: the walk's split recorded one end, the other
@@ -528,7 +640,8 @@ function depths(f, s, ij, level, parent, slot, held, known) {
   const negative = new Uint8Array(n);
   // Planes of each coded vertex's level (0 for the others).
   const lp = new Uint8Array(n);
-  for (let k = 0; k < n; k++) if (coded[k]) lp[k] = levels[level[k]].planes;
+  const levelOf = (/** @type {number} */ k) => (k < nv ? level[k] : levels.length - 1);
+  for (let k = 0; k < n; k++) if (coded[k]) lp[k] = levels[levelOf(k)].planes;
   // Vertices a plane made non-zero, whose signs follow its bits.
   const fresh = new Int32Array(n);
   for (let t = 1; t <= held; t++) {
@@ -578,7 +691,7 @@ function depths(f, s, ij, level, parent, slot, held, known) {
       if (lattice && !(Math.abs(units[k]) < MAX_RAW)) throw new WireError('an exact depth lies off the lattice\'s range');
       continue;
     }
-    const lv = level[k];
+    const lv = levelOf(k);
     const step = steps[lv];
     const sh = planesOf[lv] - Math.min(planesOf[lv], held);
     let pred;
@@ -674,6 +787,114 @@ export function deriveNormals(cam, ij, z, tri) {
 }
 
 /**
+ * @typedef {object} Cuts  decoded cut triangles (cut.rs, `CutTriangle`), per cut
+ * @property {Uint16Array} corners  (i, j) of the lone corner, then the other two: 6 per cut
+ * @property {Uint16Array} at  half steps from the lone corner: 2 per cut
+ * @property {Float32Array} lone  the lone part's depths at its corner and the two crossings (NaN: void): 3 per cut
+ * @property {Float32Array} other  the other part's at crossing 1, corners 1 and 2, crossing 2 (NaN: void): 4 per cut
+ */
+
+/** The cut triangles with their depths: corners' from the vertices, crossings' from the sides.
+ * @param {Forest} f @param {CutShapes} shapes @param {Int32Array} slot @param {Float32Array} depth
+ * @param {Float32Array} sideDepth @returns {Cuts} */
+function cutDepths(f, shapes, slot, depth, sideDepth) {
+  const c = shapes.drawn.length;
+  const corners = new Uint16Array(6 * c);
+  const lone = new Float32Array(3 * c).fill(NaN);
+  const other = new Float32Array(4 * c).fill(NaN);
+  const gw = f.gw;
+  for (let k = 0; k < c; k++) {
+    for (let e = 0; e < 3; e++) {
+      const g = shapes.corners[3 * k + e];
+      const x = g % gw;
+      corners[6 * k + 2 * e] = x; corners[6 * k + 2 * e + 1] = (g - x) / gw;
+    }
+    const z = (/** @type {number} */ e) => depth[slot[shapes.corners[3 * k + e]]];
+    const sd = shapes.sides;
+    if (shapes.drawn[k] & 1) {
+      lone[3 * k] = z(0); lone[3 * k + 1] = sideDepth[sd[4 * k]]; lone[3 * k + 2] = sideDepth[sd[4 * k + 2]];
+    }
+    if (shapes.drawn[k] & 2) {
+      other[4 * k] = sideDepth[sd[4 * k + 1]]; other[4 * k + 1] = z(1); other[4 * k + 2] = z(2); other[4 * k + 3] = sideDepth[sd[4 * k + 3]];
+    }
+  }
+  return { corners, at: shapes.at.slice(), lone, other };
+}
+
+/**
+ * The triangles the cuts draw (cut.rs, `CutTriangle::parts`, the same
+ * operations in the same order): per cut the lone part, then the other's
+ * two split along crossing 1 to corner 2, those of no area left out; with a
+ * flat normal and rho per part (`derived_normals.rs` of that one triangle).
+ * @param {import('./protocol.js').CameraJson} cam @param {Cuts} cuts
+ * @returns {{uv: Float32Array, depth: Float32Array, normal: Uint8Array, rho: Uint8Array}}
+ */
+export function cutParts(cam, cuts) {
+  /** @type {number[]} */
+  const pts = [];
+  const c = cuts.at.length / 2;
+  for (let k = 0; k < c; k++) {
+    const x0 = cuts.corners[6 * k]; const y0 = cuts.corners[6 * k + 1];
+    const cross = [1, 2].map((e) => {
+      const dx = cuts.corners[6 * k + 2 * e] - x0; const dy = cuts.corners[6 * k + 2 * e + 1] - y0;
+      const t = cuts.at[2 * k + e - 1] / (2.0 * Math.max(Math.abs(dx), Math.abs(dy)));
+      return [x0 + t * dx, y0 + t * dy];
+    });
+    const corner = (/** @type {number} */ e) => [cuts.corners[6 * k + 2 * e], cuts.corners[6 * k + 2 * e + 1]];
+    /** @type {number[][][]} */
+    const tris = [];
+    if (!Number.isNaN(cuts.lone[3 * k])) {
+      const z = cuts.lone.subarray(3 * k, 3 * k + 3);
+      tris.push([[...corner(0), z[0]], [...cross[0], z[1]], [...cross[1], z[2]]]);
+    }
+    if (!Number.isNaN(cuts.other[4 * k])) {
+      const z = cuts.other.subarray(4 * k, 4 * k + 4);
+      const a = [...cross[0], z[0]];
+      tris.push([a, [...corner(1), z[1]], [...corner(2), z[2]]]);
+      tris.push([a, [...corner(2), z[2]], [...cross[1], z[3]]]);
+    }
+    for (const t of tris) {
+      const area = (t[1][0] - t[0][0]) * (t[2][1] - t[0][1]) - (t[1][1] - t[0][1]) * (t[2][0] - t[0][0]);
+      if (area !== 0) for (const p of t) pts.push(p[0], p[1], p[2]);
+    }
+  }
+  const n = pts.length / 3;
+  const uv = new Float32Array(2 * n);
+  const depth = new Float32Array(n);
+  for (let k = 0; k < n; k++) { uv[2 * k] = pts[3 * k]; uv[2 * k + 1] = pts[3 * k + 1]; depth[k] = pts[3 * k + 2]; }
+  // Flat normals: each part alone through deriveNormals' arithmetic.
+  const normal = new Uint8Array(2 * n);
+  const rho = new Uint8Array(n);
+  const persp = cam.projection.perspective;
+  const ortho = cam.projection.orthographic;
+  const p = new Float64Array(9);
+  for (let t = 0; t < n; t += 3) {
+    for (let v = 0; v < 3; v++) {
+      const u = pts[3 * (t + v)]; const w = pts[3 * (t + v) + 1]; const d = pts[3 * (t + v) + 2];
+      if (persp) { p[3 * v] = ((u - persp.cx) / persp.fx) * d; p[3 * v + 1] = ((w - persp.cy) / persp.fy) * d; } else {
+        const o = /** @type {{sx: number, sy: number, cx: number, cy: number}} */ (ortho);
+        p[3 * v] = (u - o.cx) * o.sx; p[3 * v + 1] = (w - o.cy) * o.sy;
+      }
+      p[3 * v + 2] = d;
+    }
+    const e1x = p[3] - p[0]; const e1y = p[4] - p[1]; const e1z = p[5] - p[2];
+    const e2x = p[6] - p[0]; const e2y = p[7] - p[1]; const e2z = p[8] - p[2];
+    const nx = e1y * e2z - e1z * e2y; const ny = e1z * e2x - e1x * e2z; const nz = e1x * e2y - e1y * e2x;
+    for (let v = 0; v < 3; v++) {
+      const vx = ortho ? 0.0 : p[3 * v]; const vy = ortho ? 0.0 : p[3 * v + 1]; const vz = ortho ? 1.0 : p[3 * v + 2];
+      const nv = nx * vx + ny * vy + nz * vz;
+      const nn = (nx * nx + ny * ny + nz * nz) * (vx * vx + vy * vy + vz * vz);
+      const k = t + v;
+      if (!(nn > 0 && nn < Infinity)) { octEncode(-vx, -vy, -vz, normal, 2 * k); rho[k] = 0; continue; }
+      const flip = nv > 0 ? -1.0 : 1.0;
+      octEncode(nx * flip, ny * flip, nz * flip, normal, 2 * k);
+      rho[k] = asU8((Math.abs(nv) / Math.sqrt(nn)) * 255 + 0.5);
+    }
+  }
+  return { uv, depth, normal, rho };
+}
+
+/**
  * A compact mesh decoded into the arrays the renderer draws (the `Strips`
  * shape of protocol.js, with `mode: 'triangles'`: an indexed triangle list).
  * `requesting` is the camera the request named (a view-dependent mesh's
@@ -692,6 +913,7 @@ export function decodeMesh(s, requesting, held = null, reusesDepths = false, fre
     throw new WireError(`${f.m} x ${f.n} roots of side ${f.side} do not cover the ${s.camera.width} x ${s.camera.height} reference image`);
   }
   if (s.triangles > 2 * (f.gw - 1) * (f.gh - 1)) throw new WireError(`${s.triangles} triangles is more than the forest holds`);
+  if (s.cutTriangles > 2 * (f.gw - 1) * (f.gh - 1)) throw new WireError(`${s.cutTriangles} cut triangles is more than the forest holds`);
   if (s.planes.length > s.totalPlanes) throw new WireError('more planes than the mesh has');
   if (!(Number.isFinite(s.maxError) && s.maxError >= 0)) throw new WireError('the error bound must be finite and not negative');
   const context = held ? heldContext(f, held) : null;
@@ -702,24 +924,31 @@ export function decodeMesh(s, requesting, held = null, reusesDepths = false, fre
   const grid = gridScratch(f.gw * f.gh);
   // A decode that fails leaves the buffers dirty: drop them.
   scratch = null;
-  const { corners, parent, levels } = walk(f, s.split, s.leaf, s.triangles, grid, context, held ? fresh ?? { split: new Uint8Array(0), leaf: new Uint8Array(0) } : null);
-  const { ij, level, indices, slot } = assemble(f, corners, levels, grid.slot);
+  const { corners, cutCorners, parent, levels } = walk(f, s.split, s.leaf, s.triangles, s.cut, s.cutTriangles, grid, context,
+    held ? fresh ?? { split: new Uint8Array(0), leaf: new Uint8Array(0) } : null);
+  const shapes = decodeCuts(f, cutCorners, s.cases, s.crossings);
+  const { ij, level, indices, slot } = assemble(f, corners, shapes, levels, grid.slot);
   const { width, height } = s.camera;
   for (let k = 0; k < ij.length; k += 2) {
     if (ij[k] >= width || ij[k + 1] >= height) throw new WireError('a vertex lies outside the reference image');
   }
+  const nv = ij.length / 2;
+  const sideEnds = Int32Array.from(shapes.ends, (g) => slot[g]);
   let known = null;
   if (reusesDepths && held) {
-    // The held depths by grid vertex, then in this mesh's numbering.
+    // The held depths by grid vertex, then in this mesh's numbering; crossing sides are always sent.
     const byGrid = new Float32Array(f.gw * f.gh).fill(NaN);
     for (let k = 0; k < held.depth.length; k++) byGrid[held.ij[2 * k + 1] * f.gw + held.ij[2 * k]] = held.depth[k];
-    known = new Float32Array(ij.length / 2);
-    for (let k = 0; k < known.length; k++) known[k] = byGrid[ij[2 * k + 1] * f.gw + ij[2 * k]];
+    known = new Float32Array(nv + sideEnds.length).fill(NaN);
+    for (let k = 0; k < nv; k++) known[k] = byGrid[ij[2 * k + 1] * f.gw + ij[2 * k]];
   }
-  const depth = depths(f, s, ij, level, parent, slot, s.planes.length, known);
+  const all = depths(f, s, ij, level, parent, slot, s.planes.length, known, sideEnds);
+  const depth = all.subarray(0, nv).slice();
+  const cuts = cutDepths(f, shapes, slot, depth, all.subarray(nv));
   release(grid, ij, f.gw);
   scratch = grid;
   const { normal, rho } = deriveNormals(s.camera, ij, depth, indices);
+  const parts = cutParts(s.camera, cuts);
   let reach = null;
   if (s.reach) {
     const { lo, unit } = s.reach;
@@ -732,7 +961,7 @@ export function decodeMesh(s, requesting, held = null, reusesDepths = false, fre
   return {
     version: s.version, scene: s.scene, view: s.view, lod: s.lod, camera: s.camera,
     vertexCount: ij.length / 2, ij, normal, rho, depth, indices, mode: /** @type {'triangles'} */ ('triangles'),
-    triangles: s.triangles, extract_ms: s.extract_ms, maxDepthError: s.maxError, reach,
+    cuts, parts, triangles: s.triangles, drawnTriangles: s.triangles + parts.depth.length / 3, extract_ms: s.extract_ms, maxDepthError: s.maxError, reach,
     etag: s.etag, planes: s.planes.length, totalPlanes: s.totalPlanes,
     lattice: s.lattice, complete: s.planes.length === s.totalPlanes,
   };

@@ -1,7 +1,7 @@
 // The viewer's network: requests that wait out a busy server as it asks
 // (503 with Retry-After), errors in the server's own words, colour images
 // fetched once and revalidated by ETag, and answers decoded off the main
-// thread (worker.js): the compact stream (protocol 6, compact.js), bincode
+// thread (worker.js): the compact stream (protocol 7, compact.js), bincode
 // or JSON (protocol 5, protocol.js).
 
 import { MESH } from './compact.js';

@@ -1,13 +1,14 @@
 // The epsilon-z-buffer blend of DMesh Sec. 6.3-6.4 in WebGL2, with Verlani
 // et al.'s per-pixel cos^k weights (Sec. 3) and DMesh's relighting.
 //
-// Meshes of the compact stream (protocol 6) are drawn as the indexed
+// Meshes of the compact stream (protocol 7) are drawn as the indexed
 // triangle lists the decoder rebuilds (SwiftShader draws those about three
 // times faster than strips); protocol 5's strips as served: TRIANGLE_STRIP
 // over the served index buffer, whose restart marker (the largest value of
 // its width) is WebGL2's fixed primitive restart index. Positions, projective texture coordinates and the
 // rays are rebuilt in the vertex shader from (i, j, depth) and the reference
-// camera. Pixel (x, y) of the novel camera is the sample at integer image
+// camera; a cut triangle's parts (protocol 7) come as vertices of their own
+// at float (u, v), so nothing spans a cut. Pixel (x, y) of the novel camera is the sample at integer image
 // coordinates, as everywhere in dmesh: it lands on the centre of GL pixel
 // (x, H - 1 - y).
 //
@@ -226,6 +227,28 @@ out vec4 o_color;
 void main() { o_color = vec4(u_lineColor, 1.0); }`;
 
 /** A GL error that the page shows in plain words. */
+/**
+ * A mesh with its cut triangles' parts (the compact stream, protocol 7)
+ * appended as vertices of their own, so nothing spans a cut: positions as
+ * floats, since a crossing lies between samples. A mesh without parts is
+ * drawn as it came.
+ * @param {any} s
+ */
+function withParts(s) {
+  const p = s.parts;
+  if (!p || p.depth.length === 0) return s;
+  const n = s.vertexCount;
+  const m = p.depth.length;
+  const ij = new Float32Array(2 * (n + m));
+  ij.set(s.ij);
+  ij.set(p.uv, 2 * n);
+  const join = (/** @type {any} */ a, /** @type {any} */ b) => { const out = new a.constructor(a.length + b.length); out.set(a); out.set(b, a.length); return out; };
+  const indices = n + m < 65535 ? new Uint16Array(s.indices.length + m) : new Uint32Array(s.indices.length + m);
+  indices.set(s.indices);
+  for (let k = 0; k < m; k++) indices[s.indices.length + k] = n + k;
+  return { ...s, ij, depth: join(s.depth, p.depth), normal: join(s.normal, p.normal), rho: join(s.rho, p.rho), indices };
+}
+
 export class RenderError extends Error {}
 
 /**
@@ -380,7 +403,7 @@ export class Renderer {
   /** @param {DrawView} v @returns {GpuView} */
   uploadView(v) {
     const gl = /** @type {WebGL2RenderingContext} */ (this.gl);
-    const s = v.strips;
+    const s = withParts(v.strips);
     const vao = /** @type {WebGLVertexArrayObject} */ (gl.createVertexArray());
     gl.bindVertexArray(vao);
     const attribute = (/** @type {number} */ loc, /** @type {ArrayBufferView} */ data, /** @type {number} */ size,
@@ -392,8 +415,9 @@ export class Renderer {
       gl.vertexAttribPointer(loc, size, type, norm, 0, 0);
       return b;
     };
+    const ijType = s.ij instanceof Float32Array ? gl.FLOAT : gl.UNSIGNED_SHORT;
     const buffers = [
-      attribute(0, s.ij, 2, gl.UNSIGNED_SHORT, false),
+      attribute(0, s.ij, 2, ijType, false),
       attribute(1, s.depth, 1, gl.FLOAT, false),
       attribute(2, s.normal, 2, gl.UNSIGNED_BYTE, false),
       attribute(3, s.rho, 1, gl.UNSIGNED_BYTE, true),
@@ -410,7 +434,7 @@ export class Renderer {
       // element buffer never replaces the strips'.
       lineVao = /** @type {WebGLVertexArrayObject} */ (gl.createVertexArray());
       gl.bindVertexArray(lineVao);
-      [[0, 2, gl.UNSIGNED_SHORT, false], [1, 1, gl.FLOAT, false], [2, 2, gl.UNSIGNED_BYTE, false], [3, 1, gl.UNSIGNED_BYTE, true]]
+      [[0, 2, ijType, false], [1, 1, gl.FLOAT, false], [2, 2, gl.UNSIGNED_BYTE, false], [3, 1, gl.UNSIGNED_BYTE, true]]
         .forEach(([loc, size, type, norm], k) => {
           gl.bindBuffer(gl.ARRAY_BUFFER, buffers[k]);
           gl.enableVertexAttribArray(/** @type {number} */ (loc));

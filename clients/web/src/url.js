@@ -117,7 +117,7 @@ export function readUrl(search) {
     return allowed[0];
   };
   const policy = choice('policy', ['render', 'balanced'], 'use render or balanced');
-  // Meshes travel in the compact stream (protocol 6) unless the address asks for protocol 5.
+  // Meshes travel in the compact stream (protocol 7) unless the address asks for protocol 5.
   const wire = choice('wire', ['compact', 'bincode'], 'use compact or bincode');
   const follow = choice('follow', ['1', '0'], 'use 1 (follow live views, the default) or 0') !== '0';
   const ui = choice('ui', ['1', '0'], 'use 0 (no panel) or 1') !== '0';

@@ -13,18 +13,30 @@ function triangles(s) {
   return out;
 }
 
-/** Edges of a mesh's triangles, each once, for the wireframe view.
- * @param {{indices: Uint16Array | Uint32Array, mode?: string}} s */
+/** Edges of a mesh's triangles, each once, for the wireframe view; a cut
+ * triangle's parts follow the vertices, numbered from `vertexCount`.
+ * @param {{indices: Uint16Array | Uint32Array, mode?: string, vertexCount: number, parts?: {depth: Float32Array}}} s */
 function edges(s) {
   const seen = new Set();
   const out = [];
-  for (const [a, b, c] of triangles(s)) {
+  const all = triangles(s);
+  const parts = s.parts ? s.parts.depth.length : 0;
+  for (let k = 0; k < parts; k += 3) all.push([s.vertexCount + k, s.vertexCount + k + 1, s.vertexCount + k + 2]);
+  for (const [a, b, c] of all) {
     for (const [p, q] of [[a, b], [b, c], [c, a]]) {
       const key = p < q ? p * 4294967296 + q : q * 4294967296 + p;
       if (!seen.has(key)) { seen.add(key); out.push(p, q); }
     }
   }
   return Uint32Array.from(out);
+}
+
+/** The buffers of a decoded mesh, to transfer.
+ * @param {any} s @returns {Transferable[]} */
+function buffers(s) {
+  const out = [s.ij.buffer, s.normal.buffer, s.rho.buffer, s.depth.buffer, s.indices.buffer];
+  if (s.parts) out.push(s.parts.uv.buffer, s.parts.depth.buffer, s.parts.normal.buffer, s.parts.rho.buffer);
+  return out;
 }
 
 /** Per view: the last compact mesh decoded, kept (copied) for a change
@@ -54,7 +66,7 @@ self.onmessage = (/** @type {MessageEvent} */ e) => {
       }
       const wire = lines ? edges(s) : null;
       /** @type {Transferable[]} */
-      const transfer = [s.ij.buffer, s.normal.buffer, s.rho.buffer, s.depth.buffer, s.indices.buffer];
+      const transfer = buffers(s);
       if (wire) transfer.push(wire.buffer);
       self.postMessage({ id, strips: s, lines: wire, change: !!answer.change, decodeMs: performance.now() - start }, { transfer });
       return;
@@ -78,10 +90,7 @@ self.onmessage = (/** @type {MessageEvent} */ e) => {
     const wire = r.views.map((/** @type {any} */ v) => (lines ? edges(v.strips) : null));
     /** @type {Transferable[]} */
     const transfer = [];
-    for (const v of r.views) {
-      const s = v.strips;
-      for (const a of [s.ij, s.normal, s.rho, s.depth, s.indices]) transfer.push(a.buffer);
-    }
+    for (const v of r.views) transfer.push(...buffers(v.strips));
     for (const l of wire) if (l) transfer.push(l.buffer);
     self.postMessage({ id, response: r, lines: wire, decodeMs }, { transfer });
   } catch (err) {

@@ -1,7 +1,8 @@
-// The viewer's compact-stream decoder (src/compact.js, protocol 6) against a
+// The viewer's compact-stream decoder (src/compact.js, protocol 7) against a
 // real `dmesh serve --demo` and the Rust decoder (`dmesh-client decode`):
-// the same vertices, depths, normals, rho and triangles to the bit; the
-// same mesh as protocol 5; planes that extend a held mesh; malformed and
+// the same vertices, depths, normals, rho, triangles and cut triangles to
+// the bit; the surface protocol 5 carries, in fewer triangles (outlines cut,
+// not refined); planes that extend a held mesh; malformed and
 // mutated bodies refused with a WireError, never another exception; and the
 // decode rate, written to test-output/compact-decode.json.
 
@@ -35,8 +36,26 @@ async function strips(view, body) {
   return { body: await r.arrayBuffer(), etag: r.headers.get('etag') };
 }
 
-for (const extra of [{}, { bits: 10 }, { bits: 0 }, { bits: 3 }]) {
-  test(`the browser decodes to the Rust decoder's arrays, bit for bit ${JSON.stringify(extra)}`, async () => {
+/** The decoded cut triangles as the Rust decoder writes them (cut.rs, `CutTriangle`).
+ * @param {import('../src/compact.js').Cuts} c */
+function cutsAsRust(c) {
+  const out = [];
+  for (let k = 0; k < c.at.length / 2; k++) {
+    const corners = [0, 1, 2].map((e) => [c.corners[6 * k + 2 * e], c.corners[6 * k + 2 * e + 1]]);
+    const lone = Number.isNaN(c.lone[3 * k]) ? null : Array.from(c.lone.subarray(3 * k, 3 * k + 3));
+    const other = Number.isNaN(c.other[4 * k]) ? null : Array.from(c.other.subarray(4 * k, 4 * k + 4));
+    out.push({ corners, at: [c.at[2 * k], c.at[2 * k + 1]], lone, other });
+  }
+  return out;
+}
+
+/** The Rust decoder's cuts with their depths as f32. @param {any[]} cuts */
+const rustCuts = (cuts) => cuts.map((c) => ({
+  ...c, lone: c.lone && c.lone.map(Math.fround), other: c.other && c.other.map(Math.fround),
+}));
+
+for (const extra of [{}, { bits: 10 }, { bits: 0 }, { bits: 3 }, { lod: { epsilon: 0.01 } }, { lod: { epsilon: 0.01 }, bits: 6 }]) {
+  test(`the browser decodes to the Rust decoder's arrays and cuts, bit for bit ${JSON.stringify(extra)}`, async () => {
     const camera = demoNovel();
     const body = { camera, lod: { tau: 1 }, ...extra };
     const bytes = /** @type {ArrayBuffer} */ (await render(server.url, 'demo', body, MESH));
@@ -63,33 +82,57 @@ for (const extra of [{}, { bits: 10 }, { bits: 0 }, { bits: 3 }]) {
       assert.equal(s.indices.length, 3 * rt.length);
       for (let t = 0; t < rt.length; t++) assert.deepEqual([s.indices[3 * t], s.indices[3 * t + 1], s.indices[3 * t + 2]], rt[t]);
       assert.deepEqual(s.reach ? s.reach.culled.length : -1, w.reach ? w.reach.culled.length : -1);
+      assert.deepEqual(cutsAsRust(s.cuts), rustCuts(w.cuts), `${s.view} cuts`);
+      assert.equal(s.parts.depth.length % 3, 0);
+      for (const z of s.parts.depth) assert.ok(Number.isFinite(z) && z > 0, `${s.view} part depth ${z}`);
     });
+    // A static mesh cuts its outlines; a view-dependent one refines them.
+    const cut = js.views.some((v) => v.strips.cuts.at.length > 0);
+    assert.equal(cut, 'epsilon' in body.lod, 'the demo scene\'s static meshes have outlines to cut');
   });
 }
 
-test('the compact stream carries the mesh protocol 5 carries, depths within the stated bound', async () => {
+test('the compact stream carries protocol 5\'s mesh, with a static mesh\'s outlines cut into fewer triangles, depths within the stated bound', async () => {
   const camera = demoNovel();
   for (const lod of [{ tau: 1 }, { epsilon: 0.01 }]) {
-    const body = lod.tau ? { camera, lod } : { camera, lod };
+    const body = { camera, lod };
     const p5 = decodeRender(/** @type {ArrayBuffer} */ (await render(server.url, 'demo', body)));
     for (const bits of [undefined, 10, 4]) {
       const c = decodeCompactRender(/** @type {ArrayBuffer} */ (await render(server.url, 'demo', { ...body, bits }, MESH)), camera);
       assert.equal(c.views.length, p5.views.length);
+      let [drawn, refined] = [0, 0];
       c.views.forEach((v, k) => {
         const s = v.strips;
         const w = p5.views[k].strips;
         assert.equal(s.view, w.view);
-        assert.deepEqual(Array.from(s.ij), Array.from(w.ij));
-        const want = new Set(stripTriangles(w.indices).map(key));
-        assert.equal(s.triangles, want.size);
-        for (let t = 0; t < s.indices.length; t += 3) assert.ok(want.has(key([s.indices[t], s.indices[t + 1], s.indices[t + 2]])));
-        for (let i = 0; i < s.depth.length; i++) {
-          assert.ok(Math.abs(s.depth[i] - w.depth[i]) <= s.maxDepthError, `${s.view} depth ${i} at ${bits} planes`);
+        if (lod.tau) {
+          // A view-dependent mesh: the very mesh protocol 5 carries.
+          assert.deepEqual(Array.from(s.ij), Array.from(w.ij));
+          const want = new Set(stripTriangles(w.indices).map(key));
+          assert.equal(s.triangles, want.size);
+          for (let t = 0; t < s.indices.length; t += 3) assert.ok(want.has(key([s.indices[t], s.indices[t + 1], s.indices[t + 2]])));
+          assert.equal(s.cuts.at.length, 0);
         }
+        // Where protocol 5 refines outlines the compact stream cuts them:
+        // the vertices both have carry one depth, within the stated bound.
+        const at = new Map();
+        for (let i = 0; i < w.depth.length; i++) at.set(w.ij[2 * i] * 65536 + w.ij[2 * i + 1], w.depth[i]);
+        let shared = 0;
+        for (let i = 0; i < s.depth.length; i++) {
+          const z = at.get(s.ij[2 * i] * 65536 + s.ij[2 * i + 1]);
+          if (z === undefined) continue;
+          shared++;
+          assert.ok(Math.abs(s.depth[i] - z) <= s.maxDepthError, `${s.view} depth ${i} at ${bits} planes`);
+        }
+        assert.ok(shared > s.depth.length / 2, `${s.view}: ${shared} of ${s.depth.length} vertices shared`);
+        assert.equal(s.drawnTriangles, s.triangles + s.parts.depth.length / 3);
+        drawn += s.drawnTriangles;
+        refined += w.triangles;
         // The planes asked for, and no more.
         assert.equal(s.planes, bits === undefined ? s.totalPlanes : Math.min(bits, s.totalPlanes), `${s.view} planes`);
         if (bits === 4) assert.ok(s.maxDepthError > 0);
       });
+      if (lod.epsilon) assert.ok(drawn < refined, `${drawn} triangles drawn with cuts, ${refined} refined`);
     }
   }
 });
@@ -100,7 +143,7 @@ test('planes extend a held mesh to the one asked for, and a wrong held ETag gets
   const four = await strips('v04', { ...ask, bits: 4 });
   const ten = await strips('v04', { ...ask, bits: 10 });
   const held = readMeshBody(four.body, /** @type {string} */ (four.etag)).mesh;
-  assert.ok(held && four.etag && four.etag.endsWith('.p4"'), `the ETag ${four.etag} names the mesh and its planes`);
+  assert.ok(held && four.etag && four.etag.endsWith('.p4.v7"'), `the ETag ${four.etag} names the mesh, its planes and the stream`);
   const more = await strips('v04', { ...ask, bits: 10, held: four.etag });
   const update = readMeshBody(more.body, /** @type {string} */ (more.etag)).planes;
   assert.ok(update, 'a held mesh gets planes');
@@ -133,12 +176,14 @@ test('a change applied to the held mesh is the whole new mesh, as the Rust decod
   const other = structuredClone(camera);
   other.pose.translation[1] += 0.07;
   const dir = tempDir();
-  /** @type {[{camera: any, lod: object, bits?: number}, {camera: any, lod: object, bits?: number}][]} */
+  /** @type {[{camera: any, lod: any, bits?: number}, {camera: any, lod: any, bits?: number}][]} */
   const cases = [
     // A finer tolerance, a moved camera, and both with planes (depths sent again).
     [{ camera, lod: { tau: 4 } }, { camera, lod: { tau: 1 } }],
     [{ camera, lod: { tau: 1 } }, { camera: moved, lod: { tau: 1 } }],
     [{ camera, lod: { tau: 4 }, bits: 10 }, { camera: moved, lod: { tau: 1 }, bits: 10 }],
+    // Static meshes, whose outlines are cut: a finer tolerance.
+    [{ camera: null, lod: { epsilon: 0.02 } }, { camera: null, lod: { epsilon: 0.005 } }],
   ];
   for (const [from, to] of cases) {
     const a = await strips('v04', from);
@@ -152,18 +197,27 @@ test('a change applied to the held mesh is the whole new mesh, as the Rust decod
     // As they travel: content-coded (here gzip; the bit fields are differences, mostly zeros).
     const gz = (/** @type {ArrayBuffer} */ b) => zlib.gzipSync(Buffer.from(b), { level: 6 }).length;
     const [c, w] = [gz(ch.body), gz(whole.body)];
-    assert.ok(c < (change.reusesDepths ? w / 2 : w), `${c} bytes of change against ${w} whole, gzipped`);
+    // Reused depths halve it at least, but a cut's crossing sides always travel.
+    const reuses = change.reusesDepths && change.mesh.cutTriangles === 0;
+    assert.ok(c < (reuses ? w / 2 : w), `${c} bytes of change against ${w} whole, gzipped`);
     const got = decodeMesh(change.mesh, to.camera, held, change.reusesDepths, change.fresh);
     const want = decodeMesh(/** @type {any} */ (readMeshBody(whole.body, /** @type {string} */ (whole.etag)).mesh), to.camera);
     for (const k of /** @type {const} */ (['ij', 'depth', 'indices', 'normal', 'rho'])) {
       assert.deepEqual(Array.from(got[k]), Array.from(want[k]), `${k} of the change and of the whole mesh`);
     }
+    assert.deepEqual(cutsAsRust(got.cuts), cutsAsRust(want.cuts), 'cuts of the change and of the whole mesh');
     fs.writeFileSync(path.join(dir, 'held'), Buffer.from(a.body));
     fs.writeFileSync(path.join(dir, 'change'), Buffer.from(ch.body));
-    fs.writeFileSync(path.join(dir, 'camera.json'), JSON.stringify(to.camera));
-    const rust = JSON.parse(await client(['decode', '--body', path.join(dir, 'change'), '--held', path.join(dir, 'held'), '--camera', path.join(dir, 'camera.json')]));
+    const args = ['decode', '--body', path.join(dir, 'change'), '--held', path.join(dir, 'held')];
+    if (to.camera) {
+      fs.writeFileSync(path.join(dir, 'camera.json'), JSON.stringify(to.camera));
+      args.push('--camera', path.join(dir, 'camera.json'));
+    }
+    const rust = JSON.parse(await client(args));
+    if (to.lod.epsilon) assert.ok(got.cuts.at.length > 0, 'a static change carries cuts');
     assert.deepEqual(rust.vertices.map((/** @type {any} */ v) => [v.i, v.j]).flat(), Array.from(got.ij));
     assert.deepEqual(rust.depths.exact.map(Math.fround), Array.from(got.depth));
+    assert.deepEqual(rustCuts(rust.cuts), cutsAsRust(got.cuts));
     // The same held tag with a camera it was not made for: the whole mesh.
     const wrong = readMeshBody((await strips('v04', { ...to, held: a.etag, held_camera: other })).body);
     assert.ok(wrong.mesh, 'a held camera that does not hash to the tag gets the whole mesh');

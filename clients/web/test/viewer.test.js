@@ -156,7 +156,7 @@ test('the balanced policy draws held meshes with their ages, refreshes within it
   }
   const moved = await page.evaluate(() => /** @type {any} */ (window).dmeshStats);
   assert.ok(moved.ages.some((/** @type {any} */ a) => a.age > 0), `some held mesh was drawn again: ${JSON.stringify(moved.ages)}`);
-  // Every mesh fetched again came as the change from the held one (protocol 6).
+  // Every mesh fetched again came as the change from the held one (protocol 7).
   assert.ok(moved.walk.refetched >= 1, `some held mesh was refreshed: ${JSON.stringify(moved.walk)}`);
   assert.equal(moved.walk.changes, moved.walk.refetched, `refreshes as changes: ${JSON.stringify(moved.walk)}`);
   assert.match(await page.locator('#stats').innerText(), /age[\s\S]*round \d+/);

@@ -64,6 +64,10 @@ use super::grid::{cell_half, Grid, Pt};
 /// not its own: an outline's position is kept to within this.
 pub(crate) const BAND: f64 = 1.0;
 
+/// How far, as a share of its last sample's depth, a side's depth may move
+/// from that sample to its crossing ([`Samples::side_depth`]).
+const MAX_REACH: f64 = 0.05;
+
 /// The samples a cut reads: the grid, its depths (0 where invalid) and
 /// the segmentation flags.
 #[derive(Clone, Copy)]
@@ -207,8 +211,11 @@ impl Samples<'_> {
 
     /// The depth on `p`'s side of a crossing `half` half steps past the
     /// last sample on its side, `k` steps from `p` along `p-q`: the line
-    /// from `p` through that sample, continued to the crossing; at least
-    /// half that sample's depth, so it stays positive. 0 when that side is
+    /// from `p` through that sample, continued to the crossing, moving at
+    /// most [`MAX_REACH`] of that sample's depth: a surface seen at a
+    /// grazing angle (a floor towards its horizon) continues no further in
+    /// depth than a part's samples can vouch for, since the samples within
+    /// [`BAND`] of the cut do not hold its crossings. 0 when that side is
     /// invalid.
     fn side_depth(&self, p: Pt, q: Pt, k: u32, half: u32) -> f32 {
         let (_, step) = steps(p, q);
@@ -222,7 +229,7 @@ impl Samples<'_> {
         }
         let (zp, zk) = (f64::from(zp), f64::from(zk));
         let z = zk + 0.5 * f64::from(half) * (zk - zp) / f64::from(k);
-        z.max(0.5 * zk) as f32
+        z.clamp(zk * (1.0 - MAX_REACH), zk * (1.0 + MAX_REACH)) as f32
     }
 
     /// The cut of the triangle `tri` (lattice corners), if its edges allow

@@ -1,5 +1,5 @@
 //! Vertex depths as nested bit planes of residuals from the mesh's coarser
-//! levels (PROTOCOL.md, "Protocol 6: depths"; Verlani et al. Sec. 4 and
+//! levels (PROTOCOL.md, "Protocol 7", "Depths"; Verlani et al. Sec. 4 and
 //! Table 2, the mesh's own coarser levels as the proxy; DESIGN.md
 //! "Residual bit-depth").
 //!

@@ -1,5 +1,5 @@
 //! Connectivity of a restricted-quadtree mesh as split and leaf bits
-//! (PROTOCOL.md, "Protocol 6: connectivity"; DESIGN.md "The compact stream").
+//! (PROTOCOL.md, "Protocol 7", "Connectivity"; DESIGN.md "The compact stream").
 //!
 //! The [`Forest::walk`] asks about every triangle whose fate the dependency
 //! rules leave open. A triangle larger than a cell answers with a *split
@@ -52,7 +52,7 @@ pub struct Leaves {
 }
 
 /// What a client holds of another mesh of the same view, as the context a
-/// change's bits are coded in (PROTOCOL.md, "Protocol 6: changes").
+/// change's bits are coded in (PROTOCOL.md, "Protocol 7", "Changes").
 ///
 /// A triangle the held mesh *reached* (a root's half, or one whose apex,
 /// the vertex its parent split at, the held mesh has) has a known fate

@@ -1,4 +1,4 @@
-//! Cut triangles in the compact stream (PROTOCOL.md, "Protocol 7: cuts";
+//! Cut triangles in the compact stream (PROTOCOL.md, "Protocol 7", "Cut triangles";
 //! DESIGN.md "Outlines as cuts"): a leaf of the walk that a depth
 //! discontinuity crosses, drawn as two parts on either side of one
 //! straight cut between two crossings on two of its edges.
@@ -225,15 +225,22 @@ fn case(k: usize, drawn: [bool; 2]) -> Result<u8, &'static str> {
     Ok(3 * k as u8 + v)
 }
 
+/// What [`encode`] makes.
+pub struct Coded {
+    /// The fields that travel.
+    pub code: CutCode,
+    /// Each cut's shape, in walk order.
+    pub shapes: Vec<CutShape>,
+    /// The side list.
+    pub sides: Vec<Side>,
+    /// The side depths in its order.
+    pub depths: Vec<f32>,
+}
+
 /// Codes the `cuts` (engine form, depths included) of the cut leaves
 /// `leaves` the walk met (in walk order, corners as the walk orients
-/// them): the code, each cut's shape, the side list, and the side depths
-/// in its order. Fails when two cuts disagree on a crossing they share.
-pub fn encode(
-    forest: &Forest,
-    leaves: &[[Pt; 3]],
-    cuts: &[CutTriangle],
-) -> Result<(CutCode, Vec<CutShape>, Vec<Side>, Vec<f32>), String> {
+/// them). Fails when two cuts disagree on a crossing they share.
+pub fn encode(forest: &Forest, leaves: &[[Pt; 3]], cuts: &[CutTriangle]) -> Result<Coded, String> {
     let by_corners: HashMap<[Pt; 3], &CutTriangle> = cuts
         .iter()
         .map(|c| {
@@ -307,15 +314,15 @@ pub fn encode(
         .into_iter()
         .collect::<Option<Vec<f32>>>()
         .ok_or("a crossing side has no depth")?;
-    Ok((
-        CutCode {
+    Ok(Coded {
+        code: CutCode {
             cases,
             crossings: bits.finish(),
         },
         shapes,
-        met.sides,
+        sides: met.sides,
         depths,
-    ))
+    })
 }
 
 /// Reads the shapes of the cut leaves `leaves` from `code`, with the side

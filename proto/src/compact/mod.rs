@@ -62,7 +62,7 @@ pub enum MeshBody {
 
 /// Another mesh of a view (a finer or coarser tolerance, a moved camera),
 /// sent as its difference from a mesh of the same view the client holds
-/// (PROTOCOL.md, "Protocol 7: changes"). Applied to the held mesh it gives
+/// (PROTOCOL.md, "Protocol 7", "Changes"). Applied to the held mesh it gives
 /// exactly what the whole mesh decodes to.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct MeshChange {
@@ -282,7 +282,12 @@ fn encode_against(
     let cut_corners: Vec<[Pt; 3]> = input.cuts.iter().map(|c| c.corners.map(pt)).collect();
     let (connectivity, fresh, leaves) =
         connectivity::encode(&f, &corners, &cut_corners, context.as_ref()).map_err(CompactError)?;
-    let (cut_code, shapes, sides, side_depths) = cut::encode(&f, &leaves.cut, input.cuts).map_err(CompactError)?;
+    let cut::Coded {
+        code: cut_code,
+        shapes,
+        sides,
+        depths: side_depths,
+    } = cut::encode(&f, &leaves.cut, input.cuts).map_err(CompactError)?;
     let shape = connectivity::assemble_with(&f, &leaves.drawn, &shapes);
     let mut depths = depths_in(&input, &shape)?;
     let lattice = bitplanes::lattice_for(&depths, input.raw_grid);

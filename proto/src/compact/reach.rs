@@ -1,7 +1,7 @@
 //! The reach of a view-dependent mesh (protocol 4's culled spheres) in a
 //! few bytes: neighbouring spheres merged down to [`MAX_COMPACT_CULLED`],
 //! then quantised inside their box with radii rounded up, so every decoded
-//! sphere still holds the engine's (PROTOCOL.md, "Protocol 6", "Reach").
+//! sphere still holds the engine's (PROTOCOL.md, "Protocol 7", "Reach").
 
 use super::{CompactReach, MAX_COMPACT_CULLED};
 
