@@ -143,10 +143,13 @@ async fn a_still_camera_draws_the_same_image_with_every_strategy() {
         .await
         .unwrap();
         for f in &frames {
-            // Against the simulator's truth for the same camera.
+            // Against the simulator's truth for the same camera. Cut
+            // outlines draw silhouettes to their reference pixels' edges,
+            // whose colour is half the neighbouring surface's: more pixels
+            // are compared, at about 30 dB.
             let (psnr, coverage) = (f.psnr.unwrap(), f.coverage.unwrap());
             assert!(
-                psnr > 30.0 && coverage > 0.9,
+                psnr > 29.5 && coverage > 0.95,
                 "frame {}: {psnr} dB, coverage {coverage}",
                 f.frame
             );

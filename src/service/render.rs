@@ -2,7 +2,7 @@
 //! engine's render plan, `dmesh_engine::render_plan`): the views selected
 //! and loaded, a budget shared by weight, each mesh extracted and encoded
 //! as protocol 5 strips (outlines refined) or the compact stream (protocol
-//! 7, outlines of static meshes cut), with the ETag
+//! 7, outlines cut), with the ETag
 //! that names it and the timings. A time budget becomes triangles through
 //! the server's measured extraction rate and how far recent meshes fell
 //! short of their allowance. The HTTP layer only reads the request and
@@ -116,21 +116,6 @@ fn extract(state: &AppState, scene: &str, view: &str, loaded: &Loaded, ask: &Ask
         .map_err(|e| AppError::Internal(format!("encoding the mesh: {e}")))
 }
 
-/// The outlines of a compact answer to `ask`: cut for a static mesh (an
-/// epsilon, or a budget without a camera), refined for a view-dependent
-/// one. A view-dependent mesh states its reach from the bounding spheres of
-/// the vertices it leaves out; beside missing samples those spheres take in
-/// the samples' placeholder positions at the reference eye, so a cut mesh,
-/// which leaves such vertices out where a refined one splits them, would
-/// state a reach of centimetres and go stale at once.
-fn compact_outlines(ask: &Ask) -> Outlines {
-    if ask.camera().is_none() {
-        Outlines::Cut
-    } else {
-        Outlines::Kept
-    }
-}
-
 /// What a compact request says the client holds of the view.
 enum Held {
     /// The same mesh with the planes its tag names.
@@ -168,13 +153,13 @@ fn extract_compact(
     tag: Option<&StreamTag>,
     held: Option<Held>,
 ) -> Result<(MeshBody, String), AppError> {
-    let mesh = extract_mesh(state, loaded, ask, compact_outlines(ask))?;
+    let mesh = extract_mesh(state, loaded, ask, Outlines::Cut)?;
     let etag = tag.map(StreamTag::etag).unwrap_or_default();
     let h = &loaded.hierarchy;
     let encoding = |e: dmesh_proto::compact::CompactError| AppError::Internal(format!("encoding the mesh: {e}"));
     if let Some(Held::Mesh(held)) = &held {
         // The held mesh as the client decoded it, derived again.
-        let (before, _) = render_plan::extract_mesh(h, held, compact_outlines(held), |_| 0.0)?;
+        let (before, _) = render_plan::extract_mesh(h, held, Outlines::Cut, |_| 0.0)?;
         let decoded = wire_compact::held(&before, loaded.raw_grid, held.bits());
         let change = wire_compact::mesh_change(
             &mesh,

@@ -86,13 +86,11 @@ for (const extra of [{}, { bits: 10 }, { bits: 0 }, { bits: 3 }, { lod: { epsilo
       assert.equal(s.parts.depth.length % 3, 0);
       for (const z of s.parts.depth) assert.ok(Number.isFinite(z) && z > 0, `${s.view} part depth ${z}`);
     });
-    // A static mesh cuts its outlines; a view-dependent one refines them.
-    const cut = js.views.some((v) => v.strips.cuts.at.length > 0);
-    assert.equal(cut, 'epsilon' in body.lod, 'the demo scene\'s static meshes have outlines to cut');
+    assert.ok(js.views.some((v) => v.strips.cuts.at.length > 0), 'the demo scene has outlines to cut');
   });
 }
 
-test('the compact stream carries protocol 5\'s mesh, with a static mesh\'s outlines cut into fewer triangles, depths within the stated bound', async () => {
+test('the compact stream carries protocol 5\'s surface with its outlines cut, depths within the stated bound', async () => {
   const camera = demoNovel();
   for (const lod of [{ tau: 1 }, { epsilon: 0.01 }]) {
     const body = { camera, lod };
@@ -105,14 +103,6 @@ test('the compact stream carries protocol 5\'s mesh, with a static mesh\'s outli
         const s = v.strips;
         const w = p5.views[k].strips;
         assert.equal(s.view, w.view);
-        if (lod.tau) {
-          // A view-dependent mesh: the very mesh protocol 5 carries.
-          assert.deepEqual(Array.from(s.ij), Array.from(w.ij));
-          const want = new Set(stripTriangles(w.indices).map(key));
-          assert.equal(s.triangles, want.size);
-          for (let t = 0; t < s.indices.length; t += 3) assert.ok(want.has(key([s.indices[t], s.indices[t + 1], s.indices[t + 2]])));
-          assert.equal(s.cuts.at.length, 0);
-        }
         // Where protocol 5 refines outlines the compact stream cuts them:
         // the vertices both have carry one depth, within the stated bound.
         const at = new Map();
@@ -132,6 +122,8 @@ test('the compact stream carries protocol 5\'s mesh, with a static mesh\'s outli
         assert.equal(s.planes, bits === undefined ? s.totalPlanes : Math.min(bits, s.totalPlanes), `${s.view} planes`);
         if (bits === 4) assert.ok(s.maxDepthError > 0);
       });
+      // At 1 cm the cuts draw fewer triangles than refinement; at 1 px
+      // their parts fill the band refinement leaves out, and may draw more.
       if (lod.epsilon) assert.ok(drawn < refined, `${drawn} triangles drawn with cuts, ${refined} refined`);
     }
   }

@@ -5,7 +5,7 @@
 
 use glam::DVec3;
 
-use crate::mesh::cut::CutTriangle;
+use crate::mesh::cut::{for_each_sample, CutTriangle};
 use crate::mesh::error_metric::norm_bound;
 use crate::mesh::grid::{cell_half, half_of, Pt};
 use crate::mesh::hierarchy::Hierarchy;
@@ -120,7 +120,17 @@ impl<S: Select> Walk<'_, S> {
             return;
         }
         if err2 > 0.0 {
-            self.clearance = self.clearance.min(self.sel.left_out(pm, radius));
+            // The nearer of the nested sphere and the valid samples' sphere
+            // bounds where the error lies; a cutting walk leaves coarse
+            // triangles beside missing samples, whose nested spheres take in
+            // their placeholder positions at the reference eye.
+            let nested = self.sel.left_out(pm, radius);
+            let left_out = if self.cutting {
+                nested.max(self.valid_left_out([l, r, a]))
+            } else {
+                nested
+            };
+            self.clearance = self.clearance.min(left_out);
         }
         if flags.any {
             self.cut_or_drop([l, r, a]);
@@ -132,6 +142,36 @@ impl<S: Select> Walk<'_, S> {
     /// A segmented triangle left unsplit: cut when the walk cuts and it has
     /// a cut (the cutting errors make every unsplit one within the
     /// tolerance), else dropped as DMesh Sec. 5.3 drops it.
+    /// [`Select::left_out`] of a triangle `tri` a cutting walk leaves
+    /// unsplit, from a sphere round its valid samples: where its split
+    /// vertex's error lies (the triangle's samples are its subtree's
+    /// vertices, and a missing one has none). Either this or the nested
+    /// sphere bounds the error's distance from the eye, so the larger
+    /// distance does; the nested sphere may take in the placeholder
+    /// positions of missing samples, at the reference eye, which would tell
+    /// a reach that any camera near the reference eye is upon it.
+    fn valid_left_out(&self, tri: [Pt; 3]) -> f64 {
+        let h = self.mesh;
+        let mut valid = Vec::new();
+        for_each_sample(tri, |p| {
+            if h.z[h.grid.index(p)] > 0.0 {
+                valid.push(h.position(p));
+            }
+        });
+        if valid.is_empty() {
+            return f64::INFINITY;
+        }
+        let (lo, hi) = valid
+            .iter()
+            .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &q| {
+                (lo.min(q), hi.max(q))
+            });
+        let centre = 0.5 * (lo + hi);
+        let radius = valid.iter().map(|&q| (q - centre).length()).fold(0.0, f64::max);
+        self.sel
+            .left_out(centre, radius as f32 * (1.0 + f32::EPSILON) + f32::EPSILON)
+    }
+
     fn cut_or_drop(&mut self, tri: [Pt; 3]) {
         self.skip();
         match self.cutting.then(|| self.mesh.samples().fit(tri)).flatten() {
