@@ -1,6 +1,8 @@
 //! The meshes of the stream comparison (`engine/benches/peer/stream.sh`): each case
-//! is extracted as the server extracts it, encoded as protocol 6 at 8, 10
-//! and 12 planes and all of them, and as protocol 5 bincode, and coded as the
+//! is extracted as the server extracts it, with outlines refined (the
+//! compact stream without cuts: protocol 6's mesh, `p6_*`) and cut
+//! (protocol 7 as served, `p7_*`), encoded at 8, 10 and 12 planes and all
+//! of them, and as protocol 5 bincode, and coded as the
 //! server's content coding codes it (zstd 3, brotli 4, gzip 6: tower-http's
 //! defaults). Prints one JSON line per case and plane count, with the body
 //! broken into connectivity, depths and the rest, the Rust decode time per
@@ -18,7 +20,7 @@ use anyhow::{Context, Result};
 use dmesh_client::report::cases::{middlebury, simulated};
 use dmesh_engine::camera::Camera;
 use dmesh_engine::image::DepthImage;
-use dmesh_engine::mesh::{Hierarchy, Mesh, Segmentation};
+use dmesh_engine::mesh::{Hierarchy, Mesh, Outlines, Segmentation};
 use dmesh_engine::render_plan::{self, Ask};
 use dmesh_engine::wire::{strip_response, DepthCoding};
 use dmesh_engine::wire_compact::{mesh_stream, render_response};
@@ -32,7 +34,10 @@ struct Part {
     depth: DepthImage,
     hierarchy: Hierarchy,
     raw_grid: Option<RawGrid>,
+    /// Outlines refined.
     mesh: Mesh,
+    /// Outlines cut.
+    cut: Mesh,
     weight: f64,
 }
 
@@ -97,7 +102,8 @@ fn part(
     weight: f64,
 ) -> Result<Part> {
     let hierarchy = Hierarchy::build(&depth, &camera, &Segmentation::default())?;
-    let (mesh, _) = render_plan::extract_mesh(&hierarchy, ask, dmesh_engine::mesh::Outlines::Kept, |ms| ms * 1e4)?;
+    let (mesh, _) = render_plan::extract_mesh(&hierarchy, ask, Outlines::Kept, |ms| ms * 1e4)?;
+    let (cut, _) = render_plan::extract_mesh(&hierarchy, ask, Outlines::Cut, |ms| ms * 1e4)?;
     Ok(Part {
         name: name.to_string(),
         camera,
@@ -105,6 +111,7 @@ fn part(
         hierarchy,
         raw_grid,
         mesh,
+        cut,
         weight,
     })
 }
@@ -163,9 +170,9 @@ fn cases(data: &Path) -> Result<Vec<Case>> {
     Ok(out)
 }
 
-fn stream(p: &Part, planes: Option<u8>) -> Result<MeshStream> {
+fn stream(p: &Part, planes: Option<u8>, cut: bool) -> Result<MeshStream> {
     Ok(mesh_stream(
-        &p.mesh,
+        if cut { &p.cut } else { &p.mesh },
         p.hierarchy.grid(),
         "s",
         &p.name,
@@ -176,9 +183,14 @@ fn stream(p: &Part, planes: Option<u8>) -> Result<MeshStream> {
     )?)
 }
 
-/// The body a client receives for the case: a render's or one view's.
-fn compact_body(c: &Case, planes: Option<u8>) -> Result<(Vec<u8>, Vec<MeshStream>)> {
-    let streams = c.parts.iter().map(|p| stream(p, planes)).collect::<Result<Vec<_>>>()?;
+/// The body a client receives for the case: a render's or one view's,
+/// outlines cut or not.
+fn compact_body(c: &Case, planes: Option<u8>, cut: bool) -> Result<(Vec<u8>, Vec<MeshStream>)> {
+    let streams = c
+        .parts
+        .iter()
+        .map(|p| stream(p, planes, cut))
+        .collect::<Result<Vec<_>>>()?;
     let body = match c.novel {
         Some(_) => dmesh_proto::to_bincode(&RenderStream {
             version: dmesh_proto::COMPACT_VERSION,
@@ -320,13 +332,18 @@ fn main() -> Result<()> {
             let mut encode = Vec::new();
             for _ in 0..5 {
                 let t = Instant::now();
-                compact_body(c, planes)?;
+                compact_body(c, planes, false)?;
                 encode.push(t.elapsed().as_secs_f64() * 1e3);
             }
             encode.sort_by(f64::total_cmp);
             let encode_ms = encode[2];
             let extract_ms: f64 = c.parts.iter().map(|p| p.mesh.extract_ms).sum();
-            let (body, streams) = compact_body(c, planes)?;
+            let (body, streams) = compact_body(c, planes, false)?;
+            let (cut_body, cut_streams) = compact_body(c, planes, true)?;
+            let drawn: usize = c.parts.iter().map(|p| p.cut.drawn_triangles()).sum();
+            let cuts: usize = c.parts.iter().map(|p| p.cut.cuts.len()).sum();
+            let cut_error = cut_streams.iter().map(|s| s.max_error).fold(0f32, f32::max);
+            let cut_ms = decode_ms(&cut_streams, c.novel.as_ref())?;
             // The parts on their own, each coded alone (what they cost).
             let field = |f: &dyn Fn(&MeshStream) -> Vec<u8>| -> usize { streams.iter().map(|s| zstd(&f(s))).sum() };
             let connectivity = field(&|s| [s.connectivity.split.clone(), s.connectivity.leaf.clone()].concat());
@@ -366,6 +383,8 @@ fn main() -> Result<()> {
                 "p5_raw": p5.len(), "p5_zstd": zstd(&p5),
                 "connectivity_zstd": connectivity, "depths_zstd": depths, "reach_zstd": reach,
                 "decode_ms": ms, "decode_ms_per_100k": ms * 1e5 / triangles.max(1) as f64,
+                "p7_zstd": zstd(&cut_body), "p7_raw": cut_body.len(), "p7_drawn": drawn, "p7_cuts": cuts,
+                "p7_max_error": cut_error, "p7_decode_ms_per_100k": cut_ms * 1e5 / drawn.max(1) as f64,
                 "encode_ms": encode_ms, "extract_ms": extract_ms,
                 "depth_png16": png16, "depth_zstd16": zstd16, "depth_zlib16": zlib16,
             });

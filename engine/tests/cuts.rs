@@ -552,3 +552,26 @@ fn the_demo_scene_has_no_fringe_from_its_own_camera() {
         }
     }
 }
+
+/// A view-dependent cut mesh may move as far as the refined one before it
+/// goes stale: its reach is measured round the valid samples, not the
+/// nested spheres that beside missing samples reach the reference eye.
+#[test]
+fn a_cut_meshs_reach_is_no_shorter_than_refined() {
+    let scene = dmesh_engine::sim::SceneSpec::demo();
+    let refs = scene.reference_views().unwrap();
+    for k in [0usize, 3, 7] {
+        let r = &refs[k];
+        let h = Hierarchy::build(&r.depth, &r.camera, &Segmentation::default()).unwrap();
+        let mut novel = r.camera;
+        novel.translation.x += 0.3;
+        let lod = Lod::Tau { tau: 1.0, view: &novel };
+        let clearance = |outlines| {
+            let m = h.extract_as(lod, StripOrder::Traversal, outlines).unwrap();
+            m.reach.and_then(|r| r.clearance).unwrap_or(f64::INFINITY)
+        };
+        let (kept, cut) = (clearance(Outlines::Kept), clearance(Outlines::Cut));
+        println!("view {k}: reach {kept:.3} m refined, {cut:.3} m cut");
+        assert!(cut >= kept, "view {k}: {cut} m cut against {kept} m refined");
+    }
+}

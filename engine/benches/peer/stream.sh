@@ -1,13 +1,16 @@
 #!/usr/bin/env bash
-# Protocol 6 (the compact mesh stream) against the formats people use, on
-# the same meshes, in the same run: one table of bytes per triangle.
+# The compact mesh stream against the formats people use, on the same
+# meshes, in the same run: one table of bytes per triangle, with outlines
+# refined (protocol 6's meshes: "P6"), then protocol 7 as served (outlines
+# cut: "P7") against them.
 #
 # For each case (the demo novel view at tau = 1 px, five views; Middlebury
 # Art at epsilon 1, 5, 10 and 20 mm; Cones at 5 mm; the 513 x 513 height
 # field of engine/benches/peer/martini.sh at its tolerances), the example
 # `stream_table` extracts the meshes as the server does and codes them as
-#   - protocol 6 at 8, 10 and 12 depth planes and all of them, under zstd
-#     (level 3), brotli (quality 4) and gzip (level 6): tower-http's levels;
+#   - the compact stream without cuts at 8, 10 and 12 depth planes and all
+#     of them, under zstd (level 3), brotli (quality 4) and gzip (level 6):
+#     tower-http's levels; and with cuts (protocol 7 as served), zstd;
 #   - protocol 5 bincode with the same residual bits, zstd;
 #   - the source depth maps losslessly, as 16 bits over each map's range:
 #     PNG, zstd -19 of the samples and zlib -9 of them (Verlani's
@@ -143,4 +146,22 @@ for r in rows:
     t = r["triangles"]
     rest = r["p6_zstd"] - r["connectivity_zstd"] - r["depths_zstd"] - r["reach_zstd"]
     print(f"| {r['name']} | {r['connectivity_zstd'] / t:.3f} | {r['depths_zstd'] / t:.3f} | {r['reach_zstd'] / t:.3f} | {rest / t:.3f} |")
+print()
+print("Protocol 7 as served (outlines cut) against the same meshes with outlines refined (P6), zstd. Drawn triangles count a cut triangle's parts; decode is the Rust client's, per 100,000 drawn triangles.")
+print()
+print("| case | planes | P6 triangles | P7 drawn (cuts) | P6 bytes | P7 bytes | P6 / P7 bytes | largest depth error P6 / P7 | decode ms per 100k P6 / P7 |")
+print("|---|---|---|---|---|---|---|---|---|")
+for r in rows:
+    print(f"| {r['name']} | {r['planes']} | {r['triangles']:,} | {r['p7_drawn']:,} ({r['p7_cuts']:,}) | {r['p6_zstd']:,} | {r['p7_zstd']:,} | {r['p6_zstd'] / r['p7_zstd']:.2f} | {r['max_error'] * 1000:.3g} / {r['p7_max_error'] * 1000:.3g} mm | {r['decode_ms_per_100k']:.1f} / {r['p7_decode_ms_per_100k']:.1f} |")
+print()
+# Issue 59's goals that this table can judge, each by its stated criterion.
+art = [r for r in rows if r["name"].startswith("art epsilon 10 mm") and r["planes"] == "10"]
+if art:
+    a = art[0]
+    ratio = a["p6_zstd"] / a["p7_zstd"]
+    verdict = "met" if ratio >= 2 else "not met"
+    print(f"- **Bytes at least halved** (Art at epsilon 1 cm, 10 planes, zstd; criterion P6 / P7 >= 2): {a['p6_zstd']:,} B refined, {a['p7_zstd']:,} B cut, {ratio:.2f}x: {verdict}.")
+slower = [r for r in rows if r["p7_decode_ms_per_100k"] > r["decode_ms_per_100k"]]
+verdict = "met" if not slower else "not met"
+print(f"- **Decode per triangle no slower** (criterion: P7's ms per 100k drawn triangles at most P6's, every row of this run): slower on {len(slower)} of {len(rows)} rows: {verdict}.")
 PY
