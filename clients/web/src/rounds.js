@@ -224,13 +224,13 @@ export class Rounds {
       views: views.map((v) => ({
         view: v.strips.view,
         weight: v.weight,
-        triangles: v.strips.triangles,
+        triangles: v.strips.drawnTriangles ?? v.strips.triangles,
         vertices: v.strips.vertexCount,
         lod: v.strips.lod,
         max_depth_error: v.strips.maxDepthError,
         ...(age ? { age: age(v.strips.view) } : {}),
       })),
-      triangles: views.reduce((s, v) => s + v.strips.triangles, 0),
+      triangles: views.reduce((s, v) => s + (v.strips.drawnTriangles ?? v.strips.triangles), 0),
       vertices: views.reduce((s, v) => s + v.strips.vertexCount, 0),
       ...figures,
     });
@@ -309,7 +309,7 @@ export class Rounds {
       if (sel.length === 0) throw new Error('No reference view looks this way: turn towards the scene.');
       const heldList = this.refs.map((r) => {
         const h = this.held.get(r.view);
-        return h ? { age: h.age, tau: h.tau, reach: h.strips.reach, triangles: h.strips.triangles } : null;
+        return h ? { age: h.age, tau: h.tau, reach: h.strips.reach, triangles: h.strips.drawnTriangles ?? h.strips.triangles } : null;
       });
       const tau = state.lodKind === 'tau' ? state.lodValue : 1;
       const p = plan({ camera: cam, selected: sel.map((s) => s.index), held: heldList, tau, staleFactor: STALE_FACTOR, budget: null });
