@@ -38,6 +38,7 @@ fuzz_target!(|data: &[u8]| {
             let nothing = DecodedMesh {
                 shape: Default::default(),
                 depths: Vec::new(),
+                cuts: Vec::new(),
                 max_error: 0.0,
                 planes: 0,
                 lattice: c.mesh.lattice,
