@@ -83,3 +83,35 @@ fn verlani_experiments_run_in_their_quick_form() {
         .unwrap()
         .contains("<svg"));
 }
+
+/// The rate-distortion run (`--rd`) prints every curve, a verdict judged
+/// by its criterion, and writes its figure.
+#[test]
+fn the_rate_distortion_run_judges_and_plots_in_its_quick_form() {
+    let dir = tempfile::tempdir().unwrap();
+    let base = dir.path().join("rd");
+    let text = run("papers_verlani", &["--quick", "--rd", base.to_str().unwrap()]);
+    for curve in [
+        "| protocol 7 (outlines cut) |",
+        "| protocol 6 (outlines refined) |",
+        "| JPEG depth maps, meshed losslessly |",
+        "| zipped 16-bit depth maps, per pixel |",
+    ] {
+        assert!(text.contains(curve), "{curve} is missing:\n{text}");
+    }
+    let verdict = text
+        .lines()
+        .find(|l| l.starts_with("- **Protocol 7 on or above every other curve**"))
+        .unwrap_or_else(|| panic!("no verdict:\n{text}"));
+    assert!(
+        [": met.", ": not met.", "not judged"]
+            .iter()
+            .any(|v| verdict.contains(v)),
+        "{verdict}"
+    );
+    let png = image::open(base.with_extension("png")).unwrap();
+    assert_eq!((png.width(), png.height()), (800, 520));
+    assert!(std::fs::read_to_string(base.with_extension("svg"))
+        .unwrap()
+        .contains("<svg"));
+}

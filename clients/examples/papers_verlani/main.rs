@@ -18,7 +18,11 @@
 //! Prints Markdown for `docs/papers.md`; writes the plot of Fig. 5 to the
 //! path given (`.png` and `.svg`).
 //!
-//! Usage: `cargo run --release -p dmesh-client --example papers_verlani -- [--quick] PLOT_BASE`.
+//! - with `--rd RD_BASE` instead, the rate-distortion figure of outlines
+//!   cut against refined, JPEG depth and zipped maps (`rd.rs`), alone.
+//!
+//! Usage: `cargo run --release -p dmesh-client --example papers_verlani -- [--quick] PLOT_BASE`
+//! or `... -- [--quick] --rd RD_BASE`.
 //! `--quick` runs every table on a few settings, for the test that keeps
 //! this example from rotting; its figures mean little.
 
@@ -30,6 +34,7 @@ use dmesh_engine::mesh::{Hierarchy, Lod};
 
 mod fig5;
 mod pipeline;
+mod rd;
 use fig5::fig5;
 use pipeline::{blended, pick, quantise, quick, scores, streamed, through_stream, zipped_depth, Detail, Scene, QUICK};
 
@@ -327,6 +332,14 @@ fn main() -> Result<()> {
     if let Some(k) = args.iter().position(|a| a == "--quick") {
         args.remove(k);
         QUICK.store(true, std::sync::atomic::Ordering::Relaxed);
+    }
+    if let Some(k) = args.iter().position(|a| a == "--rd") {
+        let base = std::path::PathBuf::from(args.get(k + 1).cloned().unwrap_or_else(|| "docs/stream/rd-demo".into()));
+        if let Some(dir) = base.parent() {
+            std::fs::create_dir_all(dir)?;
+        }
+        let scene = Scene::new(cases::simulated("demo", false, if quick() { 2 } else { 8 })?, None)?;
+        return rd::rd(&scene, &base);
     }
     let plot = std::path::PathBuf::from(
         args.first()
