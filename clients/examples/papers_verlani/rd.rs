@@ -144,7 +144,7 @@ pub(crate) fn rd(scene: &Scene, base: &Path) -> Result<()> {
         p7.last().map_or(0.0, |p| p.0),
     );
     let (mut compared, mut below, mut outside) = (0, Vec::new(), 0);
-    for curve in 1..CURVES.len() {
+    for (curve, name) in CURVES.iter().enumerate().skip(1) {
         for (bytes, psnr) in of(curve) {
             if bytes < lo || bytes > hi {
                 outside += 1;
