@@ -157,10 +157,7 @@ pub(crate) fn rd(scene: &Scene, base: &Path) -> Result<()> {
                 .map(|p| p.1)
                 .fold(f64::NEG_INFINITY, f64::max);
             if best < psnr {
-                below.push(format!(
-                    "{} at {bytes:.0} B ({psnr:.2} dB against {best:.2})",
-                    CURVES[curve]
-                ));
+                below.push(format!("{name} at {bytes:.0} B ({psnr:.2} dB against {best:.2})"));
             }
         }
     }
