@@ -23,6 +23,9 @@ struct Walk<'a, S> {
     /// dropping them.
     cutting: bool,
     cuts: Vec<CutTriangle>,
+    /// Scratch of [`Self::valid_left_out`]: a triangle's valid samples'
+    /// positions, kept between calls.
+    valid: Vec<DVec3>,
     /// Vertices split whatever `sel` says (one bit per grid vertex; empty
     /// for none): the outlines' (`outline.rs`).
     forced: &'a [u64],
@@ -150,9 +153,10 @@ impl<S: Select> Walk<'_, S> {
     /// distance does; the nested sphere may take in the placeholder
     /// positions of missing samples, at the reference eye, which would tell
     /// a reach that any camera near the reference eye is upon it.
-    fn valid_left_out(&self, tri: [Pt; 3]) -> f64 {
+    fn valid_left_out(&mut self, tri: [Pt; 3]) -> f64 {
         let h = self.mesh;
-        let mut valid = Vec::new();
+        let valid = &mut self.valid;
+        valid.clear();
         for_each_sample(tri, |p| {
             if h.z[h.grid.index(p)] > 0.0 {
                 valid.push(h.position(p));
@@ -241,6 +245,7 @@ impl Hierarchy {
             err2: cut_err2.unwrap_or(&self.err2),
             cutting: cut_err2.is_some(),
             cuts: Vec::new(),
+            valid: Vec::new(),
             forced,
             tris: std::mem::take(tris),
             dropped: 0,
