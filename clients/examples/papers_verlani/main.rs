@@ -97,6 +97,32 @@ fn table2(scene: &Scene) -> Result<()> {
     Ok(())
 }
 
+/// Every reference's depth through JPEG at `quality`, meshed losslessly
+/// (epsilon 0) and blended into each novel view of `scene`: the blends,
+/// and each reference's JPEG bytes.
+fn jpeg_blends(scene: &Scene, quality: u8) -> Result<(Vec<Blended>, Vec<usize>)> {
+    let refs = &scene.case.references;
+    let mut decoded = Vec::new();
+    let mut sizes = Vec::new();
+    for r in refs {
+        let (d, n) = jpeg_depth(&r.depth, quality)?;
+        decoded.push(Hierarchy::build(&d, &r.camera, &Default::default())?);
+        sizes.push(n);
+    }
+    let mut blends = Vec::new();
+    for (novel, selected) in scene.case.novels.iter().zip(&scene.selections) {
+        let mut views = Vec::new();
+        for w in selected {
+            let r = &refs[w.index];
+            let m = decoded[w.index].extract(Lod::Epsilon(0.0))?;
+            let (_, strips) = streamed(&decoded[w.index], &r.camera, &m, None, &novel.camera)?;
+            views.push((w.weight, strips, &r.texture));
+        }
+        blends.push(blended(&novel.camera, &views, BlendOptions::default())?);
+    }
+    Ok((blends, sizes))
+}
+
 /// A depth map through 8-bit JPEG at `quality` and back.
 fn jpeg_depth(depth: &DepthImage, quality: u8) -> Result<(DepthImage, usize)> {
     let (q, lo, hi) = quantise(&depth.z, 8);
@@ -139,28 +165,12 @@ fn table1(scene: &Scene) -> Result<()> {
     println!("| JPEG quality | CR | PSNR dB | JPEG bytes per novel view | stream tau px | stream planes | stream bytes | stream PSNR dB |");
     println!("|---|---|---|---|---|---|---|---|");
     for quality in pick(&[10u8, 20, 30, 40, 50, 60, 70, 80, 90, 100], &[50]) {
-        let mut decoded = Vec::new();
-        let mut jpeg_bytes = Vec::new();
-        for r in refs {
-            let (d, n) = jpeg_depth(&r.depth, quality)?;
-            decoded.push(Hierarchy::build(&d, &r.camera, &Default::default())?);
-            jpeg_bytes.push(n);
-        }
-        let mut jpeg_rows = Vec::new();
-        let mut target = Vec::new();
-        for (novel, selected) in scene.case.novels.iter().zip(&scene.selections) {
-            let mut views = Vec::new();
-            let mut bytes = 0;
-            for w in selected {
-                let r = &refs[w.index];
-                let m = decoded[w.index].extract(Lod::Epsilon(0.0))?;
-                let (_, strips) = streamed(&decoded[w.index], &r.camera, &m, None, &novel.camera)?;
-                views.push((w.weight, strips, &r.texture));
-                bytes += jpeg_bytes[w.index];
-            }
-            target.push(bytes);
-            jpeg_rows.push(blended(&novel.camera, &views, BlendOptions::default())?);
-        }
+        let (jpeg_rows, jpeg_bytes) = jpeg_blends(scene, quality)?;
+        let target: Vec<usize> = scene
+            .selections
+            .iter()
+            .map(|selected| selected.iter().map(|w| jpeg_bytes[w.index]).sum())
+            .collect();
         // Per plane count (all, 8, 4), the stream's finest tau whose mean
         // bytes are at most the JPEG's, by bisection on log tau; the best
         // PSNR of the three.

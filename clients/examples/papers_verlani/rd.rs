@@ -19,10 +19,10 @@ use std::path::Path;
 use anyhow::Result;
 use dmesh_client::blend::{BlendOptions, Blended};
 use dmesh_client::report::plot::Chart;
-use dmesh_engine::mesh::{Hierarchy, Lod, Outlines};
+use dmesh_engine::mesh::Outlines;
 
-use super::jpeg_depth;
-use super::pipeline::{blended, pick, scores, streamed, through_stream_as, zipped_depth, Detail, Scene};
+use super::jpeg_blends;
+use super::pipeline::{pick, scores, through_stream_as, zipped_depth, Detail, Scene};
 
 /// One point of a curve: its setting and bytes per novel view.
 struct Point {
@@ -78,24 +78,7 @@ pub(crate) fn rd(scene: &Scene, base: &Path) -> Result<()> {
         total as f64 / scene.selections.len() as f64
     };
     for quality in pick(&[10u8, 20, 30, 40, 50, 60, 70, 80, 90, 100], &[50]) {
-        let mut decoded = Vec::new();
-        let mut sizes = Vec::new();
-        for r in refs {
-            let (d, n) = jpeg_depth(&r.depth, quality)?;
-            decoded.push(Hierarchy::build(&d, &r.camera, &Default::default())?);
-            sizes.push(n);
-        }
-        let mut blends = Vec::new();
-        for (novel, selected) in scene.case.novels.iter().zip(&scene.selections) {
-            let mut views = Vec::new();
-            for w in selected {
-                let r = &refs[w.index];
-                let m = decoded[w.index].extract(Lod::Epsilon(0.0))?;
-                let (_, strips) = streamed(&decoded[w.index], &r.camera, &m, None, &novel.camera)?;
-                views.push((w.weight, strips, &r.texture));
-            }
-            blends.push(blended(&novel.camera, &views, BlendOptions::default())?);
-        }
+        let (blends, sizes) = jpeg_blends(scene, quality)?;
         rows.push(blends);
         points.push(Point {
             curve: 2,
