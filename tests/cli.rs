@@ -141,18 +141,9 @@ fn a_triangle_budget_is_met_and_its_tolerance_printed() {
 fn outlines_are_kept_unless_dropped_or_cut_on_request() {
     let dir = tempfile::tempdir().unwrap();
     let (depth, _, cam) = scene(dir.path());
+    let base = ["mesh", "--depth", &depth, "--camera", &cam, "--epsilon", "0.5"];
     let figures = |extra: &[&str]| {
-        let mut args = vec![
-            "mesh",
-            "--depth",
-            &depth,
-            "--camera",
-            &cam,
-            "--epsilon",
-            "0.5",
-            "--json",
-        ];
-        args.extend_from_slice(extra);
+        let args = [&base[..], &["--json"], extra].concat();
         let (code, out, err) = dmesh(&args);
         assert_eq!(code, 0, "{err}");
         serde_json::from_str::<serde_json::Value>(out.trim()).unwrap()
@@ -170,17 +161,7 @@ fn outlines_are_kept_unless_dropped_or_cut_on_request() {
     let drawn = v["drawn_triangles"].as_u64().unwrap();
     assert!(cut > 0 && drawn > whole && drawn <= whole + 3 * cut, "{v}");
     // Both at once is refused, in one line.
-    let (code, _, err) = dmesh(&[
-        "mesh",
-        "--depth",
-        &depth,
-        "--camera",
-        &cam,
-        "--epsilon",
-        "0.5",
-        "--drop-outlines",
-        "--cut-outlines",
-    ]);
+    let (code, _, err) = dmesh(&[&base[..], &["--drop-outlines", "--cut-outlines"]].concat());
     assert_ne!(code, 0);
     assert!(err.contains("--cut-outlines"), "{err}");
 }
