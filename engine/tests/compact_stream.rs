@@ -265,3 +265,57 @@ fn a_cut_mesh_round_trips_and_is_smaller() {
         assert_crossings_shared(&decoded.cuts);
     }
 }
+
+/// FNV-1a over bytes: a digest that is the same on every machine and run.
+fn fnv1a(bytes: &[u8], mut h: u64) -> u64 {
+    for &b in bytes {
+        h = (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3);
+    }
+    h
+}
+
+/// The bytes of the stream for fixed inputs, pinned: a change meant to make
+/// the coder faster must leave every body bit for bit the same (issue 60).
+/// Whole meshes with outlines kept and cut, static and view-dependent, on
+/// and off a lattice, at 0, 6, 10 planes and all of them, and a change
+/// against a held mesh. `extract_ms` is set to 0, since it is a timing.
+#[test]
+fn the_streams_of_fixed_inputs_are_pinned() {
+    let mut h = 0xcbf2_9ce4_8422_2325;
+    let mut bodies = 0;
+    for (w, ht, seed, lattice) in [(257, 193, 3, true), (90, 70, 11, false), (320, 240, 9, true)] {
+        let d = depth(w, ht, seed, lattice);
+        let cam = camera(w, ht, false);
+        let hier = Hierarchy::build(&d, &cam, &Segmentation::default()).unwrap();
+        let raw = lattice.then_some(RawGrid {
+            scale: 0.001,
+            offset: 0.0,
+        });
+        let mut side = cam;
+        side.translation.x += 0.2;
+        for cut in [false, true] {
+            let mut meshes = vec![
+                extract(&hier, Lod::Epsilon(0.002), cut),
+                extract(&hier, Lod::Epsilon(0.02), cut),
+                extract(&hier, Lod::Tau { tau: 1.0, view: &side }, cut),
+            ];
+            for m in &mut meshes {
+                m.extract_ms = 0.0;
+            }
+            for planes in [Some(0), Some(6), Some(10), None] {
+                for m in &meshes {
+                    let s = mesh_stream(m, hier.grid(), "s", "v", &cam, raw, planes, "\"e\"".into()).unwrap();
+                    h = fnv1a(&dmesh_proto::to_bincode(&s).unwrap(), h);
+                    bodies += 1;
+                }
+                let held = held_of(&meshes[1], raw, planes);
+                let change =
+                    mesh_change(&meshes[2], hier.grid(), "s", "v", &cam, raw, planes, String::new(), &held).unwrap();
+                h = fnv1a(&dmesh_proto::to_bincode(&change).unwrap(), h);
+                bodies += 1;
+            }
+        }
+    }
+    assert_eq!(bodies, 96);
+    assert_eq!(format!("{h:016x}"), "6449737c6ab62088", "the stream's bytes changed");
+}
