@@ -18,7 +18,7 @@
 //!   depth planes, predicted from the vertex at that side's end of the edge
 //!   ([`super::bitplanes`], the level after the finest).
 
-use std::collections::HashMap;
+use rustc_hash::FxHashMap as HashMap;
 
 use serde::{Deserialize, Serialize};
 

@@ -12,7 +12,7 @@ use crate::residual::RawGrid;
 impl DecodedMesh {
     /// Its depth at each of `points`, `None` where it has no vertex.
     pub(super) fn depths_at(&self, points: &[Pt]) -> Vec<Option<f32>> {
-        let at: std::collections::HashMap<Pt, f32> = self
+        let at: rustc_hash::FxHashMap<Pt, f32> = self
             .shape
             .vertices
             .iter()
@@ -39,7 +39,7 @@ impl DecodedMesh {
     ) -> Self {
         let mut vertices: Vec<Pt> = ij.iter().map(|&(i, j)| (u32::from(i), u32::from(j))).collect();
         let mut depths = depths.to_vec();
-        let mut seen: std::collections::HashSet<Pt> = vertices.iter().copied().collect();
+        let mut seen: rustc_hash::FxHashSet<Pt> = vertices.iter().copied().collect();
         for c in cuts {
             let [p0, p1, p2] = c.corners.map(pt);
             let lone = c.lone.map(|z| [(p0, z[0])]);
@@ -169,7 +169,7 @@ impl MeshStream {
             known.as_deref(),
         )?;
         let side_depths = depths.split_off(shape.vertices.len());
-        let at: std::collections::HashMap<Pt, f32> =
+        let at: rustc_hash::FxHashMap<Pt, f32> =
             shape.vertices.iter().copied().zip(depths.iter().copied()).collect();
         let cuts = shape
             .cuts

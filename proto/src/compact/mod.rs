@@ -328,7 +328,7 @@ fn pt([x, y]: [u16; 2]) -> Pt {
 
 /// The vertex number of each side's end in `shape`.
 fn side_vertices(shape: &Shape, sides: &[cut::Side]) -> Result<Vec<u32>, CompactError> {
-    let slot: std::collections::HashMap<Pt, u32> =
+    let slot: rustc_hash::FxHashMap<Pt, u32> =
         shape.vertices.iter().enumerate().map(|(k, &p)| (p, k as u32)).collect();
     sides
         .iter()
@@ -369,7 +369,8 @@ fn depths_in(input: &MeshInput<'_>, shape: &Shape) -> Result<Vec<f32>, CompactEr
     if same {
         return Ok(input.depths.to_vec());
     }
-    let mut depth_at = std::collections::HashMap::with_capacity(input.ij.len());
+    let mut depth_at = rustc_hash::FxHashMap::default();
+    depth_at.reserve(input.ij.len());
     for (&(i, j), &z) in input.ij.iter().zip(input.depths) {
         depth_at.insert((u32::from(i), u32::from(j)), z);
     }
