@@ -309,8 +309,18 @@ fn the_streams_of_fixed_inputs_are_pinned() {
                     bodies += 1;
                 }
                 let held = held_of(&meshes[1], raw, planes);
-                let change =
-                    mesh_change(&meshes[2], hier.grid(), "s", "v", &cam, raw, planes, String::new(), &held).unwrap();
+                let change = mesh_change(
+                    &meshes[2],
+                    hier.grid(),
+                    "s",
+                    "v",
+                    &cam,
+                    raw,
+                    planes,
+                    String::new(),
+                    &held,
+                )
+                .unwrap();
                 h = fnv1a(&dmesh_proto::to_bincode(&change).unwrap(), h);
                 bodies += 1;
             }

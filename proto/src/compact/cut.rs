@@ -241,24 +241,30 @@ pub struct Coded {
 /// `leaves` the walk met (in walk order, corners as the walk orients
 /// them). Fails when two cuts disagree on a crossing they share.
 pub fn encode(forest: &Forest, leaves: &[[Pt; 3]], cuts: &[CutTriangle]) -> Result<Coded, String> {
-    let by_corners: HashMap<[Pt; 3], &CutTriangle> = cuts
-        .iter()
-        .map(|c| {
-            let p = c.corners.map(|[x, y]| (u32::from(x), u32::from(y)));
-            let mut key = p;
-            key.sort_unstable();
-            (key, c)
-        })
-        .collect();
+    let sorted = |c: &CutTriangle| {
+        let mut key = c.corners.map(|[x, y]| (u32::from(x), u32::from(y)));
+        key.sort_unstable();
+        key
+    };
+    // The engine's cuts come in walk order: the map is built only for
+    // cuts that come in another.
+    let mut by_corners: Option<HashMap<[Pt; 3], &CutTriangle>> = None;
     let mut cases = Vec::with_capacity(leaves.len());
     let mut bits = BitWriter::default();
     let mut met = Crossings::default();
     let mut shapes = Vec::with_capacity(leaves.len());
     let mut depths: Vec<Option<f32>> = Vec::new();
-    for leaf in leaves {
+    for (n, leaf) in leaves.iter().enumerate() {
         let mut key = *leaf;
         key.sort_unstable();
-        let c = by_corners.get(&key).ok_or("a cut leaf has no cut")?;
+        let c = match cuts.get(n).filter(|c| sorted(c) == key) {
+            Some(c) => c,
+            None => by_corners
+                .get_or_insert_with(|| cuts.iter().map(|c| (sorted(c), c)).collect())
+                .get(&key)
+                .copied()
+                .ok_or("a cut leaf has no cut")?,
+        };
         let corners = c.corners.map(|[x, y]| (u32::from(x), u32::from(y)));
         let k = (0..3)
             .find(|&k| (0..3).all(|e| leaf[(k + e) % 3] == corners[e]))

@@ -159,7 +159,7 @@ impl MeshStream {
             sent: self.planes.len(),
             max_error: self.max_error,
         };
-        let side_vertices = side_vertices(&shape, &sides)?;
+        let side_vertices = side_vertices(&f, &shape, &sides)?;
         let mut depths = bitplanes::decode(
             &f,
             &shape.vertices,
@@ -169,8 +169,7 @@ impl MeshStream {
             known.as_deref(),
         )?;
         let side_depths = depths.split_off(shape.vertices.len());
-        let at: rustc_hash::FxHashMap<Pt, f32> =
-            shape.vertices.iter().copied().zip(depths.iter().copied()).collect();
+        let at: rustc_hash::FxHashMap<Pt, f32> = shape.vertices.iter().copied().zip(depths.iter().copied()).collect();
         let cuts = shape
             .cuts
             .iter()

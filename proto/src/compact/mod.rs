@@ -305,7 +305,7 @@ fn encode_against(
             at.iter().map(Option::is_some).chain(sides).collect::<Vec<bool>>()
         })
     });
-    let side_vertices = side_vertices(&shape, &sides)?;
+    let side_vertices = side_vertices(&f, &shape, &sides)?;
     depths.extend_from_slice(&side_depths);
     let code = bitplanes::encode(
         &f,
@@ -327,17 +327,29 @@ fn pt([x, y]: [u16; 2]) -> Pt {
 }
 
 /// The vertex number of each side's end in `shape`.
-fn side_vertices(shape: &Shape, sides: &[cut::Side]) -> Result<Vec<u32>, CompactError> {
-    let slot: rustc_hash::FxHashMap<Pt, u32> =
-        shape.vertices.iter().enumerate().map(|(k, &p)| (p, k as u32)).collect();
-    sides
-        .iter()
-        .map(|s| {
-            slot.get(&s.end)
-                .copied()
-                .ok_or("a crossing side ends on no vertex".into())
-        })
-        .collect()
+fn side_vertices(f: &Forest, shape: &Shape, sides: &[cut::Side]) -> Result<Vec<u32>, CompactError> {
+    forest::with_slot_map(f.len(), |slot| {
+        // Mark the ends, then number the marked vertices.
+        const END: u32 = u32::MAX - 1;
+        let touched: Vec<usize> = sides.iter().map(|s| f.index(s.end)).collect();
+        for &i in &touched {
+            slot[i] = END;
+        }
+        for (k, &p) in shape.vertices.iter().enumerate() {
+            let i = f.index(p);
+            if slot[i] == END {
+                slot[i] = k as u32;
+            }
+        }
+        let out = touched
+            .iter()
+            .map(|&i| match slot[i] {
+                END => Err("a crossing side ends on no vertex".into()),
+                k => Ok(k),
+            })
+            .collect();
+        (out, touched)
+    })
 }
 
 /// The triangles of `input` as grid points.
