@@ -20,11 +20,8 @@ fn get_strips(uri: &str) -> Request<Body> {
         .unwrap()
 }
 
-#[tokio::test]
-async fn residual_bits_and_triangle_budgets() {
-    let dir = tempfile::tempdir().unwrap();
-    let router = start(state(dir.path(), Settings::default()), Pipeline::default()).await;
-    // 16-bit depth over most of the range, smooth with one step.
+/// 16-bit depth over most of the range, smooth with one step.
+fn stepped_png() -> Vec<u8> {
     let img = image::ImageBuffer::<image::Luma<u16>, _>::from_fn(W, H, |x, y| {
         let smooth = 9000.0 + 4000.0 * (x as f64 * 0.3).sin() + 57.0 * f64::from(y);
         image::Luma([smooth as u16 + if x > 30 { 40_000 } else { 0 }])
@@ -33,7 +30,14 @@ async fn residual_bits_and_triangle_budgets() {
     image::DynamicImage::ImageLuma16(img)
         .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
         .unwrap();
-    let body = upload_body(&png, &[("scale", b"0.0001")], &camera_json(0.0, 0.0));
+    png
+}
+
+#[tokio::test]
+async fn residual_bits_and_triangle_budgets() {
+    let dir = tempfile::tempdir().unwrap();
+    let router = start(state(dir.path(), Settings::default()), Pipeline::default()).await;
+    let body = upload_body(&stepped_png(), &[("scale", b"0.0001")], &camera_json(0.0, 0.0));
     let (status, _, body) = send(&router, put("/v1/scenes/r/views/v", body)).await;
     assert_eq!(status, StatusCode::CREATED, "{}", String::from_utf8_lossy(&body));
 
@@ -239,4 +243,57 @@ async fn an_over_long_held_etag_is_a_bad_request() {
             }
         }
     }
+}
+
+/// A time budget promises no triangle count: in the compact stream, whose
+/// outlines are cut, one too small for the coarsest cut mesh is still
+/// answered (the coarsest mesh it resolves to), on the strip routes and on
+/// /render. It was refused with 409 when time budgets were counted as
+/// triangle budgets with cuts.
+#[tokio::test]
+async fn a_tiny_time_budget_is_answered_with_outlines_cut() {
+    let dir = tempfile::tempdir().unwrap();
+    let router = start(state(dir.path(), Settings::default()), Pipeline::default()).await;
+    // Scattered missing samples: every coarse triangle is cut or dropped.
+    let img = image::ImageBuffer::<image::Luma<u16>, _>::from_fn(W, H, |x, y| {
+        image::Luma([if (x * 7 + y * 13) % 11 == 0 {
+            0
+        } else {
+            9000 + 40 * x as u16
+        }])
+    });
+    let mut png = Vec::new();
+    image::DynamicImage::ImageLuma16(img)
+        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+        .unwrap();
+    let body = upload_body(&png, &[("scale", b"0.0001")], &camera_json(0.0, 0.0));
+    let (status, _, body) = send(&router, put("/v1/scenes/b/views/v", body)).await;
+    assert_eq!(status, StatusCode::CREATED, "{}", String::from_utf8_lossy(&body));
+    let compact = |req: axum::http::request::Builder| req.header(header::ACCEPT, dmesh_proto::MESH_MEDIA_TYPE);
+    let strips = compact(Request::get("/v1/scenes/b/views/v/strips?budget_ms=0.000001"))
+        .body(Body::empty())
+        .unwrap();
+    let render = compact(Request::post("/v1/scenes/b/render"))
+        .header(header::CONTENT_TYPE, "application/json")
+        .body(Body::from(format!(
+            r#"{{"camera": {}, "lod": {{"budget_ms": 0.000001}}}}"#,
+            camera_json(0.1, 0.0)
+        )))
+        .unwrap();
+    for (route, req) in [("strips", strips), ("render", render)] {
+        let (status, _, body) = send(&router, req).await;
+        assert_eq!(status, StatusCode::OK, "{route}: {}", String::from_utf8_lossy(&body));
+        assert!(!body.is_empty(), "{route}");
+    }
+    // The mesh is a real one: the strip answer decodes with triangles.
+    let req = compact(Request::get("/v1/scenes/b/views/v/strips?budget_ms=0.000001"))
+        .body(Body::empty())
+        .unwrap();
+    let (_, _, body) = send(&router, req).await;
+    let dmesh_proto::compact::MeshBody::Mesh(mesh) =
+        dmesh_proto::from_bincode::<dmesh_proto::compact::MeshBody>(&body).unwrap()
+    else {
+        panic!("a whole mesh")
+    };
+    assert!(mesh.decode().unwrap().shape.triangles.len() + mesh.decode().unwrap().cuts.len() > 0);
 }

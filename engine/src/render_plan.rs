@@ -268,6 +268,13 @@ pub fn extract(
 /// Extracts `hierarchy` for `ask` with the `outlines` of the answer's
 /// wire (kept for protocol 5's strips, cut for the compact stream's), and
 /// `triangles_for_ms` as in [`Ask::lod`]; with what a time budget allowed.
+///
+/// A time budget promises no triangle count, so with outlines cut it is
+/// resolved as the outlines-dropped budget is, from the error statistics,
+/// and extracted once: a counted cut budget (`cut_budget.rs`) bisects over
+/// about 20 extractions, forty times the time it was given. The cut mesh
+/// may draw more than the triangles the time allowed; the server's
+/// measured fill of its budgets scales the next ones to match.
 pub fn extract_mesh(
     hierarchy: &Hierarchy,
     ask: &Ask,
@@ -275,6 +282,12 @@ pub fn extract_mesh(
     triangles_for_ms: impl FnOnce(f64) -> f64,
 ) -> Result<(crate::mesh::Mesh, Option<u64>)> {
     let (lod, allowed) = ask.lod(hierarchy, triangles_for_ms);
+    let lod = match (lod, allowed, outlines) {
+        (Lod::Triangles { max, view }, Some(_), Outlines::Cut | Outlines::CutOrDrop(_)) => {
+            hierarchy.lod_for_triangles(u64::from(max), view)?
+        }
+        _ => lod,
+    };
     Ok((hierarchy.extract_as(lod, StripOrder::Traversal, outlines)?, allowed))
 }
 
