@@ -10,6 +10,7 @@
 //!
 //! Per row, the median over `RUNS` runs (each the whole row, repeated until
 //! it takes at least 50 ms) of:
+//! - `extract`: the extraction alone, outlines refined and cut (as served);
 //! - `encode`: `wire_compact::mesh_stream`, as a served answer runs it
 //!   (connectivity walk, cuts, bit planes, header);
 //! - `zstd`: the body's content coding at tower-http's level 3;
@@ -47,6 +48,7 @@ const GOAL: f64 = 30e6;
 /// One reference of a row, extracted.
 struct View {
     camera: Camera,
+    ask: Ask,
     hierarchy: Hierarchy,
     raw_grid: Option<RawGrid>,
     mesh: Mesh,
@@ -63,10 +65,17 @@ impl View {
         let (mesh, _) = render_plan::extract_mesh(&hierarchy, ask, Outlines::Cut, |ms| ms * 1e4)?;
         Ok(Self {
             camera,
+            ask: ask.clone(),
             hierarchy,
             raw_grid,
             mesh,
         })
+    }
+
+    /// The extraction as served (outlines cut; the cut errors are computed
+    /// on the first, before timing).
+    fn extract(&self, outlines: Outlines) -> Result<Mesh> {
+        Ok(render_plan::extract_mesh(&self.hierarchy, &self.ask, outlines, |ms| ms * 1e4)?.0)
     }
 
     fn encode(&self) -> Result<MeshStream> {
@@ -194,8 +203,10 @@ fn main() -> Result<()> {
     }
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     println!("machine: {cores} cores, {runs} runs, {PLANES} planes, one thread\n");
-    println!("| row | drawn triangles | encode ms | encode M/s | zstd ms | decode ms | decode M/s |");
-    println!("|---|---|---|---|---|---|---|");
+    println!(
+        "| row | drawn triangles | extract ms, outlines refined | extract ms, cut | encode ms | encode M/s | zstd ms | decode ms | decode M/s |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|");
     let mut rates = Vec::new();
     for row in &rows {
         let drawn: usize = row.views.iter().map(View::drawn).sum();
@@ -205,6 +216,15 @@ fn main() -> Result<()> {
             .map(|v| Ok(dmesh_proto::to_bincode(&MeshBody::Mesh(Box::new(v.encode()?)))?))
             .collect::<Result<_>>()?;
         let streams: Vec<MeshStream> = row.views.iter().map(View::encode).collect::<Result<_>>()?;
+        let extract = |outlines: Outlines| {
+            time(runs, || {
+                for v in &row.views {
+                    std::hint::black_box(v.extract(outlines)?);
+                }
+                Ok(())
+            })
+        };
+        let (refined, cut) = (extract(Outlines::Kept)?, extract(Outlines::Cut)?);
         let encode = time(runs, || {
             for v in &row.views {
                 std::hint::black_box(v.encode()?);
@@ -226,8 +246,10 @@ fn main() -> Result<()> {
         let (enc_rate, dec_rate) = (drawn as f64 / encode, drawn as f64 / decode);
         rates.push((row.name, enc_rate, dec_rate));
         println!(
-            "| {} | {drawn} | {:.2} | {:.1} | {:.2} | {:.2} | {:.1} |",
+            "| {} | {drawn} | {:.2} | {:.2} | {:.2} | {:.1} | {:.2} | {:.2} | {:.1} |",
             row.name,
+            refined * 1e3,
+            cut * 1e3,
             encode * 1e3,
             enc_rate / 1e6,
             zstd * 1e3,
