@@ -196,7 +196,11 @@ fn main() -> Result<()> {
         let start = Instant::now();
         while start.elapsed().as_secs() < 20 {
             for v in &row.views {
-                std::hint::black_box(v.encode()?);
+                if std::env::var("PROFILE_EXTRACT").is_ok() {
+                    std::hint::black_box(v.extract(Outlines::Cut)?);
+                } else {
+                    std::hint::black_box(v.encode()?);
+                }
             }
         }
         return Ok(());

@@ -127,8 +127,10 @@ impl<S: Select> Walk<'_, S> {
             // bounds where the error lies; a cutting walk leaves coarse
             // triangles beside missing samples, whose nested spheres take in
             // their placeholder positions at the reference eye.
+            // The valid samples' sphere matters only where the nested one
+            // would shorten the clearance: the larger of the two does.
             let nested = self.sel.left_out(pm, radius);
-            let left_out = if self.cutting {
+            let left_out = if self.cutting && nested < self.clearance {
                 nested.max(self.valid_left_out([l, r, a]))
             } else {
                 nested
