@@ -200,6 +200,11 @@ fn what_budgets_add_is_counted_in_the_bound_charged_up_front() {
             sizes.push(hier.heap_bytes());
         }
     }
+    // The cutting errors and the cuts they fitted.
+    let before_cut = hier.heap_bytes();
+    hier.extract_as(Lod::Epsilon(0.01), StripOrder::default(), Outlines::Cut)
+        .unwrap();
+    assert!(hier.heap_bytes() > before_cut, "the cutting errors are added");
     let all = hier.heap_bytes();
     assert!(after_tolerance > built, "the outline a tolerance keeps is added");
     assert!(

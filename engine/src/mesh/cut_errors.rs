@@ -25,16 +25,52 @@
 //! would force it anyway.
 
 use super::border::FORCED;
-use super::cut::Samples;
+use super::cut::{CutTriangle, Samples};
 use super::grid::{Kind, Pt};
 use super::levels::round_up;
 
+/// What a cutting extraction selects and cuts by.
+#[derive(Clone, Debug)]
+pub(crate) struct CutErrors {
+    /// The saturated squared errors, one per grid vertex (root corners 0).
+    pub err2: Vec<f32>,
+    /// Every segmented half fitted here, by `2 * vertex index + half`,
+    /// sorted, with its cut's place in `cuts` (`NO_CUT`: it has none): the
+    /// walk takes a left-out half's cut from here instead of fitting it
+    /// again. Most halves have none, so the cuts are kept apart.
+    fitted: Vec<(u32, u32)>,
+    cuts: Vec<CutTriangle>,
+}
+
+/// [`CutErrors::fitted`]'s place of a half without a cut.
+const NO_CUT: u32 = u32::MAX;
+
+impl CutErrors {
+    /// The cut of half `half` of split vertex `vi`'s diamond, when it was
+    /// fitted here.
+    pub(crate) fn fit(&self, vi: usize, half: usize) -> Option<Option<CutTriangle>> {
+        let key = (2 * vi + half) as u32;
+        let k = self.fitted.binary_search_by_key(&key, |f| f.0).ok()?;
+        Some(self.cuts.get(self.fitted[k].1 as usize).copied())
+    }
+
+    /// Heap bytes kept.
+    pub(crate) fn heap_bytes(&self) -> usize {
+        4 * self.err2.capacity() + 8 * self.fitted.capacity() + Self::CUT_BYTES * self.cuts.capacity()
+    }
+
+    /// Heap bytes of one segmented half fitted, with its cut.
+    pub(crate) const CUT_BYTES: usize = 8 + std::mem::size_of::<CutTriangle>();
+}
+
 /// The saturated squared errors of a cutting extraction, one per grid
-/// vertex (root corners 0). A partly segmented half that has no cut is
-/// forced, unless its hypotenuse spans at most `drop_span` samples: then
-/// its own error is 0 and, left unsplit, it is dropped whole.
-pub(crate) fn cut_errors(samples: Samples<'_>, err2: &[f32], drop_span: u32) -> Vec<f32> {
+/// vertex (root corners 0), with the cuts fitted on the way. A partly
+/// segmented half that has no cut is forced, unless its hypotenuse spans
+/// at most `drop_span` samples: then its own error is 0 and, left
+/// unsplit, it is dropped whole.
+pub(crate) fn cut_errors(samples: Samples<'_>, err2: &[f32], drop_span: u32) -> CutErrors {
     let g = samples.grid;
+    let (mut fitted, mut cuts): (Vec<(u32, u32)>, Vec<CutTriangle>) = (Vec::new(), Vec::new());
     let (gw, gh) = (g.gw(), g.gh());
     // `out` holds the dependents' largest error until a vertex is done.
     let mut out = vec![0.0f32; g.len()];
@@ -61,15 +97,24 @@ pub(crate) fn cut_errors(samples: Samples<'_>, err2: &[f32], drop_span: u32) -> 
                 }
                 let tri = [d.a, d.b, apex].map(|(x, y)| (x as u32, y as u32));
                 let half = fl.half(h);
+                let mut fit = || {
+                    let fit = samples.fit(tri);
+                    let place = fit.as_ref().map_or(NO_CUT, |f| {
+                        cuts.push(f.cut);
+                        (cuts.len() - 1) as u32
+                    });
+                    fitted.push(((2 * vi + h) as u32, place));
+                    fit
+                };
                 let own = if half.all {
                     // Dropped, unless a cut draws a valid corner of it.
-                    samples.fit(tri).map_or(0.0, |fit| round_up(fit.deviation.powi(2)))
+                    fit().map_or(0.0, |fit| round_up(fit.deviation.powi(2)))
                 } else if !half.any {
                     round_up(samples.plane_deviation(tri).powi(2))
                 } else {
                     let span = d.a.0.abs_diff(d.b.0).max(d.a.1.abs_diff(d.b.1));
                     let none = if span <= u64::from(drop_span) { 0.0 } else { FORCED };
-                    samples.fit(tri).map_or(none, |fit| round_up(fit.deviation.powi(2)))
+                    fit().map_or(none, |fit| round_up(fit.deviation.powi(2)))
                 };
                 e = e.max(own);
             }
@@ -107,5 +152,12 @@ pub(crate) fn cut_errors(samples: Samples<'_>, err2: &[f32], drop_span: u32) -> 
             }
         }
     }
-    out
+    fitted.sort_unstable_by_key(|f| f.0);
+    fitted.shrink_to_fit();
+    cuts.shrink_to_fit();
+    CutErrors {
+        err2: out,
+        fitted,
+        cuts,
+    }
 }

@@ -33,7 +33,7 @@ use std::time::Instant;
 use glam::DVec3;
 
 use super::cut::{CutTriangle, Samples};
-use super::cut_errors::cut_errors;
+use super::cut_errors::{cut_errors, CutErrors};
 use super::hierarchy::Hierarchy;
 use super::lod::Lod;
 use super::outline::Rung;
@@ -259,10 +259,10 @@ impl Hierarchy {
         let forced: &[u64] = finest.map_or(&[], |rung| &self.outline(rung).forced);
         let own;
         let cut = match outlines {
-            Outlines::Cut => Some(self.cut_err2()),
+            Outlines::Cut => Some(self.cut_errors()),
             Outlines::CutOrDrop(span) => {
                 own = cut_errors(self.samples(), &self.err2, span);
-                Some(&own[..])
+                Some(&own)
             }
             _ => None,
         };
@@ -306,7 +306,7 @@ impl Hierarchy {
     /// Walks and assembles with this thread's scratch buffers: the triangle
     /// list of the walk and the grid-sized vertex map are kept between
     /// extractions, so a request allocates only what it returns.
-    fn run<S: Select>(&self, sel: &S, strips: StripOrder, forced: &[u64], cut: Option<&[f32]>) -> (Mesh, Walked) {
+    fn run<S: Select>(&self, sel: &S, strips: StripOrder, forced: &[u64], cut: Option<&CutErrors>) -> (Mesh, Walked) {
         thread_local! {
             static SCRATCH: std::cell::RefCell<Scratch> = const {
                 std::cell::RefCell::new(Scratch { tris: Vec::new(), slot: Vec::new() })
@@ -335,7 +335,7 @@ impl Hierarchy {
 
     /// The saturated squared errors of a cutting extraction, computed on
     /// the first one (`cut_errors.rs`).
-    pub(crate) fn cut_err2(&self) -> &[f32] {
+    pub(crate) fn cut_errors(&self) -> &CutErrors {
         self.outlines.cut(self.samples(), &self.err2)
     }
 

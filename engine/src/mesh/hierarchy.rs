@@ -59,6 +59,7 @@ use glam::DVec3;
 
 use super::backproject::BackProject;
 use super::budget::ErrorStats;
+use super::cut_errors::CutErrors;
 use super::flags::Flags;
 use super::grid::{Grid, Pt};
 use super::outline::OutlineCache;
@@ -343,11 +344,21 @@ impl Hierarchy {
     /// The most heap bytes the hierarchy will keep: [`Self::heap_bytes`]
     /// with the budget's statistics and every outline computed (`outline.rs`:
     /// one bit per grid vertex and the budget's statistics per refinement,
-    /// and a byte per grid vertex for the near side), which extractions add
+    /// a byte per grid vertex for the near side, and the cutting errors
+    /// with a cut per segmented half), which extractions add
     /// on first use. Constant, so a cache can charge it once.
     pub fn heap_bytes_bound(&self) -> usize {
         let stats = ErrorStats::heap_bytes_for(self.grid);
-        self.built_bytes() + stats + OutlineCache::heap_bytes_bound(self.grid, stats)
+        // The cutting errors keep a cut per segmented half they fit.
+        let segmented_halves: usize = self
+            .flags
+            .iter()
+            .map(|f| usize::from(f.half(0).any) + usize::from(f.half(1).any))
+            .sum();
+        self.built_bytes()
+            + stats
+            + OutlineCache::heap_bytes_bound(self.grid, stats)
+            + CutErrors::CUT_BYTES * segmented_halves
     }
 
     /// Figures of this build.

@@ -35,7 +35,7 @@ use std::sync::OnceLock;
 
 use super::budget::ErrorStats;
 use super::cut::Samples;
-use super::cut_errors::cut_errors;
+use super::cut_errors::{cut_errors, CutErrors};
 use super::flags::Flags;
 use super::grid::{Grid, Kind};
 use super::surface_side::surface_halves;
@@ -109,7 +109,7 @@ pub(crate) struct OutlineCache {
     surface: OnceLock<Vec<u8>>,
     /// The saturated errors of an extraction that cuts outlines instead
     /// (`cut_errors.rs`).
-    cut: OnceLock<Vec<f32>>,
+    cut: OnceLock<CutErrors>,
 }
 
 /// True when bit `i` of `bits` is set (false past its end).
@@ -143,7 +143,7 @@ impl OutlineCache {
 
     /// The saturated squared errors of a cutting extraction, computed on
     /// first use from the hierarchy's samples and errors.
-    pub(crate) fn cut(&self, samples: Samples<'_>, err2: &[f32]) -> &[f32] {
+    pub(crate) fn cut(&self, samples: Samples<'_>, err2: &[f32]) -> &CutErrors {
         self.cut.get_or_init(|| cut_errors(samples, err2, 0))
     }
 
@@ -163,7 +163,7 @@ impl OutlineCache {
             .map(|o| 8 * o.forced.capacity() + o.stats.get().map_or(0, ErrorStats::heap_bytes))
             .sum::<usize>()
             + self.surface.get().map_or(0, Vec::capacity)
-            + self.cut.get().map_or(0, |c| 4 * c.capacity())
+            + self.cut.get().map_or(0, CutErrors::heap_bytes)
     }
 }
 

@@ -6,6 +6,7 @@
 use glam::DVec3;
 
 use crate::mesh::cut::{for_each_sample, CutTriangle};
+use crate::mesh::cut_errors::CutErrors;
 use crate::mesh::error_metric::norm_bound;
 use crate::mesh::grid::{cell_half, half_of, Pt};
 use crate::mesh::hierarchy::Hierarchy;
@@ -22,6 +23,9 @@ struct Walk<'a, S> {
     /// Cuts the triangles a discontinuity crosses (`cut.rs`) instead of
     /// dropping them.
     cutting: bool,
+    /// The cuts fitted with the cutting errors, taken instead of fitting
+    /// again.
+    fitted: Option<&'a CutErrors>,
     cuts: Vec<CutTriangle>,
     /// Scratch of [`Self::valid_left_out`]: a triangle's valid samples'
     /// positions, kept between calls.
@@ -72,7 +76,7 @@ impl<S: Select> Walk<'_, S> {
             if self.mesh.flags[g.index(cell)].cell(cell_half(cell, a)) {
                 // A full-resolution triangle's samples are its corners,
                 // which its cut's parts pass through: any cut is exact.
-                self.cut_or_drop([l, r, a]);
+                self.cut_or_drop([l, r, a], None);
             } else if mask != 0 && {
                 let c = 0.5 * (pl + pr);
                 let radius = norm_bound(pl - c).max(norm_bound(pa - c));
@@ -138,7 +142,7 @@ impl<S: Select> Walk<'_, S> {
             self.clearance = self.clearance.min(left_out);
         }
         if flags.any {
-            self.cut_or_drop([l, r, a]);
+            self.cut_or_drop([l, r, a], Some((mi, half_of(m, a))));
         } else {
             self.emit(l, r, a);
         }
@@ -178,10 +182,18 @@ impl<S: Select> Walk<'_, S> {
             .left_out(centre, radius as f32 * (1.0 + f32::EPSILON) + f32::EPSILON)
     }
 
-    fn cut_or_drop(&mut self, tri: [Pt; 3]) {
+    /// `half` names the triangle as half `.1` of split vertex `.0`'s
+    /// diamond (cells have none), whose cut the cutting errors fitted.
+    fn cut_or_drop(&mut self, tri: [Pt; 3], half: Option<(usize, usize)>) {
         self.skip();
-        match self.cutting.then(|| self.mesh.samples().fit(tri)).flatten() {
-            Some(fit) => self.cuts.push(fit.cut),
+        let cut = if self.cutting {
+            let fitted = half.and_then(|(vi, h)| self.fitted?.fit(vi, h));
+            fitted.unwrap_or_else(|| self.mesh.samples().fit(tri).map(|f| f.cut))
+        } else {
+            None
+        };
+        match cut {
+            Some(cut) => self.cuts.push(cut),
             None => self.dropped += 1,
         }
     }
@@ -232,20 +244,21 @@ const CULL_MIN_SPAN: u32 = 8;
 
 impl Hierarchy {
     /// Walks the hierarchy for `sel`, splitting the `forced` vertices too;
-    /// with `cut_err2`, selecting by those errors and cutting the
+    /// with `cut`, selecting by its errors and cutting the
     /// segmented triangles left unsplit (`cut.rs`).
     pub(super) fn walk<S: Select>(
         &self,
         sel: &S,
         tris: &mut Vec<[u32; 3]>,
         forced: &[u64],
-        cut_err2: Option<&[f32]>,
+        cut: Option<&CutErrors>,
     ) -> Walked {
         let mut walk = Walk {
             mesh: self,
             sel,
-            err2: cut_err2.unwrap_or(&self.err2),
-            cutting: cut_err2.is_some(),
+            err2: cut.map_or(&self.err2, |c| &c.err2),
+            cutting: cut.is_some(),
+            fitted: cut,
             cuts: Vec::new(),
             valid: Vec::new(),
             forced,
