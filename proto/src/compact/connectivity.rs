@@ -200,8 +200,23 @@ fn parent(forest: &Forest, node: &Node) -> Option<Node> {
     })
 }
 
-struct Encoder<'a> {
-    forest: &'a Forest,
+/// What the encoder's walk asks of the mesh at each triangle.
+enum Mesh<'a> {
+    /// The triangles and cut leaves in walk order, as the engine extracts
+    /// them: the next of each is the only one the walk can meet, so every
+    /// question is a comparison with it and no map is built.
+    InOrder {
+        triangles: &'a [[Pt; 3]],
+        cuts: &'a [[Pt; 3]],
+        /// The next triangle and cut the walk has not met.
+        next: (usize, usize),
+    },
+    /// In any order: bit maps by node.
+    Marked(Box<Marked>),
+}
+
+/// The mesh as bit maps by node key (split vertex, half; by cell for cells).
+struct Marked {
     /// Drawn cell triangles, by cell and half.
     cells: Vec<u64>,
     /// Drawn larger triangles, by split vertex and half.
@@ -211,6 +226,97 @@ struct Encoder<'a> {
     cut: [Vec<u64>; 2],
     /// Triangles with a drawn or cut triangle inside, by split vertex and half.
     inside: Vec<u64>,
+}
+
+impl Marked {
+    /// Marks `triangles` and the cut leaves `cuts`; fails when one is not
+    /// a triangle of the forest or appears twice.
+    fn of(forest: &Forest, triangles: &[[Pt; 3]], cuts: &[[Pt; 3]]) -> Result<Self, String> {
+        let words = (2 * forest.len()).div_ceil(64);
+        let mut m = Self {
+            cells: vec![0; words],
+            drawn: vec![0; words],
+            cut: [vec![0; words], vec![0; words]],
+            inside: vec![0; words],
+        };
+        for (k, t) in triangles.iter().chain(cuts).enumerate() {
+            let node = node_of(forest, *t)?;
+            let key = 2 * forest.index(node.mid()) + node.half();
+            let (drawn, cut) = if node.is_cell() {
+                (&mut m.cells, &mut m.cut[1])
+            } else {
+                (&mut m.drawn, &mut m.cut[0])
+            };
+            let twice = if k >= triangles.len() {
+                set(cut, key) || get(drawn, key)
+            } else {
+                set(drawn, key)
+            };
+            if twice {
+                return Err(format!("triangle {t:?} appears twice"));
+            }
+            let mut up = parent(forest, &node);
+            while let Some(p) = up {
+                if set(&mut m.inside, 2 * forest.index(p.mid()) + p.half()) {
+                    break;
+                }
+                up = parent(forest, &p);
+            }
+        }
+        Ok(m)
+    }
+}
+
+/// Whether every corner of `t` lies in the closed triangle `n`: for
+/// triangles of the forest, whether `t` is `n` or lies inside it.
+fn within(n: [Pt; 3], t: &[Pt; 3]) -> bool {
+    let c = |p: Pt| (i64::from(p.0), i64::from(p.1));
+    let [a, b, d] = n.map(c);
+    let cross = |p: (i64, i64), q: (i64, i64), r: (i64, i64)| (q.0 - p.0) * (r.1 - p.1) - (q.1 - p.1) * (r.0 - p.0);
+    let sign = cross(a, b, d).signum();
+    t.iter().all(|&p| {
+        let p = c(p);
+        cross(a, b, p) * sign >= 0 && cross(b, d, p) * sign >= 0 && cross(d, a, p) * sign >= 0
+    })
+}
+
+/// Whether `t` has the corners of `n` in some order.
+fn same_corners(n: [Pt; 3], t: &[Pt; 3]) -> bool {
+    t.iter().all(|p| n.contains(p))
+}
+
+impl Mesh<'_> {
+    /// Whether `node` (corners `oriented`, key `key`) is drawn, cut, or
+    /// has a drawn or cut triangle inside.
+    fn ask(&self, forest: &Forest, node: &Node, oriented: [Pt; 3]) -> (bool, bool, bool) {
+        match self {
+            Self::InOrder {
+                triangles,
+                cuts,
+                next: (t, c),
+            } => {
+                let (t, c) = (triangles.get(*t), cuts.get(*c));
+                let drawn = t.is_some_and(|t| *t == oriented);
+                let cut = !drawn && c.is_some_and(|c| same_corners(oriented, c));
+                let inside = !drawn
+                    && !cut
+                    && (t.is_some_and(|t| within(oriented, t)) || c.is_some_and(|c| within(oriented, c)));
+                (drawn, cut, inside)
+            }
+            Self::Marked(m) => {
+                let key = 2 * forest.index(node.mid()) + node.half();
+                let cell = node.is_cell();
+                let drawn = get(if cell { &m.cells } else { &m.drawn }, key);
+                let cut = get(&m.cut[usize::from(cell)], key);
+                (drawn, cut, !cell && get(&m.inside, key))
+            }
+        }
+    }
+}
+
+struct Encoder<'a> {
+    forest: &'a Forest,
+    mesh: Mesh<'a>,
     bits: Fields<BitWriter>,
     /// What the walk met, as the decoder will see it.
     leaves: Leaves,
@@ -222,9 +328,10 @@ impl Decide for Encoder<'_> {
     type Error = String;
 
     fn decide(&mut self, node: &Node, implied: bool) -> Result<Symbol, String> {
-        let key = 2 * self.forest.index(node.mid()) + node.half();
         let fate = self.held.and_then(|c| c.fate(self.forest, node));
         let fresh = self.held.is_some() && fate.is_none();
+        let oriented = node.oriented();
+        let (drawn, cut, inside) = self.mesh.ask(self.forest, node, oriented);
         let bits = &mut self.bits;
         let mut leaf = |drawn: bool| match (fate, fresh) {
             (Some(f), _) => bits.leaf.bit(drawn != f.drawn),
@@ -232,20 +339,18 @@ impl Decide for Encoder<'_> {
             (None, false) => bits.leaf.bit(drawn),
         };
         if node.is_cell() {
-            let drawn = get(&self.cells, key);
             leaf(drawn);
-            return Ok(self.leaf_left_out(node, key, drawn));
+            return Ok(self.leaf_left_out(oriented, drawn, cut));
         }
-        let drawn = get(&self.drawn, key);
         if implied {
-            if drawn || get(&self.cut[0], key) {
+            if drawn || cut {
                 return Err(format!(
                     "triangle {node:?} is drawn but its split vertex is forced: the mesh does not conform"
                 ));
             }
             return Ok(Symbol::Split);
         }
-        let split = !drawn && get(&self.inside, key);
+        let split = !drawn && inside;
         match (fate, fresh) {
             (Some(f), _) => self.bits.split.bit(split != f.split),
             (None, true) => self.bits.fresh_split.bit(split),
@@ -259,10 +364,13 @@ impl Decide for Encoder<'_> {
             (None, true) => self.bits.fresh_leaf.bit(drawn),
             (None, false) => self.bits.leaf.bit(drawn),
         }
-        Ok(self.leaf_left_out(node, key, drawn))
+        Ok(self.leaf_left_out(oriented, drawn, cut))
     }
 
     fn emit(&mut self, corners: [Pt; 3]) -> Result<(), String> {
+        if let Mesh::InOrder { next, .. } = &mut self.mesh {
+            next.0 += 1;
+        }
         self.leaves.drawn.push(corners);
         Ok(())
     }
@@ -270,16 +378,37 @@ impl Decide for Encoder<'_> {
 
 impl Encoder<'_> {
     /// A leaf's symbol; a leaf left out answers its cut bit.
-    fn leaf_left_out(&mut self, node: &Node, key: usize, drawn: bool) -> Symbol {
+    fn leaf_left_out(&mut self, oriented: [Pt; 3], drawn: bool, cut: bool) -> Symbol {
         if drawn {
             return Symbol::Emit;
         }
-        let cut = get(&self.cut[usize::from(node.is_cell())], key);
         self.bits.cut.bit(cut);
         if cut {
-            self.leaves.cut.push(node.oriented());
+            if let Mesh::InOrder { next, .. } = &mut self.mesh {
+                next.1 += 1;
+            }
+            self.leaves.cut.push(oriented);
         }
         Symbol::Skip
+    }
+
+    fn new<'a>(forest: &'a Forest, mesh: Mesh<'a>, held: Option<&'a Context>, counts: (usize, usize)) -> Encoder<'a> {
+        Encoder {
+            forest,
+            mesh,
+            bits: Fields {
+                split: BitWriter::default(),
+                leaf: BitWriter::default(),
+                cut: BitWriter::default(),
+                fresh_split: BitWriter::default(),
+                fresh_leaf: BitWriter::default(),
+            },
+            leaves: Leaves {
+                drawn: Vec::with_capacity(counts.0),
+                cut: Vec::with_capacity(counts.1),
+            },
+            held,
+        }
     }
 }
 
@@ -291,6 +420,13 @@ impl Encoder<'_> {
 /// their fate there, and the others' are the fresh bits (cut bits are
 /// always plain). Fails when a triangle is not one of the forest's, or the
 /// triangles are not the leaves of one conforming walk.
+///
+/// Triangles and cuts in walk order, corners as [`Node::oriented`] gives
+/// them (the engine's), are coded in one walk that compares each triangle
+/// it meets with the next of each list. When the walk does not meet them
+/// all so, they came in another order (or do not conform), and they are
+/// coded again from bit maps of the forest's nodes: the same bits, or the
+/// error.
 pub fn encode(
     forest: &Forest,
     triangles: &[[Pt; 3]],
@@ -298,55 +434,28 @@ pub fn encode(
     held: Option<&Context>,
 ) -> Result<(Connectivity, Connectivity, Leaves), String> {
     forest.check()?;
-    let words = (2 * forest.len()).div_ceil(64);
-    let mut enc = Encoder {
-        forest,
-        cells: vec![0; words],
-        drawn: vec![0; words],
-        cut: [vec![0; words], vec![0; words]],
-        inside: vec![0; words],
-        bits: Fields {
-            split: BitWriter::default(),
-            leaf: BitWriter::default(),
-            cut: BitWriter::default(),
-            fresh_split: BitWriter::default(),
-            fresh_leaf: BitWriter::default(),
-        },
-        leaves: Leaves {
-            drawn: Vec::with_capacity(triangles.len()),
-            cut: Vec::with_capacity(cuts.len()),
-        },
-        held,
-    };
     let (gw, gh) = (forest.gw(), forest.gh());
-    for (k, t) in triangles.iter().chain(cuts).enumerate() {
-        if t.iter().any(|p| p.0 >= gw || p.1 >= gh) {
-            return Err(format!("triangle {t:?} lies outside the {gw} x {gh} grid"));
-        }
-        let node = node_of(forest, *t)?;
-        let key = 2 * forest.index(node.mid()) + node.half();
-        let (drawn, cut) = if node.is_cell() {
-            (&mut enc.cells, &mut enc.cut[1])
-        } else {
-            (&mut enc.drawn, &mut enc.cut[0])
-        };
-        let twice = if k >= triangles.len() {
-            set(cut, key) || get(drawn, key)
-        } else {
-            set(drawn, key)
-        };
-        if twice {
-            return Err(format!("triangle {t:?} appears twice"));
-        }
-        let mut up = parent(forest, &node);
-        while let Some(p) = up {
-            if set(&mut enc.inside, 2 * forest.index(p.mid()) + p.half()) {
-                break;
-            }
-            up = parent(forest, &p);
-        }
+    if let Some(t) = triangles
+        .iter()
+        .chain(cuts)
+        .find(|t| t.iter().any(|p| p.0 >= gw || p.1 >= gh))
+    {
+        return Err(format!("triangle {t:?} lies outside the {gw} x {gh} grid"));
     }
-    forest.walk(&mut enc)?;
+    let counts = (triangles.len(), cuts.len());
+    let in_order = Mesh::InOrder {
+        triangles,
+        cuts,
+        next: (0, 0),
+    };
+    let mut enc = Encoder::new(forest, in_order, held, counts);
+    let walked = forest.walk(&mut enc);
+    let met = matches!(enc.mesh, Mesh::InOrder { next, .. } if next == counts);
+    if !(walked.is_ok() && met) {
+        let marked = Mesh::Marked(Box::new(Marked::of(forest, triangles, cuts)?));
+        enc = Encoder::new(forest, marked, held, counts);
+        forest.walk(&mut enc)?;
+    }
     let met = enc.leaves.drawn.len() + enc.leaves.cut.len();
     if met != triangles.len() + cuts.len() {
         return Err(format!(
