@@ -45,6 +45,29 @@ impl BitWriter {
         }
     }
 
+    /// The low `n` bits of `value` (`n` at most 64; the others must be
+    /// 0), least significant first.
+    #[inline]
+    pub fn bits(&mut self, value: u64, n: u32) {
+        debug_assert!(n <= 64 && (n == 64 || value >> n == 0));
+        if n > 32 {
+            self.field(value as u32, 32);
+            self.field((value >> 32) as u32, (n - 32) as u8);
+        } else {
+            self.field(value as u32, n as u8);
+        }
+    }
+
+    /// The bits `other` holds, after these.
+    pub fn append(&mut self, other: BitWriter) {
+        for chunk in other.bytes.chunks_exact(8) {
+            let mut word = [0u8; 8];
+            word.copy_from_slice(chunk);
+            self.bits(u64::from_le_bytes(word), 64);
+        }
+        self.bits(other.acc, other.filled);
+    }
+
     /// The bytes, the last one padded with zeros.
     pub fn finish(mut self) -> Vec<u8> {
         let tail = self.filled.div_ceil(8) as usize;

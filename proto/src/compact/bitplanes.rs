@@ -415,20 +415,23 @@ fn plane_bits(
     let mut out = Vec::with_capacity(usize::from(sent));
     for t in 1..=sent {
         let mut w = crate::bits::BitWriter::default();
-        let mut signs = Vec::new();
+        let mut signs = crate::bits::BitWriter::default();
         for (lc, block) in levels.iter().zip(&blocks).filter(|(lc, _)| lc.planes >= t) {
             let shift = u32::from(lc.planes - t);
-            for &(m, negative) in block {
-                let top = m >> shift;
-                w.bit(top & 1 == 1);
-                if top == 1 {
-                    signs.push(negative);
+            // 64 bits to a word; a sign where a magnitude's top bit is met.
+            for chunk in block.chunks(64) {
+                let mut word = 0u64;
+                for (i, &(m, negative)) in chunk.iter().enumerate() {
+                    let top = m >> shift;
+                    word |= u64::from(top & 1) << i;
+                    if top == 1 {
+                        signs.bit(negative);
+                    }
                 }
+                w.bits(word, chunk.len() as u32);
             }
         }
-        for negative in signs {
-            w.bit(negative);
-        }
+        w.append(signs);
         out.push(w.finish());
     }
     Ok(out)
