@@ -196,7 +196,9 @@ fn main() -> Result<()> {
         let start = Instant::now();
         while start.elapsed().as_secs() < 20 {
             for v in &row.views {
-                if std::env::var("PROFILE_EXTRACT").is_ok() {
+                if std::env::var("PROFILE_DECODE").is_ok() {
+                    std::hint::black_box(strip_response(&v.encode()?, row.novel.as_ref())?);
+                } else if std::env::var("PROFILE_EXTRACT").is_ok() {
                     std::hint::black_box(v.extract(Outlines::Cut)?);
                 } else {
                     std::hint::black_box(v.encode()?);

@@ -169,13 +169,24 @@ impl MeshStream {
             known.as_deref(),
         )?;
         let side_depths = depths.split_off(shape.vertices.len());
-        let at: rustc_hash::FxHashMap<Pt, f32> = shape.vertices.iter().copied().zip(depths.iter().copied()).collect();
-        let cuts = shape
-            .cuts
-            .iter()
-            .map(|c| c.with_depths(|p| at.get(&p).copied(), &side_depths))
-            .collect::<Option<Vec<CutTriangle>>>()
-            .ok_or("a cut's depths do not decode")?;
+        // A cut corner's depth through the grid's slot map of the vertices.
+        let cuts = super::forest::with_slot_map(f.len(), |slot| {
+            let touched: Vec<usize> = shape.vertices.iter().map(|&p| f.index(p)).collect();
+            for (k, &i) in touched.iter().enumerate() {
+                slot[i] = k as u32;
+            }
+            let at = |p: Pt| {
+                let k = *slot.get(f.index(p))?;
+                depths.get(k as usize).copied()
+            };
+            let cuts = shape
+                .cuts
+                .iter()
+                .map(|c| c.with_depths(&at, &side_depths))
+                .collect::<Option<Vec<CutTriangle>>>();
+            (cuts, touched)
+        })
+        .ok_or("a cut's depths do not decode")?;
         Ok(DecodedMesh {
             shape,
             depths,
