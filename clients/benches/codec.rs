@@ -11,6 +11,9 @@
 //! Per row, the median over `RUNS` runs (each the whole row, repeated until
 //! it takes at least 50 ms) of:
 //! - `extract`: the extraction alone, outlines refined and cut (as served);
+//! - `first cut extraction`: the first cut extraction of a fresh hierarchy,
+//!   which computes the cutting errors (`cut_errors.rs`), the build not
+//!   counted: what a live view pays per frame;
 //! - `encode`: `wire_compact::mesh_stream`, as a served answer runs it
 //!   (connectivity walk, cuts, bit planes, header);
 //! - `zstd`: the body's content coding at tower-http's level 3;
@@ -23,7 +26,10 @@
 //!
 //! Usage: `cargo bench -p dmesh-client --bench codec [-- DATA_DIR [RUNS]]`
 //! (defaults `../shared/data` beside the repository, 7 runs). `--profile ROW` instead encodes that
-//! row (`demo` or `art`) in a loop for 20 s, for `perf record`.
+//! row (`demo` or `art`) in a loop for 20 s, for `perf record`; with
+//! `PROFILE_EXTRACT=1` it extracts instead, with `PROFILE_DECODE=1` it
+//! encodes and decodes, with `PROFILE_FIRST=1` it makes first cut
+//! extractions.
 
 #[global_allocator]
 static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
@@ -48,6 +54,7 @@ const GOAL: f64 = 30e6;
 /// One reference of a row, extracted.
 struct View {
     camera: Camera,
+    depth: dmesh_engine::image::DepthImage,
     ask: Ask,
     hierarchy: Hierarchy,
     raw_grid: Option<RawGrid>,
@@ -65,6 +72,7 @@ impl View {
         let (mesh, _) = render_plan::extract_mesh(&hierarchy, ask, Outlines::Cut, |ms| ms * 1e4)?;
         Ok(Self {
             camera,
+            depth: depth.clone(),
             ask: ask.clone(),
             hierarchy,
             raw_grid,
@@ -76,6 +84,15 @@ impl View {
     /// on the first, before timing).
     fn extract(&self, outlines: Outlines) -> Result<Mesh> {
         Ok(render_plan::extract_mesh(&self.hierarchy, &self.ask, outlines, |ms| ms * 1e4)?.0)
+    }
+
+    /// The first cut extraction of a fresh hierarchy, which computes the
+    /// cutting errors: seconds, the build not counted.
+    fn first_cut(&self) -> Result<f64> {
+        let fresh = Hierarchy::build(&self.depth, &self.camera, &Segmentation::default())?;
+        let start = Instant::now();
+        std::hint::black_box(render_plan::extract_mesh(&fresh, &self.ask, Outlines::Cut, |ms| ms * 1e4)?);
+        Ok(start.elapsed().as_secs_f64())
     }
 
     fn encode(&self) -> Result<MeshStream> {
@@ -196,7 +213,9 @@ fn main() -> Result<()> {
         let start = Instant::now();
         while start.elapsed().as_secs() < 20 {
             for v in &row.views {
-                if std::env::var("PROFILE_DECODE").is_ok() {
+                if std::env::var("PROFILE_FIRST").is_ok() {
+                    std::hint::black_box(v.first_cut()?);
+                } else if std::env::var("PROFILE_DECODE").is_ok() {
                     std::hint::black_box(strip_response(&v.encode()?, row.novel.as_ref())?);
                 } else if std::env::var("PROFILE_EXTRACT").is_ok() {
                     std::hint::black_box(v.extract(Outlines::Cut)?);
@@ -210,9 +229,9 @@ fn main() -> Result<()> {
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     println!("machine: {cores} cores, {runs} runs, {PLANES} planes, one thread\n");
     println!(
-        "| row | drawn triangles | extract ms, outlines refined | extract ms, cut | encode ms | encode M/s | zstd ms | decode ms | decode M/s |"
+        "| row | drawn triangles | extract ms, outlines refined | extract ms, cut | first cut extraction ms | encode ms | encode M/s | zstd ms | decode ms | decode M/s |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
     let mut rates = Vec::new();
     for row in &rows {
         let drawn: usize = row.views.iter().map(View::drawn).sum();
@@ -231,6 +250,11 @@ fn main() -> Result<()> {
             })
         };
         let (refined, cut) = (extract(Outlines::Kept)?, extract(Outlines::Cut)?);
+        let mut firsts = (0..runs)
+            .map(|_| row.views.iter().map(View::first_cut).sum::<Result<f64>>())
+            .collect::<Result<Vec<f64>>>()?;
+        firsts.sort_by(f64::total_cmp);
+        let first = firsts[runs / 2];
         let encode = time(runs, || {
             for v in &row.views {
                 std::hint::black_box(v.encode()?);
@@ -252,10 +276,11 @@ fn main() -> Result<()> {
         let (enc_rate, dec_rate) = (drawn as f64 / encode, drawn as f64 / decode);
         rates.push((row.name, enc_rate, dec_rate));
         println!(
-            "| {} | {drawn} | {:.2} | {:.2} | {:.2} | {:.1} | {:.2} | {:.2} | {:.1} |",
+            "| {} | {drawn} | {:.2} | {:.2} | {:.1} | {:.2} | {:.1} | {:.2} | {:.2} | {:.1} |",
             row.name,
             refined * 1e3,
             cut * 1e3,
+            first * 1e3,
             encode * 1e3,
             enc_rate / 1e6,
             zstd * 1e3,
