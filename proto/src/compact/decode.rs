@@ -182,7 +182,7 @@ impl MeshStream {
             let cuts = shape
                 .cuts
                 .iter()
-                .map(|c| c.with_depths(&at, &side_depths))
+                .map(|c| c.with_depths(at, &side_depths))
                 .collect::<Option<Vec<CutTriangle>>>();
             (cuts, touched)
         })
