@@ -6,7 +6,9 @@
 //! depth planes):
 //! - `demo tau 1 px`: the demo scene's novel view (`examples/cameras/
 //!   demo-novel.json`), the server's five selected references;
-//! - `art epsilon 10 mm`: Middlebury Art's left view at 1 cm.
+//! - `art epsilon 10 mm`: Middlebury Art's left view at 1 cm;
+//! - `synthetic 513 tau 1 px`: the throughput bench's served scene, one
+//!   513 x 513 view from the first camera of its orbit.
 //!
 //! Per row, the median over `RUNS` runs (each the whole row, repeated until
 //! it takes at least 50 ms) of:
@@ -31,8 +33,7 @@
 //! encodes and decodes, with `PROFILE_FIRST=1` it makes first cut
 //! extractions.
 
-#[global_allocator]
-static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+mod support;
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -91,7 +92,9 @@ impl View {
     fn first_cut(&self) -> Result<f64> {
         let fresh = Hierarchy::build(&self.depth, &self.camera, &Segmentation::default())?;
         let start = Instant::now();
-        std::hint::black_box(render_plan::extract_mesh(&fresh, &self.ask, Outlines::Cut, |ms| ms * 1e4)?);
+        std::hint::black_box(render_plan::extract_mesh(&fresh, &self.ask, Outlines::Cut, |ms| {
+            ms * 1e4
+        })?);
         Ok(start.elapsed().as_secs_f64())
     }
 
@@ -139,6 +142,10 @@ fn rows(data: &std::path::Path) -> Result<Vec<Row>> {
     let art = middlebury(data, "art")?;
     let r = &art.references[0];
     let ask = Ask::new(dmesh_proto::Lod::Epsilon(0.01), None, None)?;
+    let (depth, camera) = dmesh_engine::synthetic::terrain_with_boxes(513, 513);
+    let orbit = support::orbit(&camera, &depth, 32)?;
+    let orbit_ask = Ask::new(dmesh_proto::Lod::Tau(1.0), Some(orbit[0]), None)?;
+    let served = View::new(camera, &depth, None, &orbit_ask)?;
     Ok(vec![
         Row {
             name: "demo tau 1 px",
@@ -149,6 +156,11 @@ fn rows(data: &std::path::Path) -> Result<Vec<Row>> {
             name: "art epsilon 10 mm",
             views: vec![View::new(r.camera, &r.depth, r.raw_grid, &ask)?],
             novel: None,
+        },
+        Row {
+            name: "synthetic 513 tau 1 px",
+            views: vec![served],
+            novel: Some(orbit[0]),
         },
     ])
 }

@@ -25,27 +25,6 @@ use dmesh_client::http::Server;
 use dmesh_client::loadtest::{run, Detail, Report, Stop};
 use dmesh_engine::camera::Camera;
 use dmesh_engine::mesh::{Hierarchy, Lod, Segmentation};
-use glam::DVec3;
-
-/// Cameras on a circle of eyes 20 degrees off the reference axis, looking at
-/// the surface point under the image centre.
-fn orbit(reference: &Camera, depth: &dmesh_engine::image::DepthImage, count: usize) -> anyhow::Result<Vec<Camera>> {
-    let (w, h) = (reference.width, reference.height);
-    let z = f64::from(depth.z[(h / 2 * w + w / 2) as usize]);
-    let target = reference.to_world(reference.back_project(f64::from(w / 2), f64::from(h / 2), z));
-    let eye0 = reference.translation;
-    let axis = target - eye0;
-    let side = axis.cross(DVec3::Y).normalize() * axis.length() * 20f64.to_radians().tan();
-    let up = side.cross(axis).normalize() * side.length();
-    (0..count)
-        .map(|k| {
-            let t = std::f64::consts::TAU * k as f64 / count as f64;
-            let eye = eye0 + side * t.cos() + up * t.sin();
-            let rotation = dmesh_engine::sim::rig::look_at(eye, target);
-            Ok(Camera::new(w, h, reference.projection, rotation, eye)?)
-        })
-        .collect()
-}
 
 fn engine_rate(h: &Arc<Hierarchy>, cams: &Arc<Vec<Camera>>, seconds: f64) -> (f64, f64) {
     let stop = Arc::new(AtomicBool::new(false));
@@ -107,7 +86,7 @@ fn main() -> anyhow::Result<()> {
     };
     let (depth, camera) = dmesh_engine::synthetic::terrain_with_boxes(513, 513);
     let hierarchy = Arc::new(Hierarchy::build(&depth, &camera, &Segmentation::default())?);
-    let cams = Arc::new(orbit(&camera, &depth, 32)?);
+    let cams = Arc::new(support::orbit(&camera, &depth, 32)?);
 
     let (engine_rps, triangles) = engine_rate(&hierarchy, &cams, seconds);
 

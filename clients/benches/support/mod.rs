@@ -9,6 +9,7 @@ static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
 /// A server running in this process. Dropping it stops the server and
 /// removes its store.
+#[allow(dead_code)] // the codec bench serves nothing
 pub struct InProcess {
     /// Its runtime: two worker threads, as `dmesh serve` on this 2-core machine.
     pub runtime: tokio::runtime::Runtime,
@@ -18,6 +19,7 @@ pub struct InProcess {
     _store: tempfile::TempDir,
 }
 
+#[allow(dead_code)] // the codec bench serves nothing
 /// Starts the server's stack with `pipeline` over a file store in a fresh
 /// temporary folder, on a free loopback port.
 pub fn serve(pipeline: dmesh::http::Pipeline) -> anyhow::Result<InProcess> {
@@ -38,4 +40,35 @@ pub fn serve(pipeline: dmesh::http::Pipeline) -> anyhow::Result<InProcess> {
         base,
         _store: store,
     })
+}
+
+/// Cameras on a circle of eyes 20 degrees off the reference axis, looking at
+/// the surface point under the image centre.
+#[allow(dead_code)] // the load benches' scene only
+pub fn orbit(
+    reference: &dmesh_engine::camera::Camera,
+    depth: &dmesh_engine::image::DepthImage,
+    count: usize,
+) -> anyhow::Result<Vec<dmesh_engine::camera::Camera>> {
+    let (w, h) = (reference.width, reference.height);
+    let z = f64::from(depth.z[(h / 2 * w + w / 2) as usize]);
+    let target = reference.to_world(reference.back_project(f64::from(w / 2), f64::from(h / 2), z));
+    let eye0 = reference.translation;
+    let axis = target - eye0;
+    let side = axis.cross(glam::DVec3::Y).normalize() * axis.length() * 20f64.to_radians().tan();
+    let up = side.cross(axis).normalize() * side.length();
+    (0..count)
+        .map(|k| {
+            let t = std::f64::consts::TAU * k as f64 / count as f64;
+            let eye = eye0 + side * t.cos() + up * t.sin();
+            let rotation = dmesh_engine::sim::rig::look_at(eye, target);
+            Ok(dmesh_engine::camera::Camera::new(
+                w,
+                h,
+                reference.projection,
+                rotation,
+                eye,
+            )?)
+        })
+        .collect()
 }
