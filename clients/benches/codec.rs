@@ -27,7 +27,7 @@
 //! the verdicts are computed here from the medians.
 //!
 //! Usage: `cargo bench -p dmesh-client --bench codec [-- DATA_DIR [RUNS]]`
-//! (defaults `../shared/data` beside the repository, 7 runs). `--profile ROW` instead encodes that
+//! (a relative DATA_DIR is the repository root's; defaults `../shared/data`, 7 runs). `--profile ROW` instead encodes that
 //! row (`demo` or `art`) in a loop for 20 s, for `perf record`; with
 //! `PROFILE_EXTRACT=1` it extracts instead, with `PROFILE_DECODE=1` it
 //! encodes and decodes, with `PROFILE_FIRST=1` it makes first cut
@@ -208,9 +208,8 @@ fn main() -> Result<()> {
         })
         .map(|(_, a)| a)
         .collect();
-    let data = rest
-        .first()
-        .map_or_else(|| root().join("../shared/data"), PathBuf::from);
+    // Relative to the repository's root, where the bench is usually called.
+    let data = root().join(rest.first().map_or("../shared/data", |s| s.as_str()));
     let runs: usize = rest
         .get(1)
         .map_or(Ok(7), |s| s.parse())
