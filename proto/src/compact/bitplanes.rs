@@ -290,11 +290,14 @@ pub fn encode(
     let coded_depths: Vec<f32> = depths.iter().map(|&z| on(g, z)).collect();
     let (preds, level) = predict_all(forest, vertices, sides)?;
     let truth: Vec<f64> = coded_depths.iter().map(|&z| units.of(z)).collect();
-    // Per level: the open-loop residuals.
+    // Per level: the open-loop residuals; and each prediction from the
+    // true values, which the closed loop reuses while it holds them.
     let mut residuals = vec![Vec::new(); forest.levels() + 1];
+    let mut open = vec![0f64; preds.len()];
     for (k, &p) in preds.iter().enumerate() {
         if p != Pred::None && !is_known(k) {
-            residuals[level[k]].push((truth[k] - units.predict(p, &truth)).abs());
+            open[k] = units.predict(p, &truth);
+            residuals[level[k]].push((truth[k] - open[k]).abs());
         }
     }
     let levels: Vec<LevelCode> = residuals
@@ -312,6 +315,10 @@ pub fn encode(
     let mut coded = vec![false; n];
     let mut exact: Vec<f32> = Vec::new();
     let mut escapes = crate::bits::BitWriter::default();
+    // Every value so far reconstructs to its true value (a vertex is
+    // predicted from earlier ones only), so the prediction is the open
+    // loop's: until a reconstruction falls back to its prediction.
+    let mut held_truth = true;
     for k in 0..n {
         let p = preds[k];
         if is_known(k) {
@@ -324,7 +331,7 @@ pub fn encode(
             continue;
         }
         let lc = levels[level[k]];
-        let pred = units.predict(p, &held);
+        let pred = if held_truth { open[k] } else { units.predict(p, &held) };
         let r = truth[k] - pred;
         // On the lattice (step 1) the residual is a whole number already.
         let m = if lc.step == 1.0 {
@@ -343,6 +350,7 @@ pub fn encode(
                 mags[k] = (m as u32, negative);
                 coded[k] = true;
                 held[k] = d.1;
+                held_truth &= d.1 == truth[k];
             }
             None => {
                 exact.push(coded_depths[k]);
