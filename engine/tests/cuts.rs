@@ -20,7 +20,9 @@ use std::collections::HashMap;
 use common::*;
 use dmesh_engine::camera::Camera;
 use dmesh_engine::image::DepthImage;
-use dmesh_engine::mesh::{CutTriangle, Hierarchy, Lod, Mesh, MeshVertex, Method, Outlines, Segmentation, StripOrder};
+use dmesh_engine::mesh::{
+    CutTriangle, Hierarchy, Lod, Mesh, MeshVertex, Method, Outlines, Segmentation, StripOrder, Threads,
+};
 use proptest::prelude::*;
 
 /// How far from its cut a sample may lie on the other part's side (the
@@ -574,4 +576,41 @@ fn a_cut_meshs_reach_is_no_shorter_than_refined() {
         println!("view {k}: reach {kept:.3} m refined, {cut:.3} m cut");
         assert!(cut >= kept, "view {k}: {cut} m cut against {kept} m refined");
     }
+}
+
+/// The cutting errors fit a phase's halves on two threads when the
+/// hierarchy was built with two: the cut meshes are those of one thread,
+/// bit for bit, on a scene with enough outline (many small boxes and
+/// holes) for the phases to be split, every tolerance and CutOrDrop.
+#[test]
+fn two_threads_cut_as_one() {
+    let (w, h) = (641, 481);
+    let depth = depth_from(w, h, |x, y| {
+        let (cx, cy) = (x % 23, y % 19);
+        let floor = 3.0 - 0.001 * y as f32;
+        if (cx * 7 + cy * 3) % 97 == 0 {
+            0.0
+        } else if (4..15).contains(&cx) && (3..12).contains(&cy) {
+            floor - 0.4 - 0.01 * (x / 23) as f32
+        } else {
+            floor
+        }
+    });
+    let cam = Camera::perspective(w, h, 600.0, 600.0, 320.0, 240.0).unwrap();
+    let seg = Segmentation::default();
+    let [one, two] =
+        [Threads::Single, Threads::Parallel].map(|t| Hierarchy::build_with(&depth, &cam, &seg, t).unwrap());
+    let mut cuts = 0;
+    for eps in [0.0, 0.005, 0.05, 1.0] {
+        for outlines in [Outlines::Cut, Outlines::CutOrDrop(8)] {
+            let [a, b] = [&one, &two].map(|h| {
+                h.extract_as(Lod::Epsilon(eps), StripOrder::Traversal, outlines)
+                    .unwrap()
+            });
+            assert_eq!(a.triangles, b.triangles, "epsilon {eps} {outlines:?}");
+            assert_eq!(a.cuts, b.cuts, "epsilon {eps} {outlines:?}");
+            cuts += a.cuts.len();
+        }
+    }
+    assert!(cuts > 1000, "{cuts} cuts: the scene must have outline");
 }

@@ -25,7 +25,7 @@
 //! would force it anyway.
 
 use super::border::FORCED;
-use super::cut::{CutTriangle, Samples};
+use super::cut::{CutTriangle, Fit, Samples};
 use super::grid::{Kind, Pt};
 use super::levels::round_up;
 
@@ -68,88 +68,118 @@ impl CutErrors {
 /// segmented half that has no cut is forced, unless its hypotenuse spans
 /// at most `drop_span` samples: then its own error is 0 and, left
 /// unsplit, it is dropped whole.
-pub(crate) fn cut_errors(samples: Samples<'_>, err2: &[f32], drop_span: u32) -> CutErrors {
+///
+/// The vertices go finest first in phases whose vertices depend on none
+/// of the phase's own: at each scale the edge midpoints, then the centres
+/// (a centre's dependents are its scale's edge midpoints). Each phase
+/// first lists the segmented halves it will fit, fits them (on two
+/// threads with `two_threads`: the fits are most of the time), then
+/// saturates in order: the same errors and cuts either way.
+pub(crate) fn cut_errors(samples: Samples<'_>, err2: &[f32], drop_span: u32, two_threads: bool) -> CutErrors {
     let g = samples.grid;
     let (mut fitted, mut cuts): (Vec<(u32, u32)>, Vec<CutTriangle>) = (Vec::new(), Vec::new());
     let (gw, gh) = (g.gw(), g.gh());
     // `out` holds the dependents' largest error until a vertex is done.
     let mut out = vec![0.0f32; g.len()];
     let mut dirty = vec![false; g.len()];
-    let mut visit = |v: Pt| {
+    // A vertex's diamond, flags, and whether it is computed here (dirty,
+    // and not forced by a dependent).
+    let state = |v: Pt, out: &[f32], dirty: &[bool]| {
         let vi = g.index(v);
-        let Some(d) = g.diamond(v) else {
-            return;
-        };
+        let d = g.diamond(v)?;
         let fl = samples.flags[vi];
         // Any segmented half: a partial one's cut, or a wholly segmented
         // one's (at a border), decides its error, not the build's.
         let segmented = fl.half(0).any || fl.half(1).any;
         let is_dirty = dirty[vi] || segmented || err2[vi] == FORCED;
-        let e = if !is_dirty {
-            err2[vi]
-        } else if out[vi] == FORCED {
-            FORCED
-        } else {
-            let mut e = out[vi];
-            for (h, apex) in d.apex.into_iter().enumerate() {
-                if e == FORCED || !g.contains(apex.0, apex.1) {
-                    continue;
-                }
-                let tri = [d.a, d.b, apex].map(|(x, y)| (x as u32, y as u32));
-                let half = fl.half(h);
-                let mut fit = || {
-                    let fit = samples.fit(tri);
-                    let place = fit.as_ref().map_or(NO_CUT, |f| {
-                        cuts.push(f.cut);
-                        (cuts.len() - 1) as u32
-                    });
-                    fitted.push(((2 * vi + h) as u32, place));
-                    fit
-                };
-                let own = if half.all {
-                    // Dropped, unless a cut draws a valid corner of it.
-                    fit().map_or(0.0, |fit| round_up(fit.deviation.powi(2)))
-                } else if !half.any {
-                    round_up(samples.plane_deviation(tri).powi(2))
-                } else {
-                    let span = d.a.0.abs_diff(d.b.0).max(d.a.1.abs_diff(d.b.1));
-                    let none = if span <= u64::from(drop_span) { 0.0 } else { FORCED };
-                    fit().map_or(none, |fit| round_up(fit.deviation.powi(2)))
-                };
-                e = e.max(own);
-            }
-            e
-        };
-        out[vi] = e;
-        for (x, y) in d.apex {
-            if g.contains(x, y) {
-                let p = (x as u32, y as u32);
-                if g.kind(p) != Kind::Root {
-                    let pi = g.index(p);
-                    out[pi] = out[pi].max(e);
-                    dirty[pi] |= is_dirty;
-                }
-            }
-        }
+        Some((vi, d, fl, is_dirty, is_dirty && out[vi] != FORCED))
     };
-    // Finest first: at each scale h the edge midpoints, then the centres
-    // (a centre's dependents are the edge midpoints of its scale).
+    let halves = |d: super::grid::Diamond| {
+        d.apex
+            .into_iter()
+            .enumerate()
+            .filter(move |(_, apex)| g.contains(apex.0, apex.1))
+            .map(move |(h, apex)| (h, [d.a, d.b, apex].map(|(x, y)| (x as u32, y as u32))))
+    };
+    let mut jobs: Vec<[Pt; 3]> = Vec::new();
     for t in 0..g.k {
         let h = 1u32 << t;
-        for y in (0..gh).step_by(2 * h as usize) {
-            for x in (h..gw).step_by(2 * h as usize) {
-                visit((x, y));
+        let step = 2 * h as usize;
+        let edges = (0..gh)
+            .step_by(step)
+            .flat_map(move |y| (h..gw).step_by(step).map(move |x| (x, y)))
+            .chain(
+                (h..gh)
+                    .step_by(step)
+                    .flat_map(move |y| (0..gw).step_by(step).map(move |x| (x, y))),
+            );
+        let centres = (h..gh)
+            .step_by(step)
+            .flat_map(move |y| (h..gw).step_by(step).map(move |x| (x, y)));
+        let phases: [&dyn Fn() -> Box<dyn Iterator<Item = Pt>>; 2] =
+            [&|| Box::new(edges.clone()), &|| Box::new(centres.clone())];
+        for phase in phases {
+            // The segmented halves this phase fits.
+            jobs.clear();
+            for v in phase() {
+                if let Some((_, d, fl, _, true)) = state(v, &out, &dirty) {
+                    jobs.extend(halves(d).filter(|&(h, _)| fl.half(h).any).map(|(_, tri)| tri));
+                }
             }
-        }
-        for y in (h..gh).step_by(2 * h as usize) {
-            for x in (0..gw).step_by(2 * h as usize) {
-                visit((x, y));
+            let mut fits = fit_all(samples, &jobs, two_threads).into_iter();
+            for v in phase() {
+                let Some((vi, d, fl, is_dirty, computed)) = state(v, &out, &dirty) else {
+                    continue;
+                };
+                let e = if !is_dirty {
+                    err2[vi]
+                } else if !computed {
+                    FORCED
+                } else {
+                    let mut e = out[vi];
+                    for (h, tri) in halves(d) {
+                        let half = fl.half(h);
+                        let fit = if half.any {
+                            let fit = fits.next().flatten();
+                            let place = fit.as_ref().map_or(NO_CUT, |f| {
+                                cuts.push(f.cut);
+                                (cuts.len() - 1) as u32
+                            });
+                            fitted.push(((2 * vi + h) as u32, place));
+                            fit
+                        } else {
+                            None
+                        };
+                        if e == FORCED {
+                            continue;
+                        }
+                        let own = if half.all {
+                            // Dropped, unless a cut draws a valid corner of it.
+                            fit.map_or(0.0, |fit| round_up(fit.deviation.powi(2)))
+                        } else if !half.any {
+                            round_up(samples.plane_deviation(tri).powi(2))
+                        } else {
+                            let span = d.a.0.abs_diff(d.b.0).max(d.a.1.abs_diff(d.b.1));
+                            let none = if span <= u64::from(drop_span) { 0.0 } else { FORCED };
+                            fit.map_or(none, |fit| round_up(fit.deviation.powi(2)))
+                        };
+                        e = e.max(own);
+                    }
+                    e
+                };
+                out[vi] = e;
+                for (x, y) in d.apex {
+                    if g.contains(x, y) {
+                        let p = (x as u32, y as u32);
+                        if g.kind(p) != Kind::Root {
+                            let pi = g.index(p);
+                            out[pi] = out[pi].max(e);
+                            dirty[pi] |= is_dirty;
+                        }
+                    }
+                }
             }
-        }
-        for y in (h..gh).step_by(2 * h as usize) {
-            for x in (h..gw).step_by(2 * h as usize) {
-                visit((x, y));
-            }
+            debug_assert!(fits.next().is_none(), "every planned fit is taken");
         }
     }
     fitted.sort_unstable_by_key(|f| f.0);
@@ -160,4 +190,21 @@ pub(crate) fn cut_errors(samples: Samples<'_>, err2: &[f32], drop_span: u32) -> 
         fitted,
         cuts,
     }
+}
+
+/// [`Samples::fit`] of each of `jobs`, in order; on two threads with
+/// `two_threads` when there are enough of them to pay for one.
+fn fit_all(samples: Samples<'_>, jobs: &[[Pt; 3]], two_threads: bool) -> Vec<Option<Fit>> {
+    const WORTH_A_THREAD: usize = 512;
+    let fit = |part: &[[Pt; 3]]| part.iter().map(|&t| samples.fit(t)).collect::<Vec<_>>();
+    if !two_threads || jobs.len() < WORTH_A_THREAD {
+        return fit(jobs);
+    }
+    let (first, second) = jobs.split_at(jobs.len() / 2);
+    std::thread::scope(|scope| {
+        let later = scope.spawn(|| fit(second));
+        let mut fits = fit(first);
+        fits.extend(later.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic)));
+        fits
+    })
 }

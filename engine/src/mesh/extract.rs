@@ -34,7 +34,7 @@ use glam::DVec3;
 
 use super::cut::{CutTriangle, Samples};
 use super::cut_errors::{cut_errors, CutErrors};
-use super::hierarchy::Hierarchy;
+use super::hierarchy::{Hierarchy, Threads};
 use super::lod::Lod;
 use super::outline::Rung;
 use super::reach::{merge_spheres, Reach, MAX_CULLED};
@@ -261,7 +261,7 @@ impl Hierarchy {
         let cut = match outlines {
             Outlines::Cut => Some(self.cut_errors()),
             Outlines::CutOrDrop(span) => {
-                own = cut_errors(self.samples(), &self.err2, span);
+                own = cut_errors(self.samples(), &self.err2, span, self.threads == Threads::Parallel);
                 Some(&own)
             }
             _ => None,
@@ -336,7 +336,8 @@ impl Hierarchy {
     /// The saturated squared errors of a cutting extraction, computed on
     /// the first one (`cut_errors.rs`).
     pub(crate) fn cut_errors(&self) -> &CutErrors {
-        self.outlines.cut(self.samples(), &self.err2)
+        self.outlines
+            .cut(self.samples(), &self.err2, self.threads == Threads::Parallel)
     }
 
     /// The [`Reach`] of a view-dependent mesh for `view` from its walk.

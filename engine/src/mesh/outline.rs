@@ -142,9 +142,10 @@ impl OutlineCache {
     }
 
     /// The saturated squared errors of a cutting extraction, computed on
-    /// first use from the hierarchy's samples and errors.
-    pub(crate) fn cut(&self, samples: Samples<'_>, err2: &[f32]) -> &CutErrors {
-        self.cut.get_or_init(|| cut_errors(samples, err2, 0))
+    /// first use from the hierarchy's samples and errors (on two threads
+    /// with `two_threads`).
+    pub(crate) fn cut(&self, samples: Samples<'_>, err2: &[f32], two_threads: bool) -> &CutErrors {
+        self.cut.get_or_init(|| cut_errors(samples, err2, 0, two_threads))
     }
 
     /// The most heap bytes the outlines of `grid` will keep, each with its
