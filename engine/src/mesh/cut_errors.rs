@@ -103,25 +103,16 @@ pub(crate) fn cut_errors(samples: Samples<'_>, err2: &[f32], drop_span: u32, two
     };
     let mut jobs: Vec<[Pt; 3]> = Vec::new();
     for t in 0..g.k {
-        let h = 1u32 << t;
-        let step = 2 * h as usize;
-        let edges = (0..gh)
-            .step_by(step)
-            .flat_map(move |y| (h..gw).step_by(step).map(move |x| (x, y)))
-            .chain(
-                (h..gh)
-                    .step_by(step)
-                    .flat_map(move |y| (0..gw).step_by(step).map(move |x| (x, y))),
-            );
-        let centres = (h..gh)
-            .step_by(step)
-            .flat_map(move |y| (h..gw).step_by(step).map(move |x| (x, y)));
-        let phases: [&dyn Fn() -> Box<dyn Iterator<Item = Pt>>; 2] =
-            [&|| Box::new(edges.clone()), &|| Box::new(centres.clone())];
-        for phase in phases {
+        for centres in [false, true] {
+            let phase = || phase_points(gw, gh, t, centres);
             // The segmented halves this phase fits.
             jobs.clear();
             for v in phase() {
+                // Only segmented halves are fitted: most vertices have none.
+                let fl = samples.flags[g.index(v)];
+                if !(fl.half(0).any || fl.half(1).any) {
+                    continue;
+                }
                 if let Some((_, d, fl, _, true)) = state(v, &out, &dirty) {
                     jobs.extend(halves(d).filter(|&(h, _)| fl.half(h).any).map(|(_, tri)| tri));
                 }
@@ -207,4 +198,22 @@ fn fit_all(samples: Samples<'_>, jobs: &[[Pt; 3]], two_threads: bool) -> Vec<Opt
         fits.extend(later.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic)));
         fits
     })
+}
+
+/// The vertices of scale `2^t`: its edge midpoints (rows, then columns), or
+/// its centres, on a `gw x gh` grid.
+fn phase_points(gw: u32, gh: u32, t: u32, centres: bool) -> impl Iterator<Item = Pt> {
+    let h = 1u32 << t;
+    let step = 2 * h as usize;
+    let rows = move |y0: u32, x0: u32| {
+        (y0..gh)
+            .step_by(step)
+            .flat_map(move |y| (x0..gw).step_by(step).map(move |x| (x, y)))
+    };
+    let (first, second) = if centres {
+        (rows(h, h), None)
+    } else {
+        (rows(0, h), Some(rows(h, 0)))
+    };
+    first.chain(second.into_iter().flatten())
 }
