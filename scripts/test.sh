@@ -51,24 +51,42 @@ fi
 log=$(mktemp)
 trap 'rm -f "$log"' EXIT
 status=0
+# Runs one phase, teeing its output into the summary's log. A phase that
+# fails without a failing test of its own (a test target that does not
+# compile, a server that does not start) counts as one failure, so the
+# summary never says "0 failed" after a failed phase.
+phase() {
+  local name=$1 out rc
+  shift
+  out=$(mktemp)
+  "$@" 2>&1 | tee "$out"
+  rc=${PIPESTATUS[0]}
+  cat "$out" >>"$log"
+  if [ "$rc" != 0 ]; then
+    status=1
+    if ! awk '/^test result:/ { for (i = 1; i < NF; i++) if ($(i+1) ~ /^failed/ && $i > 0) f = 1 }
+              /^# fail [1-9]/ { f = 1 } END { exit !f }' "$out"; then
+      echo "test result: FAILED. 0 passed; 1 failed ($name exited with $rc and no failing test named)" | tee -a "$log"
+    fi
+  fi
+  rm -f "$out"
+}
+tsc_check() { (cd "$web" && npx --no-install tsc -p jsconfig.json) && echo "test result: ok. 1 passed; 0 failed (tsc)"; }
+browser_tests() { (cd "$web" && DMESH_BIN="$PWD/../../target/debug" node --test --test-concurrency=1 test/*.test.js); }
 cargo --version
-cargo test --workspace 2>&1 | tee "$log" || status=1
+# --no-fail-fast: a failing test binary does not hide the ones after it.
+phase "cargo test" cargo test --workspace --no-fail-fast
 # The browser tests run the binaries the tests above built (debug profile).
-cargo build --workspace --bins 2>&1 | tail -1 || status=1
+phase "cargo build" cargo build --workspace --bins
 echo "type check: tsc --checkJs ($web)"
-if (cd "$web" && npx --no-install tsc -p jsconfig.json); then
-  echo "test result: ok. 1 passed; 0 failed (tsc)" >>"$log"
-else
-  echo "test result: FAILED. 0 passed; 1 failed (tsc)" >>"$log"
-  status=1
-fi
-(cd "$web" && DMESH_BIN="$PWD/../../target/debug" node --test --test-concurrency=1 test/) 2>&1 | tee -a "$log" || status=1
+phase "tsc" tsc_check
+phase "browser tests" browser_tests
 # The API contract: schemathesis against the real server.
-bash scripts/schemathesis.sh 2>&1 | tee -a "$log" || status=1
+phase "schemathesis" bash scripts/schemathesis.sh
 # Every decoder of outside bytes, fuzzed for a short bounded time each.
-bash scripts/fuzz.sh "${FUZZ_SECONDS:-10}" 2>&1 | tee -a "$log" || status=1
+phase "fuzz" bash scripts/fuzz.sh "${FUZZ_SECONDS:-10}"
 # cargo prints a "test result" line per binary, node "# pass N" and "# fail N".
-awk '/^test result:/ { for (i = 1; i <= NF; i++) { if ($(i+1) ~ /^passed/) p += $i; if ($(i+1) ~ /^failed/) f += $i } }
+awk '/^test result:/ { for (i = 1; i < NF; i++) { if ($(i+1) ~ /^passed/) p += $i; if ($(i+1) ~ /^failed/) f += $i } }
      /^# pass / { p += $3 } /^# fail / { f += $3 }
      END { printf "tests: %d passed, %d failed\n", p, f; if (p == 0) exit 1 }' "$log" || status=1
 exit $status
