@@ -188,3 +188,50 @@ fn bad_options_are_refused_clearly() {
     let (ok, err) = run(&["report", "--baselines", "--data", data, "--scenes", "nowhere"]);
     assert!(!ok && err.contains("nowhere"), "{err}");
 }
+
+/// A file of the repository, as text.
+fn repo_file(path: &str) -> String {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(path);
+    std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+/// The pages that quote the comparison quote the committed rows: the
+/// generated page is what `markdown` makes of them, and docs/baselines.md's
+/// summary table and verdicts, and the README's headline row, are lines of
+/// it (a rerun that changes the rows fails here until the pages follow).
+#[test]
+fn the_pages_quote_the_committed_rows() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/baselines");
+    let rows = dmesh_client::report::baselines::read(&dir).unwrap();
+    assert_eq!(
+        repo_file("docs/baselines/baselines.md"),
+        markdown(&rows),
+        "docs/baselines/baselines.md is not what its rows give: run report --baselines --replot"
+    );
+    let doc = repo_file("docs/baselines.md");
+    let summary = dmesh_client::report::baselines::summary(&rows);
+    for line in summary.lines() {
+        assert!(doc.contains(line), "docs/baselines.md lacks the summary line\n{line}");
+    }
+    let verdicts = dmesh_client::report::baselines_verdicts::verdicts(&rows);
+    assert!(verdicts.len() >= 12, "{verdicts:?}");
+    for v in &verdicts {
+        assert!(v.judged(), "{v}");
+        let line = v.to_string();
+        assert!(doc.contains(&line), "docs/baselines.md lacks the verdict\n{line}");
+    }
+    let at = |mesher: &str| {
+        rows.iter()
+            .find(|r| r.scene == "art" && r.mesher == mesher && r.rate == 20.0)
+            .unwrap_or_else(|| panic!("art {mesher} 20"))
+    };
+    let (rqt, qem, plane) = (at("rqt"), at("qem"), at("quadtree_plane"));
+    let headline = format!(
+        "RQT {:.2} dB in {:.0} ms, QEM {:.2} dB in {:.0} ms, plane-fit quadtree {:.2} dB",
+        rqt.psnr_common, rqt.ms, qem.psnr_common, qem.ms, plane.psnr_common
+    );
+    assert!(
+        repo_file("README.md").contains(&headline),
+        "the README's row on Naik's comparison should read\n{headline}"
+    );
+}

@@ -5,6 +5,8 @@
 use std::path::PathBuf;
 use std::process::Command;
 
+use dmesh_client::report::verdict::Verdict;
+
 /// An example binary `cargo test` built beside this test.
 fn example(name: &str) -> PathBuf {
     // target/debug/deps/papers-HASH -> target/debug/examples/NAME
@@ -40,6 +42,24 @@ fn run(name: &str, args: &[&str]) -> String {
     text
 }
 
+/// The verdict lines of `text`, each judged: a claim whose criterion was
+/// not evaluated fails, as does a verdict line that does not read back.
+fn judged(text: &str) -> Vec<(String, String)> {
+    let mut out = Vec::new();
+    for line in text
+        .lines()
+        .filter(|l| l.starts_with("- **") && l.contains("Criterion: "))
+    {
+        let (claim, word) = Verdict::parse(line).unwrap_or_else(|| panic!("a verdict that does not read back: {line}"));
+        assert!(
+            word == "held" || word == "did not hold",
+            "not judged in the quick form: {line}"
+        );
+        out.push((claim, word));
+    }
+    out
+}
+
 fn data() -> String {
     let data = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data");
     assert!(data.is_dir(), "the Middlebury data must be at {}", data.display());
@@ -61,6 +81,15 @@ fn dmesh_experiments_run_in_their_quick_form() {
     for method in ["orthogonality", "disparity", "connectedness", "none"] {
         assert!(text.contains(&format!("| demo | {method} |")), "{method}:\n{text}");
     }
+    // Table 4 at two sizes (2 each), Table 1 (2), strips (3), Sec. 7.1 (3).
+    let verdicts = judged(&text);
+    assert_eq!(verdicts.len(), 12, "{verdicts:?}");
+    for claim in ["Table 4", "Table 1", "Sec. 7.2", "Sec. 7.3", "Sec. 7.1, Fig. 18"] {
+        assert!(
+            verdicts.iter().any(|v| v.0.contains(claim)),
+            "no verdict on {claim}: {verdicts:?}"
+        );
+    }
 }
 
 #[test]
@@ -76,6 +105,15 @@ fn verlani_experiments_run_in_their_quick_form() {
         "### The angular weights",
     ] {
         assert!(text.contains(section), "{section} is missing:\n{text}");
+    }
+    // Table 2 (3), Table 1 (2), Fig. 5 (2), Table 3 (2), the weights (1).
+    let verdicts = judged(&text);
+    assert_eq!(verdicts.len(), 10, "{verdicts:?}");
+    for claim in ["Table 2", "Table 1", "Fig. 5", "Table 3", "Sec. 2"] {
+        assert!(
+            verdicts.iter().any(|v| v.0.contains(claim)),
+            "no verdict on {claim}: {verdicts:?}"
+        );
     }
     let png = image::open(plot.with_extension("png")).unwrap();
     assert_eq!((png.width(), png.height()), (800, 520));

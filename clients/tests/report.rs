@@ -136,3 +136,28 @@ fn the_committed_reports_bits_rows_are_monotone_in_psnr() {
         assert!(bits[1].1 > bits[0].1, "{scene}: 2 bits beat interpolation: {bits:?}");
     }
 }
+
+/// The README's headline row on the demo's novel views quotes the committed
+/// report: PSNR on the common mask and extraction time at tau 16 and 1 px.
+#[test]
+fn the_readme_quotes_the_committed_report() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let rows: Vec<serde_json::Value> =
+        serde_json::from_str(&std::fs::read_to_string(root.join("docs/report/report.json")).unwrap()).unwrap();
+    let at = |tau: f64| {
+        rows.iter()
+            .find(|r| r["scene"] == "demo" && r["sweep"] == "tau" && r["setting"].as_f64() == Some(tau))
+            .unwrap_or_else(|| panic!("no demo row at tau {tau}"))
+    };
+    let f = |r: &serde_json::Value, k: &str| r[k].as_f64().unwrap();
+    let (coarse, fine) = (at(16.0), at(1.0));
+    let row = format!(
+        "| Demo novel views, tau 16 -> 1 px | {:.1} -> {:.1} dB, {:.1} -> {:.1} ms of extraction |",
+        f(coarse, "psnr_common"),
+        f(fine, "psnr_common"),
+        f(coarse, "extract_ms"),
+        f(fine, "extract_ms")
+    );
+    let readme = std::fs::read_to_string(root.join("README.md")).unwrap();
+    assert!(readme.contains(&row), "the README's row should begin\n{row}");
+}

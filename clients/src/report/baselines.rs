@@ -41,7 +41,7 @@ use dmesh_engine::baselines::{self, full_mesh, Mesher, TriMesh};
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
-pub use super::baselines_table::{markdown, read, write};
+pub use super::baselines_table::{markdown, read, summary, write};
 use super::cases::{self, Case};
 use crate::blend::{blend_surfaces, BlendOptions, Blended, Surface, SurfacePoint};
 use crate::compare::compare;

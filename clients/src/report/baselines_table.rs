@@ -76,6 +76,12 @@ pub fn markdown(rows: &[Row]) -> String {
         let _ = writeln!(out);
     }
     let find = |scene: &str, mesher: &str, rate: f64| row(rows, scene, mesher, rate);
+    let _ = writeln!(
+        out,
+        "### Summary\n\nPSNR (dB, common mask) at rates 5 / 20 / 70, and meshing time at rate 20:\n"
+    );
+    out.push_str(&summary(rows));
+    let _ = writeln!(out);
     let _ = writeln!(out, "### The RQT against the plane-fit quadtree and QEM\n");
     let _ = writeln!(
         out,
@@ -123,6 +129,62 @@ pub fn markdown(rows: &[Row]) -> String {
     }
     let _ = writeln!(out);
     out.push_str(&cut_verdicts(rows));
+    let _ = writeln!(
+        out,
+        "\n### The thesis's conclusions and the goals, judged\n\nEach computed from the rows above by the criterion stated (`clients/src/report/baselines_verdicts.rs`); a row counts where its mesher met the rate within {:.0} %, and PSNR is on the common mask unless the criterion says otherwise.\n",
+        MET * 100.0
+    );
+    for v in super::baselines_verdicts::verdicts(rows) {
+        let _ = writeln!(out, "{v}");
+    }
+    out
+}
+
+/// The meshers of the summary table, in its column order.
+const SUMMARY: [&str; 8] = [
+    "rqt",
+    "rqt_dropping",
+    "rqt_shared_cut",
+    "quadtree_plane",
+    "qem",
+    "remesh",
+    "decimate",
+    "quadtree_constant",
+];
+
+/// The summary table docs/baselines.md quotes: per scene, each mesher's
+/// PSNR on the common mask at rates 5, 20 and 70 (with the rate it
+/// reached when it missed one), and the meshing times at rate 20.
+pub fn summary(rows: &[Row]) -> String {
+    use std::fmt::Write;
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "| scene | {} | ms at rate 20: rqt / plane / qem / remesh |",
+        SUMMARY.join(" | ")
+    );
+    let _ = writeln!(out, "|---|{}---|", "---|".repeat(SUMMARY.len()));
+    for scene in scenes(rows) {
+        let cells: Vec<String> = SUMMARY
+            .iter()
+            .map(|m| {
+                [5.0, 20.0, 70.0]
+                    .iter()
+                    .map(|&rate| match row(rows, scene, m, rate) {
+                        None => "-".to_string(),
+                        Some(r) if (r.achieved_rate / r.rate - 1.0).abs() <= MET => format!("{:.2}", r.psnr_common),
+                        Some(r) => format!("{:.2} (rate {:.0})", r.psnr_common, r.achieved_rate),
+                    })
+                    .collect::<Vec<_>>()
+                    .join(" / ")
+            })
+            .collect();
+        let ms: Vec<String> = ["rqt", "quadtree_plane", "qem", "remesh"]
+            .iter()
+            .map(|m| row(rows, scene, m, 20.0).map_or("-".to_string(), |r| format!("{:.0}", r.ms)))
+            .collect();
+        let _ = writeln!(out, "| {scene} | {} | {} |", cells.join(" | "), ms.join(" / "));
+    }
     out
 }
 

@@ -17,8 +17,10 @@
 
 pub mod baselines;
 mod baselines_table;
+pub mod baselines_verdicts;
 pub mod cases;
 pub mod plot;
+pub mod verdict;
 
 use std::path::PathBuf;
 use std::time::Instant;
