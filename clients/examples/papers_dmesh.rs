@@ -5,8 +5,9 @@
 //! view-dependent) and Sec. 7.1's comparison of the segmentation methods
 //! (Fig. 18: cost and quality). Prints Markdown for `docs/papers.md`.
 //!
-//! Usage: `cargo run --release -p dmesh-client --example papers_dmesh [-- [--quick] DATA_DIR]`
-//! (default `../shared/data`; Art is left out when it is missing).
+//! Usage: `cargo run --release -p dmesh-client --example papers_dmesh [-- [--quick] DATA_DIR [FIGURES_DIR]]`
+//! (default `../shared/data`; Art is left out when it is missing). Fig. 18's
+//! images go to `FIGURES_DIR` (default `docs/papers`) as `fig18-SCENE.png`.
 //! `--quick` runs every table once on small inputs, for the test that
 //! keeps this example from rotting; its figures mean nothing.
 //!
@@ -410,7 +411,8 @@ fn main() -> anyhow::Result<()> {
     }
     println!();
     verdict::print("Strip lengths, judged", &strip_verdicts(&lengths));
-    segmentation_methods(&data)?;
+    let figures = std::path::PathBuf::from(args.get(1).cloned().unwrap_or_else(|| "docs/papers".into()));
+    segmentation_methods(&data, &figures)?;
     Ok(())
 }
 
@@ -492,9 +494,45 @@ fn segmentation_verdicts(scenes: &[MethodRows]) -> Vec<Verdict> {
     ]
 }
 
+/// A reference's segmented cells (red, either half) over its depth (grey,
+/// near bright), one pixel per cell; missing samples black.
+fn segmentation_image(h: &Hierarchy) -> image::RgbImage {
+    let cam = h.camera();
+    let (w, ht) = (cam.width, cam.height);
+    let valid = (0..ht).flat_map(|y| (0..w).map(move |x| (x, y))).map(|p| h.depth(p)).filter(|z| *z > 0.0);
+    let (lo, hi) = valid.fold((f32::INFINITY, 0f32), |(a, b), z| (a.min(z), b.max(z)));
+    let span = (hi - lo).max(f32::MIN_POSITIVE);
+    image::RgbImage::from_fn(w, ht, |x, y| {
+        let z = h.depth((x, y));
+        if z <= 0.0 {
+            return image::Rgb([0, 0, 0]);
+        }
+        let (cx, cy) = (x.min(w - 2), y.min(ht - 2));
+        if h.cell_segmented((cx, cy), 0) || h.cell_segmented((cx, cy), 1) {
+            return image::Rgb([220, 30, 30]);
+        }
+        let g = (230.0 - 170.0 * (z - lo) / span) as u8;
+        image::Rgb([g, g, g])
+    })
+}
+
+/// `panels` left to right, 4 px of white between them.
+fn side_by_side(panels: &[image::RgbImage]) -> image::RgbImage {
+    let gap = 4;
+    let w = panels.iter().map(|p| p.width() + gap).sum::<u32>().saturating_sub(gap).max(1);
+    let h = panels.iter().map(image::RgbImage::height).max().unwrap_or(1);
+    let mut out = image::RgbImage::from_pixel(w, h, image::Rgb([255, 255, 255]));
+    let mut x0 = 0;
+    for p in panels {
+        image::imageops::replace(&mut out, p, i64::from(x0), 0);
+        x0 += p.width() + gap;
+    }
+    out
+}
+
 /// Sec. 7.1 and Fig. 18: the three segmentation methods and none, in build
 /// time and in the quality of the blend of the references each builds.
-fn segmentation_methods(data: &std::path::Path) -> anyhow::Result<()> {
+fn segmentation_methods(data: &std::path::Path, figures: &std::path::Path) -> anyhow::Result<()> {
     use dmesh_client::blend::{blend, BlendOptions, ViewInput};
     use dmesh_client::report::cases::{self, Case};
     use dmesh_engine::mesh::segmentation::{KAPPA, LAMBDA, OMEGA_DEG, SIGMA};
@@ -528,6 +566,9 @@ fn segmentation_methods(data: &std::path::Path) -> anyhow::Result<()> {
         // blended image and its coverage.
         let mut results = Vec::new();
         let mut costs = Vec::new();
+        // Fig. 18: one reference's segmented cells under each test.
+        let shown = if case.name == "demo" { 4.min(case.references.len() - 1) } else { 0 };
+        let mut panels = Vec::new();
         for (name, method) in methods {
             let seg = Segmentation {
                 method,
@@ -551,6 +592,9 @@ fn segmentation_methods(data: &std::path::Path) -> anyhow::Result<()> {
                 normals_ms += median(normal_times);
                 segmented += h.stats().segmented_triangles;
                 hierarchies.push(h);
+            }
+            if name != "none" {
+                panels.push(segmentation_image(&hierarchies[shown]));
             }
             let mut blends = Vec::new();
             for novel in &case.novels {
@@ -608,6 +652,13 @@ fn segmentation_methods(data: &std::path::Path) -> anyhow::Result<()> {
             );
         }
         judged.push((case.name.clone(), costs, psnrs));
+        let path = figures.join(format!("fig18-{}.png", case.name));
+        side_by_side(&panels).save(&path)?;
+        println!(
+            "\n![{}: segmented cells (red) under orthogonality, disparity and connectedness, left to right](papers/{})\n",
+            case.name,
+            path.file_name().and_then(|f| f.to_str()).unwrap_or_default()
+        );
     }
     println!("\nThe paper sets the depth-range gate lambda to 0.05 of the object's extent; here it is {LAMBDA}.\n");
     verdict::print("Sec. 7.1, judged", &segmentation_verdicts(&judged));

@@ -68,7 +68,12 @@ fn data() -> String {
 
 #[test]
 fn dmesh_experiments_run_in_their_quick_form() {
-    let text = run("papers_dmesh", &["--quick", &data()]);
+    let dir = tempfile::tempdir().unwrap();
+    let text = run("papers_dmesh", &["--quick", &data(), dir.path().to_str().unwrap()]);
+    // Fig. 18: three panels of the demo reference (256 x 192) with 4 px between.
+    let fig = image::open(dir.path().join("fig18-demo.png")).unwrap().to_rgb8();
+    assert_eq!((fig.width(), fig.height()), (3 * 256 + 2 * 4, 192));
+    assert!(fig.pixels().any(|p| p.0 == [220, 30, 30]), "no segmented cell drawn");
     for section in [
         "### Table 4",
         "### Table 1's stages",
