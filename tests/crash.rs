@@ -1,6 +1,7 @@
 //! Durability under SIGKILL: a loop of uploads against the real `dmesh serve`
 //! is killed at random moments; after each restart every acknowledged view is
-//! there and readable, and every listed view is whole.
+//! there, readable and the version last acknowledged (or the one in flight
+//! when the process died), and every listed view is whole.
 
 #[path = "support/raw_http.rs"]
 mod raw_http;
@@ -41,6 +42,9 @@ fn start(data: &std::path::Path) -> (std::process::Child, std::net::SocketAddr) 
 fn acknowledged_uploads_survive_sigkill() {
     let dir = tempfile::tempdir().unwrap();
     let mut acknowledged: Vec<String> = Vec::new();
+    // Per view, the seed of its last acknowledged upload (the colour's blue
+    // channel); and the upload in flight when the server died.
+    let mut versions = std::collections::HashMap::<String, u32>::new();
     let mut next = 0u32;
     // A small deterministic generator: the kill moments vary, the test does not flake on a seed.
     let mut seed = 0x9e37_79b9u32;
@@ -57,9 +61,11 @@ fn acknowledged_uploads_survive_sigkill() {
         });
         // Upload (and overwrite) until the server dies.
         let began = Instant::now();
+        let mut in_flight = None;
         while began.elapsed() < Duration::from_secs(10) {
             let view = format!("v{}", next % 40);
-            let body = upload_body(next);
+            let seed = next;
+            let body = upload_body(seed);
             next += 1;
             match http(
                 addr,
@@ -69,6 +75,7 @@ fn acknowledged_uploads_survive_sigkill() {
                 &body,
             ) {
                 Ok((201, _)) => {
+                    versions.insert(view.clone(), seed);
                     if !acknowledged.contains(&view) {
                         acknowledged.push(view);
                     }
@@ -77,7 +84,11 @@ fn acknowledged_uploads_survive_sigkill() {
                     "round {round}: upload answered {status}: {}",
                     String::from_utf8_lossy(&body)
                 ),
-                Err(_) => break, // killed mid-request
+                Err(_) => {
+                    // Killed mid-request: this version may or may not have landed.
+                    in_flight = Some((view, seed));
+                    break;
+                }
             }
         }
         killer.join().unwrap();
@@ -95,6 +106,20 @@ fn acknowledged_uploads_survive_sigkill() {
                 .collect();
             for v in &acknowledged {
                 assert!(listed.contains(v), "round {round}: acknowledged view {v} is missing");
+                let (status, body) = http(addr, "GET", &format!("/v1/scenes/crash/views/{v}/color"), None, b"").unwrap();
+                assert_eq!(status, 200, "round {round}: {v}'s colour");
+                let blue = image::load_from_memory(&body).unwrap().to_rgb8().get_pixel(0, 0)[2];
+                let last = versions[v];
+                let flying = in_flight.as_ref().filter(|(w, _)| w == v).map(|(_, s)| *s);
+                assert!(
+                    blue == last as u8 || flying.is_some_and(|s| blue == s as u8),
+                    "round {round}: view {v} is version {blue}, not the last acknowledged {} (in flight: {flying:?})",
+                    last as u8
+                );
+                // A version in flight that landed is now the one to expect.
+                if let Some(s) = flying.filter(|s| blue == *s as u8 && blue != last as u8) {
+                    versions.insert(v.clone(), s);
+                }
             }
             for v in &listed {
                 let (status, body) = http(

@@ -410,6 +410,12 @@ fn main() -> anyhow::Result<()> {
         lengths.push((name.clone(), fixed, dynamic));
     }
     println!();
+    for (name, h, _) in &scenes {
+        let (between, nonzero, smallest) = projected_errors(h);
+        println!(
+            "{name}: of its {nonzero} vertices with a non-zero error, {between} project it into the reference's own camera at more than 0.5 px and at most 1 px (Eq. 4 with nested spheres); the smallest projects to {smallest:.2} px. With none between, the meshes at tau 0.5 and 1 px are the same.\n"
+        );
+    }
     verdict::print("Strip lengths, judged", &strip_verdicts(&lengths));
     let figures = std::path::PathBuf::from(args.get(1).cloned().unwrap_or_else(|| "docs/papers".into()));
     segmentation_methods(&data, &figures)?;
@@ -492,6 +498,32 @@ fn segmentation_verdicts(scenes: &[MethodRows]) -> Vec<Verdict> {
             "DMesh's connectedness estimates normals by interpolation and fits curves; ours takes central differences on the exact grid.",
         ),
     ]
+}
+
+/// Over `h`'s valid grid vertices with a non-zero error: how many project
+/// it into the reference's own camera (the eye at the origin of its frame)
+/// at more than 0.5 px and at most 1 px, as Eq. 4 with nested spheres
+/// does (`select.rs`), how many there are, and the smallest projection.
+fn projected_errors(h: &Hierarchy) -> (usize, usize, f64) {
+    let cam = h.camera();
+    let f = cam.focal_pixels().unwrap_or(1.0);
+    let (gw, gh) = (h.grid().gw(), h.grid().gh());
+    let (mut between, mut nonzero, mut smallest) = (0, 0, f64::INFINITY);
+    for y in 0..gh {
+        for x in 0..gw {
+            let p = (x, y);
+            let e = f64::from(h.error(p));
+            if h.depth(p) <= 0.0 || e <= 0.0 || !e.is_finite() || e > 1e6 {
+                continue;
+            }
+            nonzero += 1;
+            let dist = h.position(p).length() - f64::from(h.radius(p));
+            let px = if dist <= 0.0 { f64::INFINITY } else { f * e / dist };
+            smallest = smallest.min(px);
+            between += usize::from(px > 0.5 && px <= 1.0);
+        }
+    }
+    (between, nonzero, smallest)
 }
 
 /// A reference's segmented cells (red, either half) over its depth (grey,
