@@ -106,7 +106,8 @@ fn acknowledged_uploads_survive_sigkill() {
                 .collect();
             for v in &acknowledged {
                 assert!(listed.contains(v), "round {round}: acknowledged view {v} is missing");
-                let (status, body) = http(addr, "GET", &format!("/v1/scenes/crash/views/{v}/color"), None, b"").unwrap();
+                let (status, body) =
+                    http(addr, "GET", &format!("/v1/scenes/crash/views/{v}/color"), None, b"").unwrap();
                 assert_eq!(status, 200, "round {round}: {v}'s colour");
                 let blue = image::load_from_memory(&body).unwrap().to_rgb8().get_pixel(0, 0)[2];
                 let last = versions[v];

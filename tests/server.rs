@@ -481,8 +481,16 @@ async fn responses_are_compressed_when_asked(kind: Store) {
             v["extract_ms"] = serde_json::Value::Null;
             v
         };
-        assert!(answer(&decoded) == answer(&plain), "{encoding}: the body decodes to another answer");
-        assert!(body.len() < plain.len(), "{encoding}: {} of {} bytes", body.len(), plain.len());
+        assert!(
+            answer(&decoded) == answer(&plain),
+            "{encoding}: the body decodes to another answer"
+        );
+        assert!(
+            body.len() < plain.len(),
+            "{encoding}: {} of {} bytes",
+            body.len(),
+            plain.len()
+        );
     }
 }
 

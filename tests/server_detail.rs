@@ -101,8 +101,40 @@ async fn residual_bits_and_triangle_budgets() {
         let (_, r, _) = fetch(uri).await;
         assert!(r.triangles <= max, "{} > {max}", r.triangles);
     }
+    // A time budget becomes triangles through the server's measured rate:
+    // between the coarsest mesh (a budget of nothing) and the whole one (a
+    // budget of a second), answered at a tolerance, with the bits asked.
+    let (_, whole, _) = fetch("/v1/scenes/r/views/v/strips?epsilon=0".into()).await;
+    let (_, least, _) = fetch("/v1/scenes/r/views/v/strips?budget_ms=0.000001".into()).await;
+    let (_, most, _) = fetch("/v1/scenes/r/views/v/strips?budget_ms=1000".into()).await;
+    assert_eq!(
+        most.triangles, whole.triangles,
+        "a second's budget meshes the whole view"
+    );
+    assert!(
+        least.triangles < whole.triangles,
+        "{} of {}",
+        least.triangles,
+        whole.triangles
+    );
     let (_, r, _) = fetch("/v1/scenes/r/views/v/strips?budget_ms=0.5&bits=8".into()).await;
-    assert!(r.triangles > 0);
+    check_strips(&r);
+    assert!(
+        (least.triangles..=whole.triangles).contains(&r.triangles),
+        "{} outside {}..={}",
+        r.triangles,
+        least.triangles,
+        whole.triangles
+    );
+    assert!(
+        !matches!(r.lod, dmesh_proto::Lod::BudgetMs(_)),
+        "answered at a tolerance: {:?}",
+        r.lod
+    );
+    assert!(
+        matches!(&r.depths, dmesh_proto::Depths::Residual(d) if d.bits == 8),
+        "8-bit residual depths"
+    );
     for (uri, expected, why) in [
         (
             "/v1/scenes/r/views/v/strips?epsilon=0&bits=17",

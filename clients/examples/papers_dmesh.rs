@@ -531,7 +531,10 @@ fn projected_errors(h: &Hierarchy) -> (usize, usize, f64) {
 fn segmentation_image(h: &Hierarchy) -> image::RgbImage {
     let cam = h.camera();
     let (w, ht) = (cam.width, cam.height);
-    let valid = (0..ht).flat_map(|y| (0..w).map(move |x| (x, y))).map(|p| h.depth(p)).filter(|z| *z > 0.0);
+    let valid = (0..ht)
+        .flat_map(|y| (0..w).map(move |x| (x, y)))
+        .map(|p| h.depth(p))
+        .filter(|z| *z > 0.0);
     let (lo, hi) = valid.fold((f32::INFINITY, 0f32), |(a, b), z| (a.min(z), b.max(z)));
     let span = (hi - lo).max(f32::MIN_POSITIVE);
     image::RgbImage::from_fn(w, ht, |x, y| {
@@ -551,7 +554,12 @@ fn segmentation_image(h: &Hierarchy) -> image::RgbImage {
 /// `panels` left to right, 4 px of white between them.
 fn side_by_side(panels: &[image::RgbImage]) -> image::RgbImage {
     let gap = 4;
-    let w = panels.iter().map(|p| p.width() + gap).sum::<u32>().saturating_sub(gap).max(1);
+    let w = panels
+        .iter()
+        .map(|p| p.width() + gap)
+        .sum::<u32>()
+        .saturating_sub(gap)
+        .max(1);
     let h = panels.iter().map(image::RgbImage::height).max().unwrap_or(1);
     let mut out = image::RgbImage::from_pixel(w, h, image::Rgb([255, 255, 255]));
     let mut x0 = 0;
@@ -599,7 +607,11 @@ fn segmentation_methods(data: &std::path::Path, figures: &std::path::Path) -> an
         let mut results = Vec::new();
         let mut costs = Vec::new();
         // Fig. 18: one reference's segmented cells under each test.
-        let shown = if case.name == "demo" { 4.min(case.references.len() - 1) } else { 0 };
+        let shown = if case.name == "demo" {
+            4.min(case.references.len() - 1)
+        } else {
+            0
+        };
         let mut panels = Vec::new();
         for (name, method) in methods {
             let seg = Segmentation {

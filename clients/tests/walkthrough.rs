@@ -66,7 +66,11 @@ async fn setup() -> (common::Running, Server, Scene) {
     (running, server, scene)
 }
 
+/// Every round that refreshed kept to its budget; and at least one round
+/// refreshed, or the budget was never put to the test.
 fn assert_within_budget(frames: &[Frame]) {
+    let refreshing = frames.iter().filter(|f| f.refreshed > 0).count();
+    assert!(refreshing > 0, "no round refreshed: the budget was never tested");
     for f in frames {
         let budget = f.budget.expect("balanced frames have a budget");
         if f.refreshed > 0 {
