@@ -39,7 +39,7 @@ fn orbit(spec: &SceneSpec) -> Vec<Camera> {
 }
 
 #[test]
-fn no_step_of_a_demo_orbit_moves_more_than_half_a_percent_of_the_weight() {
+fn no_step_of_a_demo_orbit_moves_more_than_half_a_percent_of_the_weight_from_four_views_up() {
     let spec = SceneSpec::demo();
     let views = spec.rig.cameras(spec.width, spec.height, spec.fov_deg).unwrap();
     for (rule, name) in [
@@ -66,10 +66,18 @@ fn no_step_of_a_demo_orbit_moves_more_than_half_a_percent_of_the_weight() {
             );
             // With 2 or 3 views the best views of the demo's ring of 16 nearly
             // tie with the first left out on parts of the orbit, where the
-            // weights move fastest (printed above, not held to the goal).
+            // weights move fastest: they are held to bounds of their own,
+            // set a little above what they measure (0.103 and 0.056 for
+            // DMesh's rule, 0.068 and 0.036 for the limited set), so a
+            // regression there fails too.
+            let bound = match max_views {
+                2 => 0.12,
+                3 => 0.065,
+                _ => 0.005,
+            };
             assert!(
-                max_views < 4 || worst.0 <= 0.005,
-                "{name}, {max_views} views: a 0.1 degree step at {:.1} degrees moves {:.4} of the weight",
+                worst.0 <= bound,
+                "{name}, {max_views} views: a 0.1 degree step at {:.1} degrees moves {:.4} of the weight (bound {bound})",
                 worst.1 as f64 / 10.0,
                 worst.0
             );

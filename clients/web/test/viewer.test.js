@@ -110,7 +110,8 @@ test('the demo novel view at tau = 1 matches dmesh-client render', async () => {
   const { psnr: db, both } = psnr(gpu, cpu);
   const c = coverageAgreement(gpu, cpu);
   console.log(`demo-novel: PSNR ${db.toFixed(2)} dB over ${both} pixels; covered ${c.ca} (WebGL) vs ${c.cb} (CPU)`);
-  assert.ok(db >= 30, `PSNR ${db} dB < 30`);
+  // Measured 50.0 dB (the rasterisers differ by a rounding at edges): about 5 dB under.
+  assert.ok(db >= 44, `PSNR ${db} dB < 44`);
   assert.ok(c.cb > 0.3 * 256 * 192, 'the CPU render covers most of the picture');
   assert.ok(c.relative <= 0.02, `covered pixels differ by ${(100 * c.relative).toFixed(2)} %`);
   const stats = await page.evaluate(() => /** @type {any} */ (window).dmeshStats);
@@ -131,7 +132,8 @@ test('relighting in the browser is the CPU client\'s: same light, same picture, 
   const same = psnr(gpu, cpu).psnr;
   const unlit = psnr(gpu, plain).psnr;
   console.log(`relit: PSNR ${same.toFixed(2)} dB against the CPU's relit picture, ${unlit.toFixed(2)} dB against the unlit one`);
-  assert.ok(same >= 30, `relit PSNR ${same} dB < 30`);
+  // Measured 46.8 dB, and about 13.6 against the unlit picture: 5 dB under.
+  assert.ok(same >= 42, `relit PSNR ${same} dB < 42`);
   assert.ok(unlit < same - 5, `relighting changed the picture: ${unlit} dB against the unlit one`);
   assert.deepEqual(errors, []);
   await page.close();
@@ -174,7 +176,8 @@ test('the balanced policy draws held meshes with their ages, refreshes within it
   const fresh = await capture(other);
   const { psnr: db } = psnr(balanced, fresh);
   console.log(`balanced after 6 rounds against render per move: PSNR ${db.toFixed(2)} dB; ages ${moved.ages.map((/** @type {any} */ a) => a.age).join(',')}`);
-  assert.ok(db >= 30, `PSNR ${db} dB < 30`);
+  // Measured 65.2 dB (held meshes a few rounds old): well under, as the ages vary with timing.
+  assert.ok(db >= 50, `PSNR ${db} dB < 50`);
   assert.deepEqual(errors, []);
   await other.close();
   await page.close();
@@ -224,7 +227,8 @@ test('a triangle budget with residual bits: the server picks tau, the page shows
   const { psnr: db } = psnr(gpu, cpu);
   const c = coverageAgreement(gpu, cpu);
   console.log(`budget 20000, 8 bits: ${stats.triangles} triangles, PSNR ${db.toFixed(2)} dB, covered ${c.ca} vs ${c.cb}`);
-  assert.ok(db >= 30, `PSNR ${db}`);
+  // Measured 47.6 dB: 5 dB under.
+  assert.ok(db >= 42, `PSNR ${db}`);
   assert.ok(c.relative <= 0.02);
   await page.close();
 });
@@ -264,7 +268,8 @@ test('seams between references are filled as dmesh-client fills them', async () 
   console.log(`seams: ${gained} pixels filled in WebGL, lit pixels differ from the CPU's at ${differ}, PSNR ${db.toFixed(2)} dB`);
   assert.ok(gained >= 5, `the fill filled ${gained} pixels`);
   assert.ok(differ <= 0.002 * litCpu.length, `${differ} pixels lit in one picture only`);
-  assert.ok(db >= 30, `PSNR ${db}`);
+  // Measured 55.9 dB: 5 dB under.
+  assert.ok(db >= 50, `PSNR ${db}`);
 });
 
 test('coverage mode colours each view as dmesh-client does', async () => {
@@ -325,7 +330,8 @@ test('a resize keeps the picture right', async () => {
     const { psnr: db } = psnr(gpu, cpu);
     const c = coverageAgreement(gpu, cpu);
     console.log(`resize ${w}x${h}: PSNR ${db.toFixed(2)} dB, covered ${c.ca} vs ${c.cb}`);
-    assert.ok(db >= 30, `PSNR ${db} dB at ${w}x${h}`);
+    // Measured 48.3 and 51.8 dB: 5 dB under the lower.
+    assert.ok(db >= 43, `PSNR ${db} dB at ${w}x${h}`);
     assert.ok(c.relative <= 0.02, `covered pixels differ by ${(100 * c.relative).toFixed(2)} % at ${w}x${h}`);
   }
   await page.close();
