@@ -184,7 +184,8 @@ fn a_replica_killed_under_load_loses_no_acknowledged_upload_and_p99_recovers() {
     );
 
     // Failures are confined to what was in flight on the killed replica:
-    // at most one per client, and only around the kill.
+    // at most one per client, and only between the kill and the restart (an
+    // ordering, not a window the machine's speed could stretch).
     assert!(
         report.errors <= 4,
         "{} renders failed\n{}",
@@ -192,7 +193,7 @@ fn a_replica_killed_under_load_loses_no_acknowledged_upload_and_p99_recovers() {
         cluster.logs()
     );
     for s in &report.seconds {
-        let near_kill = s.at as f64 >= killed.floor() - 0.01 && (s.at as f64) < killed + 2.0;
+        let near_kill = s.at as f64 >= killed.floor() - 0.01 && (s.at as f64) <= restarted;
         assert!(
             near_kill || s.errors == 0,
             "{} renders failed in second {}",

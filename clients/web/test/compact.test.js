@@ -3,8 +3,8 @@
 // the same vertices, depths, normals, rho, triangles and cut triangles to
 // the bit; the surface protocol 5 carries, in fewer triangles (outlines cut,
 // not refined); planes that extend a held mesh; malformed and
-// mutated bodies refused with a WireError, never another exception; and the
-// decode rate, written to test-output/compact-decode.json.
+// mutated bodies refused with a WireError, never another exception. The
+// decode rate is a benchmark: bench/decode.js.
 
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
@@ -13,14 +13,12 @@ import zlib from 'node:zlib';
 import { after, before, test } from 'node:test';
 import { decodeCompactRender, decodeMesh, readMeshBody, applyPlanes, MESH } from '../src/compact.js';
 import { decodeRender, stripTriangles, WireError } from '../src/protocol.js';
-import { ROOT, client, demoNovel, render, startServer, tempDir } from './harness.js';
+import { client, demoNovel, render, startServer, tempDir } from './harness.js';
 
 /** @type {Awaited<ReturnType<typeof startServer>>} */
 let server;
 before(async () => { server = await startServer(['--demo', '--demo-live-fps', '0']); });
 after(async () => { await server.stop(); });
-
-const out = path.join(ROOT, 'clients/web/test-output');
 
 /** @param {any[]} t */
 const key = (t) => [...t].sort((a, b) => a - b).join(',');
@@ -279,27 +277,4 @@ test('malformed and mutated bodies are refused with a WireError, never another e
     }
   }
   assert.ok(changesRefused > changeRuns / 4, `${changesRefused} of ${changeRuns} mutated changes refused`);
-});
-
-test('decode rate in Node, per 100,000 triangles', async () => {
-  const camera = demoNovel();
-  const rows = [];
-  for (const [lod, bits] of [[{ tau: 1 }, 10], [{ tau: 0.25 }, 10], [{ tau: 0.25 }, undefined]]) {
-    const bytes = /** @type {ArrayBuffer} */ (await render(server.url, 'demo', { camera, lod, bits }, MESH));
-    let r = decodeCompactRender(bytes.slice(0), camera);
-    for (let i = 0; i < 30; i++) r = decodeCompactRender(bytes.slice(0), camera);
-    const times = [];
-    for (let i = 0; i < 15; i++) {
-      const t0 = performance.now();
-      decodeCompactRender(bytes.slice(0), camera);
-      times.push(performance.now() - t0);
-    }
-    times.sort((a, b) => a - b);
-    const triangles = r.views.reduce((s, v) => s + v.strips.triangles, 0);
-    const ms = times[times.length >> 1];
-    rows.push({ lod, bits: bits ?? 'all', triangles, bytes: bytes.byteLength, ms, ms_per_100k: (ms * 1e5) / triangles, mtri_per_s: triangles / ms / 1e3 });
-    assert.ok(ms > 0 && triangles > 10_000);
-  }
-  fs.mkdirSync(out, { recursive: true });
-  fs.writeFileSync(path.join(out, 'compact-decode.json'), JSON.stringify(rows, null, 1));
 });

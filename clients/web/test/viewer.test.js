@@ -55,48 +55,6 @@ function colouredMask(img, n) {
   return m;
 }
 
-test('Chromium decodes the compact stream: rate per 100,000 triangles', async () => {
-  const camera = demoNovel();
-  const { page, errors } = await openViewer(browser, viewerUrl(server.url, { scene: 'demo', camera, tau: 1, w: 256, h: 192 }));
-  await waitReady(page);
-  // The viewer's own decoder module, timed in the page on the demo's render answers.
-  const rows = await page.evaluate(async (cam) => {
-    // The page's module, by URL (a path the type checker does not resolve).
-    const url = '/compact.js';
-    const { decodeCompactRender, MESH } = await import(url);
-    const out = [];
-    for (const [lod, bits] of [[{ tau: 1 }, 10], [{ tau: 0.25 }, 10], [{ tau: 0.25 }, null]]) {
-      const r = await fetch('/v1/scenes/demo/render', {
-        method: 'POST',
-        headers: { 'content-type': 'application/json', accept: MESH },
-        body: JSON.stringify({ camera: cam, lod, ...(bits === null ? {} : { bits }) }),
-      });
-      const body = await r.arrayBuffer();
-      let d = decodeCompactRender(body.slice(0), cam);
-      for (let i = 0; i < 30; i++) d = decodeCompactRender(body.slice(0), cam);
-      const times = [];
-      for (let i = 0; i < 15; i++) {
-        const t0 = performance.now();
-        decodeCompactRender(body.slice(0), cam);
-        times.push(performance.now() - t0);
-      }
-      times.sort((a, b) => a - b);
-      const triangles = d.views.reduce((/** @type {number} */ s, /** @type {any} */ v) => s + v.strips.triangles, 0);
-      const ms = times[times.length >> 1];
-      out.push({ lod, bits: bits ?? 'all', triangles, bytes: body.byteLength, ms, ms_per_100k: (ms * 1e5) / triangles, mtri_per_s: triangles / ms / 1e3 });
-    }
-    return out;
-  }, camera);
-  fs.mkdirSync(OUT, { recursive: true });
-  fs.writeFileSync(path.join(OUT, 'browser-decode.json'), JSON.stringify(rows, null, 1));
-  for (const r of rows) {
-    console.log(`Chromium decode ${JSON.stringify(r.lod)} bits ${r.bits}: ${r.triangles} triangles in ${r.ms.toFixed(2)} ms (${r.mtri_per_s.toFixed(2)} M/s)`);
-    assert.ok(r.triangles > 10_000 && r.ms > 0);
-  }
-  assert.deepEqual(errors, []);
-  await page.close();
-});
-
 test('the demo novel view at tau = 1 matches dmesh-client render', async () => {
   const camera = demoNovel();
   const { page, errors } = await openViewer(browser, viewerUrl(server.url, { scene: 'demo', camera, tau: 1, w: 256, h: 192 }));
