@@ -11,6 +11,7 @@ set -uo pipefail
 cd "$(dirname "$0")/.."
 
 die() { echo "scripts/test.sh: $*" >&2; exit 1; }
+began=$SECONDS
 command -v cargo >/dev/null 2>&1 || die "cargo is not installed: this project needs the Rust toolchain (rustup)"
 
 as_root() { if [ "$(id -u)" = 0 ]; then "$@"; elif command -v sudo >/dev/null 2>&1; then sudo "$@"; else die "need root to run: $*"; fi; }
@@ -48,6 +49,7 @@ if [ ! -d "$web/node_modules" ] || ! cmp -s "$web/package-lock.json" "$web/node_
   (cd "$web" && npm ci --no-audit --no-fund --loglevel=error) || die "npm ci failed in $web"
 fi
 
+echo "installs: $((SECONDS - began)) s"
 log=$(mktemp)
 trap 'rm -f "$log"' EXIT
 status=0
@@ -56,7 +58,7 @@ status=0
 # compile, a server that does not start) counts as one failure, so the
 # summary never says "0 failed" after a failed phase.
 phase() {
-  local name=$1 out rc
+  local name=$1 out rc start=$SECONDS
   shift
   out=$(mktemp)
   "$@" 2>&1 | tee "$out"
@@ -70,6 +72,7 @@ phase() {
     fi
   fi
   rm -f "$out"
+  echo "phase $name: $((SECONDS - start)) s"
 }
 tsc_check() { (cd "$web" && npx --no-install tsc -p jsconfig.json) && echo "test result: ok. 1 passed; 0 failed (tsc)"; }
 browser_tests() { (cd "$web" && DMESH_BIN="$PWD/../../target/debug" node --test --test-concurrency=1 test/*.test.js); }
@@ -85,6 +88,7 @@ phase "browser tests" browser_tests
 phase "schemathesis" bash scripts/schemathesis.sh
 # Every decoder of outside bytes, fuzzed for a short bounded time each.
 phase "fuzz" bash scripts/fuzz.sh "${FUZZ_SECONDS:-10}"
+echo "scripts/test.sh: $((SECONDS - began)) s in all"
 # cargo prints a "test result" line per binary, node "# pass N" and "# fail N".
 awk '/^test result:/ { for (i = 1; i < NF; i++) { if ($(i+1) ~ /^passed/) p += $i; if ($(i+1) ~ /^failed/) f += $i } }
      /^# pass / { p += $3 } /^# fail / { f += $3 }
