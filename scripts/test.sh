@@ -5,7 +5,7 @@
 # `dmesh serve`, the API contract (schemathesis over proto/openapi.yaml
 # against the real server) and the fuzz targets for a few seconds each.
 # Installs Chromium and haproxy (apt), the npm packages (package-lock), schemathesis
-# and moto_server (pip), s3s-fs and cargo-fuzz (cargo) when they are missing. Ends with one line:
+# and moto_server (pip), s3s-fs (cargo) when they are missing. Ends with one line:
 # `tests: N passed, M failed`.
 set -uo pipefail
 cd "$(dirname "$0")/.."
