@@ -37,7 +37,8 @@ const TICKS: usize = 8;
 fn tick(v: &f64) -> String {
     let v = *v;
     if (v - v.round()).abs() <= 1e-9 * v.abs().max(1.0) {
-        return format!("{:.0}", v.round());
+        // `+ 0.0` turns a negative zero into zero: no "-0" tick.
+        return format!("{:.0}", v.round() + 0.0);
     }
     for decimals in 1..=4 {
         let s = format!("{v:.decimals$}");
@@ -48,8 +49,47 @@ fn tick(v: &f64) -> String {
     format!("{v:.3e}")
 }
 
-/// Series with at most this many points get a marker on each.
+/// Markers per series at most: a longer series is marked at every n-th point.
 const MARKED: usize = 30;
+
+/// Width of the legend column right of the plot, pixels.
+const LEGEND_WIDTH: u32 = 190;
+
+/// Series `k`'s line: solid, dashed or dotted in turn, so that curves that
+/// coincide still show both (with the colour and the marker, no two of the
+/// first twelve series look alike).
+fn dash(k: usize) -> Option<(u32, u32)> {
+    match k % 3 {
+        0 => None,
+        1 => Some((10, 6)),
+        _ => Some((3, 4)),
+    }
+}
+
+/// Draws series `k`'s marker at `p`: circle, triangle, cross or square.
+fn marker<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    k: usize,
+    (x, y): (i32, i32),
+    colour: RGBColor,
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    let style = colour.filled();
+    match k % 4 {
+        0 => area.draw(&Circle::new((x, y), 4, style)),
+        1 => area.draw(&Polygon::new(vec![(x, y - 5), (x - 5, y + 4), (x + 5, y + 4)], style)),
+        2 => {
+            area.draw(&PathElement::new(
+                vec![(x - 4, y - 4), (x + 4, y + 4)],
+                colour.stroke_width(2),
+            ))?;
+            area.draw(&PathElement::new(
+                vec![(x - 4, y + 4), (x + 4, y - 4)],
+                colour.stroke_width(2),
+            ))
+        }
+        _ => area.draw(&Rectangle::new([(x - 4, y - 4), (x + 4, y + 4)], style)),
+    }
+}
 
 /// A chart: labelled series of `(x, y)` points, x on a log axis unless
 /// `linear_x`, y on a log axis when `log_y`.
@@ -67,7 +107,8 @@ pub struct Chart<'a> {
     pub linear_x: bool,
     /// A log y axis (non-positive y left out).
     pub log_y: bool,
-    /// Where the legend goes (where the curves leave room).
+    /// Unused: the legend is drawn in a column of its own, right of the
+    /// plot, where it covers no data (kept so callers need not change).
     pub legend: SeriesLabelPosition,
 }
 
@@ -114,23 +155,63 @@ impl Chart<'_> {
         let pad = ((y1 - y0) * 0.08).max(0.5);
         let e = |err| anyhow!("drawing {:?}: {err:?}", self.title);
         root.fill(&WHITE).map_err(e)?;
-        let mut builder = ChartBuilder::on(&root);
+        let (w, _) = root.dim_in_pixel();
+        let (plot, legend) = root.split_horizontally(w.saturating_sub(LEGEND_WIDTH));
+        let mut builder = ChartBuilder::on(&plot);
         builder
             .caption(self.title, ("sans-serif", 20))
             .margin(12)
             .x_label_area_size(44)
             .y_label_area_size(56);
-        let markers = series.iter().all(|(_, p)| p.len() <= MARKED);
         let (lin_x, log_x) = (x0..x1.max(x0 + 1.0), (x0 / 1.3..x1 * 1.3).log_scale());
-        let (lin_y, log_y) = ((y0 - pad)..(y1 + pad), (y0 / 1.5..y1 * 1.5).log_scale());
+        // Values that are never negative get no negative half-axis.
+        let floor = if y0 >= 0.0 { (y0 - pad).max(0.0) } else { y0 - pad };
+        let (lin_y, log_y) = (floor..(y1 + pad), (y0 / 1.5..y1 * 1.5).log_scale());
         match (self.linear_x, self.log_y) {
-            (true, false) => self.series_on(builder.build_cartesian_2d(lin_x, lin_y).map_err(e)?, &series, markers),
-            (true, true) => self.series_on(builder.build_cartesian_2d(lin_x, log_y).map_err(e)?, &series, markers),
-            (false, false) => self.series_on(builder.build_cartesian_2d(log_x, lin_y).map_err(e)?, &series, markers),
-            (false, true) => self.series_on(builder.build_cartesian_2d(log_x, log_y).map_err(e)?, &series, markers),
+            (true, false) => self.series_on(builder.build_cartesian_2d(lin_x, lin_y).map_err(e)?, &series),
+            (true, true) => self.series_on(builder.build_cartesian_2d(lin_x, log_y).map_err(e)?, &series),
+            (false, false) => self.series_on(builder.build_cartesian_2d(log_x, lin_y).map_err(e)?, &series),
+            (false, true) => self.series_on(builder.build_cartesian_2d(log_x, log_y).map_err(e)?, &series),
         }
         .map_err(e)?;
+        self.legend_on(&legend, &series).map_err(e)?;
         root.present().map_err(e)?;
+        Ok(())
+    }
+
+    /// The legend in its own column: each series' line style, marker and name.
+    fn legend_on<DB: DrawingBackend>(
+        &self,
+        area: &DrawingArea<DB, Shift>,
+        series: &[(&str, Vec<(f64, f64)>)],
+    ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+        let font = ("sans-serif", 13).into_font();
+        for (k, (name, _)) in series.iter().enumerate() {
+            let colour = COLOURS[k % COLOURS.len()];
+            let y = 48 + 22 * k as i32;
+            let line: Vec<(i32, i32)> = match dash(k) {
+                None => vec![(4, y), (34, y)],
+                Some((on, off)) => {
+                    // Dashes drawn as short segments.
+                    let mut x = 4;
+                    while x < 34 {
+                        area.draw(&PathElement::new(
+                            vec![(x, y), ((x + on as i32).min(34), y)],
+                            colour.stroke_width(2),
+                        ))?;
+                        x += (on + off) as i32;
+                    }
+                    vec![]
+                }
+            };
+            if !line.is_empty() {
+                area.draw(&PathElement::new(line, colour.stroke_width(2)))?;
+            }
+            marker(area, k, (19, y), colour)?;
+            // Long names are cut to the column's width.
+            let text: String = name.chars().take(20).collect();
+            area.draw(&Text::new(text, (40, y - 7), font.clone()))?;
+        }
         Ok(())
     }
 
@@ -138,7 +219,6 @@ impl Chart<'_> {
         &self,
         mut chart: ChartContext<'b, DB, Cartesian2d<X, Y>>,
         series: &[(&str, Vec<(f64, f64)>)],
-        markers: bool,
     ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>>
     where
         X: Ranged<ValueType = f64> + plotters::coord::ranged1d::ValueFormatter<f64>,
@@ -154,24 +234,27 @@ impl Chart<'_> {
             .y_label_formatter(&tick)
             .label_style(("sans-serif", 13))
             .draw()?;
-        for (k, (name, pts)) in series.iter().enumerate() {
+        for (k, (_, pts)) in series.iter().enumerate() {
             let colour = COLOURS[k % COLOURS.len()];
-            let width = if markers { 2 } else { 1 };
-            chart
-                .draw_series(LineSeries::new(pts.iter().copied(), colour.stroke_width(width)))?
-                .label(*name)
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], colour.stroke_width(2)));
-            if markers {
-                chart.draw_series(pts.iter().map(|&p| Circle::new(p, 3, colour.filled())))?;
+            let style = colour.stroke_width(2);
+            match dash(k) {
+                None => {
+                    chart.draw_series(LineSeries::new(pts.iter().copied(), style))?;
+                }
+                Some((on, off)) => {
+                    chart.draw_series(DashedLineSeries::new(pts.iter().copied(), on, off, style))?;
+                }
+            }
+            // Markers at the samples; a long series at every n-th one.
+            let every = pts.len().div_ceil(MARKED).max(1);
+            let area = chart.plotting_area();
+            for &p in pts.iter().step_by(every) {
+                let at = area.map_coordinate(&p);
+                let (dx, dy) = area.get_base_pixel();
+                marker(&area.strip_coord_spec(), k, (at.0 - dx, at.1 - dy), colour)?;
             }
         }
-        chart
-            .configure_series_labels()
-            .position(self.legend.clone())
-            .label_font(("sans-serif", 13))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()
+        Ok(())
     }
 
     /// Writes `base.svg` and `base.png`.
@@ -198,6 +281,8 @@ mod tests {
     fn tick_labels_drop_needless_decimals() {
         assert_eq!(tick(&38.0), "38");
         assert_eq!(tick(&-2.0), "-2");
+        assert_eq!(tick(&-0.0), "0");
+        assert_eq!(tick(&-1e-12), "0");
         assert_eq!(tick(&0.5), "0.5");
         assert_eq!(tick(&0.25), "0.25");
         assert_eq!(tick(&1000.0), "1000");
