@@ -242,17 +242,46 @@ struct Plotted {
 
 /// The plots `NAME-frame-ms`, `NAME-fetch-ms` and, when any frame has a
 /// PSNR, `NAME-psnr`: one chart per per-frame figure, a line per strategy.
+/// Frames in a time plot's running median: single frames' times jump by
+/// the machine's noise, and three strategies' raw lines tangle.
+const SMOOTH_FRAMES: usize = 15;
+
+/// The running median of `points` over `window` points, centred (shorter
+/// at the ends).
+fn running_median(points: &[(f64, f64)], window: usize) -> Vec<(f64, f64)> {
+    let half = window / 2;
+    (0..points.len())
+        .map(|k| {
+            let (a, b) = (k.saturating_sub(half), (k + half + 1).min(points.len()));
+            let mut ys: Vec<f64> = points[a..b].iter().map(|p| p.1).collect();
+            ys.sort_by(f64::total_cmp);
+            (points[k].0, ys[ys.len() / 2])
+        })
+        .collect()
+}
+
 fn charts(dir: &Path, name: &str, title: &str, walks: &[(String, Vec<Plotted>)]) -> anyhow::Result<()> {
     let plot = |suffix: &str, what: &str, y_label: &str, f: fn(&Plotted) -> Option<f64>| {
+        let smooth = suffix.ends_with("-ms");
         let series = walks
             .iter()
             .map(|(s, frames)| {
+                let pts: Vec<(f64, f64)> = frames.iter().filter_map(|fr| f(fr).map(|y| (fr.frame, y))).collect();
                 (
                     s.clone(),
-                    frames.iter().filter_map(|fr| f(fr).map(|y| (fr.frame, y))).collect(),
+                    if smooth {
+                        running_median(&pts, SMOOTH_FRAMES)
+                    } else {
+                        pts
+                    },
                 )
             })
             .collect();
+        let what = if smooth {
+            format!("{what} (median of {SMOOTH_FRAMES} frames)")
+        } else {
+            what.to_string()
+        };
         Chart {
             title: &format!("{title}: {what}"),
             x_label: "frame",
@@ -330,6 +359,17 @@ pub fn replot(dir: &Path, name: &str) -> anyhow::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_running_median_ignores_a_lone_spike_and_keeps_the_frames() {
+        let pts: Vec<(f64, f64)> = (0..9)
+            .map(|k| (f64::from(k), if k == 4 { 100.0 } else { 1.0 }))
+            .collect();
+        let m = super::running_median(&pts, 3);
+        assert_eq!(m.len(), 9);
+        assert!(m.iter().all(|p| p.1 == 1.0), "{m:?}");
+        assert_eq!(m[4].0, 4.0);
+    }
 
     #[test]
     fn quantiles_are_nearest_rank() {
