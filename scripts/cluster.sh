@@ -13,7 +13,9 @@
 #
 # Needs haproxy (apt-get install -y haproxy), moto_server
 # (pip install 'moto[server]') and, for --bench, s3s-fs
-# (cargo install s3s-fs --version 0.14.1 --features binary --locked);
+# (cargo install s3s-fs --version 0.14.1 --features binary --locked: a
+# release build; scripts/test.sh installs a debug one, enough for its tests
+# but not for a benchmark);
 # builds the release binaries.
 set -euo pipefail
 cd "$(dirname "$0")/.."
