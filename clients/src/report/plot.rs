@@ -155,14 +155,12 @@ impl Chart<'_> {
         let pad = ((y1 - y0) * 0.08).max(0.5);
         let e = |err| anyhow!("drawing {:?}: {err:?}", self.title);
         root.fill(&WHITE).map_err(e)?;
+        // The title over the whole width, the legend in a column of its own.
+        let root = root.titled(self.title, ("sans-serif", 20)).map_err(e)?;
         let (w, _) = root.dim_in_pixel();
         let (plot, legend) = root.split_horizontally(w.saturating_sub(LEGEND_WIDTH));
         let mut builder = ChartBuilder::on(&plot);
-        builder
-            .caption(self.title, ("sans-serif", 20))
-            .margin(12)
-            .x_label_area_size(44)
-            .y_label_area_size(56);
+        builder.margin(12).x_label_area_size(44).y_label_area_size(56);
         let (lin_x, log_x) = (x0..x1.max(x0 + 1.0), (x0 / 1.3..x1 * 1.3).log_scale());
         // Values that are never negative get no negative half-axis.
         let floor = if y0 >= 0.0 { (y0 - pad).max(0.0) } else { y0 - pad };
@@ -188,7 +186,7 @@ impl Chart<'_> {
         let font = ("sans-serif", 13).into_font();
         for (k, (name, _)) in series.iter().enumerate() {
             let colour = COLOURS[k % COLOURS.len()];
-            let y = 48 + 22 * k as i32;
+            let y = 20 + 22 * k as i32;
             let line: Vec<(i32, i32)> = match dash(k) {
                 None => vec![(4, y), (34, y)],
                 Some((on, off)) => {
