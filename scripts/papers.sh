@@ -2,7 +2,7 @@
 # The seeds' own experiments, reproduced on their own terms (issue 29):
 # writes docs/papers.md (and docs/papers/*.png) from the examples that
 # measure them: DMesh's and Verlani's sections so far; the page says what
-# is missing. About four minutes.
+# is missing. About eleven minutes on the 2-core VM.
 # Usage: bash scripts/papers.sh [DATA_DIR]   (default ../shared/data)
 set -euo pipefail
 cd "$(dirname "$0")/.."

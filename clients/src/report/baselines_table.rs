@@ -305,6 +305,23 @@ pub fn write(rows: &[Row], out: &Path) -> anyhow::Result<()> {
                 })
                 .collect()
         };
+        // The full-resolution mesh and per-pixel DIBR as reference lines
+        // across the rates (each on its own mask: neither has a rate).
+        let (lo, hi) = rows
+            .iter()
+            .filter(|r| r.scene == scene && r.rate > 1.0)
+            .fold((f64::INFINITY, 0f64), |(a, b), r| {
+                (a.min(r.achieved_rate), b.max(r.achieved_rate))
+            });
+        let references = |y: fn(&Row) -> f64| -> Vec<(String, Vec<(f64, f64)>)> {
+            [(FULL, "full mesh"), (DIBR, "per-pixel DIBR")]
+                .iter()
+                .filter_map(|(m, label)| {
+                    let r = rows.iter().find(|r| r.scene == scene && r.mesher == *m)?;
+                    Some((label.to_string(), vec![(lo, y(r)), (hi, y(r))]))
+                })
+                .collect()
+        };
         plot::Chart {
             title: &format!("{scene}: PSNR of the warped view against reduction rate"),
             x_label: "reduction rate (full-resolution triangles / triangles)",
@@ -312,9 +329,21 @@ pub fn write(rows: &[Row], out: &Path) -> anyhow::Result<()> {
             linear_x: true,
             log_y: false,
             legend: plotters::prelude::SeriesLabelPosition::LowerLeft,
-            series: series(|r| r.psnr_common),
+            series: [series(|r| r.psnr_common), references(|r| r.psnr)].concat(),
         }
         .write(&out.join(format!("psnr-{scene}")))?;
+        // The thesis pairs each PSNR plot with the MSE of the rasterised
+        // disparity (Sec. 6.1.2).
+        plot::Chart {
+            title: &format!("{scene}: disparity MSE against reduction rate"),
+            x_label: "reduction rate (full-resolution triangles / triangles)",
+            y_label: "disparity MSE, px^2 (pixels every mesher covers, log)",
+            linear_x: true,
+            log_y: true,
+            legend: plotters::prelude::SeriesLabelPosition::UpperLeft,
+            series: [series(|r| r.disparity_mse_common), references(|r| r.disparity_mse)].concat(),
+        }
+        .write(&out.join(format!("mse-{scene}")))?;
         plot::Chart {
             title: &format!("{scene}: meshing time against reduction rate"),
             x_label: "reduction rate (full-resolution triangles / triangles)",
