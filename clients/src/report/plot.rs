@@ -55,6 +55,29 @@ const MARKED: usize = 30;
 /// Width of the legend column right of the plot, pixels.
 const LEGEND_WIDTH: u32 = 190;
 
+/// Characters of a legend line (the column's width in the bundled font).
+const LEGEND_CHARS: usize = 19;
+
+/// `name` in lines of at most `width` characters, broken at spaces (a word
+/// longer than a line is cut).
+fn wrap(name: &str, width: usize) -> Vec<String> {
+    let mut lines: Vec<String> = Vec::new();
+    for word in name.split_whitespace() {
+        let word: String = word.chars().take(width).collect();
+        match lines.last_mut() {
+            Some(l) if l.chars().count() + 1 + word.chars().count() <= width => {
+                l.push(' ');
+                l.push_str(&word);
+            }
+            _ => lines.push(word),
+        }
+    }
+    if lines.is_empty() {
+        lines.push(String::new());
+    }
+    lines
+}
+
 /// Series `k`'s line: solid, dashed or dotted in turn, so that curves that
 /// coincide still show both (with the colour and the marker, no two of the
 /// first twelve series look alike).
@@ -184,9 +207,9 @@ impl Chart<'_> {
         series: &[(&str, Vec<(f64, f64)>)],
     ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
         let font = ("sans-serif", 13).into_font();
+        let mut y = 20;
         for (k, (name, _)) in series.iter().enumerate() {
             let colour = COLOURS[k % COLOURS.len()];
-            let y = 20 + 22 * k as i32;
             let line: Vec<(i32, i32)> = match dash(k) {
                 None => vec![(4, y), (34, y)],
                 Some((on, off)) => {
@@ -206,9 +229,12 @@ impl Chart<'_> {
                 area.draw(&PathElement::new(line, colour.stroke_width(2)))?;
             }
             marker(area, k, (19, y), colour)?;
-            // Long names are cut to the column's width.
-            let text: String = name.chars().take(20).collect();
-            area.draw(&Text::new(text, (40, y - 7), font.clone()))?;
+            // A long name wraps at spaces onto the lines below.
+            for text in wrap(name, LEGEND_CHARS) {
+                area.draw(&Text::new(text, (40, y - 7), font.clone()))?;
+                y += 15;
+            }
+            y += 7;
         }
         Ok(())
     }
@@ -280,6 +306,11 @@ mod tests {
         assert_eq!(tick(&38.0), "38");
         assert_eq!(tick(&-2.0), "-2");
         assert_eq!(tick(&-0.0), "0");
+        assert_eq!(
+            super::wrap("JPEG depth maps, meshed losslessly", 19),
+            ["JPEG depth maps,", "meshed losslessly"]
+        );
+        assert_eq!(super::wrap("rqt", 19), ["rqt"]);
         assert_eq!(tick(&-1e-12), "0");
         assert_eq!(tick(&0.5), "0.5");
         assert_eq!(tick(&0.25), "0.25");
