@@ -175,7 +175,8 @@ impl Chart<'_> {
         let (y0, y1) = all
             .iter()
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.1), b.max(p.1)));
-        let pad = ((y1 - y0) * 0.08).max(0.5);
+        // A margin of 8 % of the span (half a unit when every value is one).
+        let pad = if y1 > y0 { (y1 - y0) * 0.08 } else { 0.5 };
         let e = |err| anyhow!("drawing {:?}: {err:?}", self.title);
         root.fill(&WHITE).map_err(e)?;
         // The title over the whole width, the legend in a column of its own.
