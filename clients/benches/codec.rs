@@ -74,7 +74,7 @@ impl View {
         Ok(Self {
             camera,
             depth: depth.clone(),
-            ask: ask.clone(),
+            ask: *ask,
             hierarchy,
             raw_grid,
             mesh,

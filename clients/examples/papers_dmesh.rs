@@ -382,7 +382,7 @@ fn main() -> anyhow::Result<()> {
         Err(e) => println!("<!-- art left out: {e} -->"),
     }
     // Per scene: (static, per strip and strip count) and (view-dependent, ...).
-    let mut lengths: Vec<(String, Vec<(f64, usize)>, Vec<(f64, usize)>)> = Vec::new();
+    let mut lengths: Vec<StripRows> = Vec::new();
     for (name, h, scale) in &scenes {
         let (mut fixed, mut dynamic) = (Vec::new(), Vec::new());
         for rel in [0.001, 0.005, 0.02] {
@@ -445,13 +445,14 @@ fn segmentation_verdicts(scenes: &[MethodRows]) -> Vec<Verdict> {
             .collect::<Vec<_>>()
             .join(", ")
     };
-    let per_scene = |f: &dyn Fn(&[(&str, f64)]) -> String, pick: usize| {
+    /// `f` of each scene's costs (`pick` 0) or PSNRs (1), scene by scene.
+    fn per_scene(scenes: &[MethodRows], pick: usize, f: impl Fn(&[(&str, f64)]) -> String) -> String {
         scenes
             .iter()
             .map(|(n, c, p)| format!("{n}: {}", f([c, p][pick])))
             .collect::<Vec<_>>()
             .join("; ")
-    };
+    }
     let dearest = scenes.iter().all(|(_, c, _)| {
         let conn = of(c, "connectedness");
         conn >= 2.0 * of(c, "orthogonality") && conn >= 2.0 * of(c, "disparity")
@@ -475,13 +476,13 @@ fn segmentation_verdicts(scenes: &[MethodRows]) -> Vec<Verdict> {
             "Connectedness is by far the most expensive test (Sec. 7.1)",
             "on every scene, connectedness's test with the normals it needs costs at least twice each other test",
             dearest,
-            per_scene(&costs, 0),
+            per_scene(scenes, 0, costs),
         ),
         Verdict::judge(
             "Disparity is the fastest test (Sec. 7.1)",
             "on every scene, disparity's test costs no more than either other",
             cheapest,
-            per_scene(&costs, 0),
+            per_scene(scenes, 0, costs),
         )
         .because(
             "",
@@ -491,7 +492,7 @@ fn segmentation_verdicts(scenes: &[MethodRows]) -> Vec<Verdict> {
             "Connectedness segments worse than disparity and orthogonality (Sec. 7.1, Fig. 18)",
             format!("on every scene, connectedness's PSNR on the common mask is at least {WORSE_DB} dB below each other test's"),
             worse,
-            per_scene(&psnrs, 1),
+            per_scene(scenes, 1, psnrs),
         )
         .because(
             "",

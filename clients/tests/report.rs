@@ -20,7 +20,7 @@ fn quick_report_sweeps_and_writes_tables_and_curves() {
         // 0 bits is the coarsest levels' prediction alone (20.2 dB), a budget
         // of 10,000 triangles 30.4, tau 8 px 34.9, the fine rows 37.9-38.7.
         let floor = match (r.sweep, r.setting) {
-            (Sweep::Bits, s) if s == 0.0 => 17.0,
+            (Sweep::Bits, 0.0) => 17.0,
             (Sweep::Budget, _) => 27.0,
             (Sweep::Tau, s) if s >= 8.0 => 31.0,
             _ => 35.0,
