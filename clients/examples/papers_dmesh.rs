@@ -438,13 +438,16 @@ const WORSE_DB: f64 = 0.5;
 fn segmentation_verdicts(scenes: &[MethodRows]) -> Vec<Verdict> {
     let of = |v: &[(&str, f64)], m: &str| v.iter().find(|r| r.0 == m).map_or(f64::NAN, |r| r.1);
     let tests = ["orthogonality", "disparity", "connectedness"];
-    let costs = |v: &[(&str, f64)]| {
+    // Each test's figure in `unit`: "orthogonality 5.71 ms, ...".
+    let figures = |v: &[(&str, f64)], unit: &str| {
         tests
             .iter()
-            .map(|m| format!("{m} {:.2} ms", of(v, m)))
+            .map(|m| format!("{m} {:.2} {unit}", of(v, m)))
             .collect::<Vec<_>>()
             .join(", ")
     };
+    let costs = |v: &[(&str, f64)]| figures(v, "ms");
+    let psnrs = |v: &[(&str, f64)]| figures(v, "dB");
     /// `f` of each scene's costs (`pick` 0) or PSNRs (1), scene by scene.
     fn per_scene(scenes: &[MethodRows], pick: usize, f: impl Fn(&[(&str, f64)]) -> String) -> String {
         scenes
@@ -464,13 +467,6 @@ fn segmentation_verdicts(scenes: &[MethodRows]) -> Vec<Verdict> {
         let conn = of(p, "connectedness");
         conn + WORSE_DB <= of(p, "orthogonality") && conn + WORSE_DB <= of(p, "disparity")
     });
-    let psnrs = |v: &[(&str, f64)]| {
-        tests
-            .iter()
-            .map(|m| format!("{m} {:.2} dB", of(v, m)))
-            .collect::<Vec<_>>()
-            .join(", ")
-    };
     vec![
         Verdict::judge(
             "Connectedness is by far the most expensive test (Sec. 7.1)",

@@ -42,10 +42,11 @@ fn run(name: &str, args: &[&str]) -> String {
     text
 }
 
-/// The verdict lines of `text`, each judged: a claim whose criterion was
-/// not evaluated fails, as does a verdict line that does not read back.
-fn judged(text: &str) -> Vec<(String, String)> {
-    let mut out = Vec::new();
+/// The verdict lines of `text`: exactly `count` of them, each reading back
+/// and judged (a claim whose criterion was not evaluated fails), and one on
+/// each of `claims` at least.
+fn assert_judged(text: &str, count: usize, claims: &[&str]) {
+    let mut verdicts = Vec::new();
     for line in text
         .lines()
         .filter(|l| l.starts_with("- **") && l.contains("Criterion: "))
@@ -55,9 +56,15 @@ fn judged(text: &str) -> Vec<(String, String)> {
             word == "held" || word == "did not hold",
             "not judged in the quick form: {line}"
         );
-        out.push((claim, word));
+        verdicts.push(claim);
     }
-    out
+    assert_eq!(verdicts.len(), count, "{verdicts:?}");
+    for claim in claims {
+        assert!(
+            verdicts.iter().any(|v| v.contains(claim)),
+            "no verdict on {claim}: {verdicts:?}"
+        );
+    }
 }
 
 fn data() -> String {
@@ -87,14 +94,11 @@ fn dmesh_experiments_run_in_their_quick_form() {
         assert!(text.contains(&format!("| demo | {method} |")), "{method}:\n{text}");
     }
     // Table 4 at two sizes (2 each), Table 1 (2), strips (3), Sec. 7.1 (3).
-    let verdicts = judged(&text);
-    assert_eq!(verdicts.len(), 12, "{verdicts:?}");
-    for claim in ["Table 4", "Table 1", "Sec. 7.2", "Sec. 7.3", "Sec. 7.1, Fig. 18"] {
-        assert!(
-            verdicts.iter().any(|v| v.0.contains(claim)),
-            "no verdict on {claim}: {verdicts:?}"
-        );
-    }
+    assert_judged(
+        &text,
+        12,
+        &["Table 4", "Table 1", "Sec. 7.2", "Sec. 7.3", "Sec. 7.1, Fig. 18"],
+    );
 }
 
 #[test]
@@ -112,14 +116,7 @@ fn verlani_experiments_run_in_their_quick_form() {
         assert!(text.contains(section), "{section} is missing:\n{text}");
     }
     // Table 2 (3), Table 1 (2), Fig. 5 (2), Table 3 (2), the weights (1).
-    let verdicts = judged(&text);
-    assert_eq!(verdicts.len(), 10, "{verdicts:?}");
-    for claim in ["Table 2", "Table 1", "Fig. 5", "Table 3", "Sec. 2"] {
-        assert!(
-            verdicts.iter().any(|v| v.0.contains(claim)),
-            "no verdict on {claim}: {verdicts:?}"
-        );
-    }
+    assert_judged(&text, 10, &["Table 2", "Table 1", "Fig. 5", "Table 3", "Sec. 2"]);
     let png = image::open(plot.with_extension("png")).unwrap();
     assert_eq!((png.width(), png.height()), (800, 520));
     assert!(std::fs::read_to_string(plot.with_extension("svg"))

@@ -65,6 +65,24 @@ impl<'a> Rows<'a> {
         v
     }
 
+    /// Every scene and rate where both `a` and `b` met the rate, with their rows.
+    fn both(&self, a: &str, b: &str) -> Vec<(&'a str, f64, &'a Row, &'a Row)> {
+        self.scenes()
+            .into_iter()
+            .flat_map(|s| {
+                self.rates(s)
+                    .into_iter()
+                    .filter_map(move |rate| Some((s, rate, self.at(s, a, rate)?, self.at(s, b, rate)?)))
+            })
+            .collect()
+    }
+
+    /// `mesher`'s PSNR at its highest met rate on `scene` less at its lowest.
+    fn span(&self, scene: &str, mesher: &str) -> Option<f64> {
+        let c = self.curve(scene, mesher);
+        Some(c.last()?.psnr_common - c.first()?.psnr_common)
+    }
+
     /// `mesher`'s met rows on `scene`, by rate.
     fn curve(&self, scene: &str, mesher: &str) -> Vec<&'a Row> {
         self.rates(scene)
@@ -130,10 +148,7 @@ pub fn verdicts(rows: &[Row]) -> Vec<Verdict> {
     // "PSNR grows slightly while increasing the reduction rate."
     let growth: Vec<(&str, f64)> = scenes
         .iter()
-        .filter_map(|s| {
-            let c = r.curve(s, "quadtree_plane");
-            Some((*s, c.last()?.psnr_common - c.first()?.psnr_common))
-        })
+        .filter_map(|s| Some((*s, r.span(s, "quadtree_plane")?)))
         .collect();
     out.push(
         Verdict::judge(
@@ -172,16 +187,13 @@ pub fn verdicts(rows: &[Row]) -> Vec<Verdict> {
     ));
 
     // "Surface simplification takes significant time for no apparent gain in PSNR."
-    let (mut qem_rows, mut qem_gain, mut slow) = (0, Vec::new(), Vec::new());
-    for s in &scenes {
-        for rate in r.rates(s) {
-            if let (Some(q), Some(p)) = (r.at(s, "qem", rate), r.at(s, "quadtree_plane", rate)) {
-                qem_rows += 1;
-                qem_gain.push(q.psnr_common - p.psnr_common);
-                slow.push(q.ms / p.ms.max(1e-9));
-            }
-        }
-    }
+    let qem_plane = r.both("qem", "quadtree_plane");
+    let qem_rows = qem_plane.len();
+    let qem_gain: Vec<f64> = qem_plane
+        .iter()
+        .map(|(_, _, q, p)| q.psnr_common - p.psnr_common)
+        .collect();
+    let slow: Vec<f64> = qem_plane.iter().map(|(_, _, q, p)| q.ms / p.ms.max(1e-9)).collect();
     out.push(Verdict::judge(
         "QEM takes much longer than the plane fit (Sec. 6.3-6.4)",
         "QEM's meshing time is at least 10 times the plane fit's on every row both met",
@@ -203,13 +215,7 @@ pub fn verdicts(rows: &[Row]) -> Vec<Verdict> {
 
     // "There is no degradation in the quality [of adaptive remeshing] even
     // when the simplification rate is high."
-    let remesh_change: Vec<(&str, f64)> = scenes
-        .iter()
-        .filter_map(|s| {
-            let c = r.curve(s, "remesh");
-            Some((*s, c.last()?.psnr_common - c.first()?.psnr_common))
-        })
-        .collect();
+    let remesh_change: Vec<(&str, f64)> = scenes.iter().filter_map(|s| Some((*s, r.span(s, "remesh")?))).collect();
     out.push(Verdict::judge(
         "Adaptive remeshing does not degrade at high rates (Sec. 6.3)",
         format!(
@@ -225,16 +231,16 @@ pub fn verdicts(rows: &[Row]) -> Vec<Verdict> {
 
     // "Filtered depth map shows considerably smaller MSE as opposed to
     // unfiltered one even though there is no much significant improvement in PSNR."
-    let (mut pairs, mut mse_ratio, mut psnr_gain) = (0, Vec::new(), Vec::new());
-    for s in &scenes {
-        for rate in r.rates(s) {
-            if let (Some(m), Some(d)) = (r.at(s, "median_decimate", rate), r.at(s, "decimate", rate)) {
-                pairs += 1;
-                mse_ratio.push(m.disparity_mse_common / d.disparity_mse_common.max(1e-12));
-                psnr_gain.push(m.psnr_common - d.psnr_common);
-            }
-        }
-    }
+    let filtered = r.both("median_decimate", "decimate");
+    let pairs = filtered.len();
+    let mse_ratio: Vec<f64> = filtered
+        .iter()
+        .map(|(_, _, m, d)| m.disparity_mse_common / d.disparity_mse_common.max(1e-12))
+        .collect();
+    let psnr_gain: Vec<f64> = filtered
+        .iter()
+        .map(|(_, _, m, d)| m.psnr_common - d.psnr_common)
+        .collect();
     out.push(
         Verdict::judge(
             "The median filter gives a considerably smaller disparity MSE than plain decimation (Sec. 6.3)",
@@ -251,15 +257,12 @@ pub fn verdicts(rows: &[Row]) -> Vec<Verdict> {
 
     // "PSNR of the Quadtree with constant block is slightly less compared
     // to surface simplification ... can go up to the reduction factor of 70."
-    let (mut gaps, mut gap_rows) = (Vec::new(), 0);
-    for s in &scenes {
-        for rate in r.rates(s) {
-            if let (Some(c), Some(q)) = (r.at(s, "quadtree_constant", rate), r.at(s, "qem", rate)) {
-                gap_rows += 1;
-                gaps.push(q.psnr_common - c.psnr_common);
-            }
-        }
-    }
+    let gaps: Vec<f64> = r
+        .both("quadtree_constant", "qem")
+        .iter()
+        .map(|(_, _, c, q)| q.psnr_common - c.psnr_common)
+        .collect();
+    let gap_rows = gaps.len();
     out.push(
         Verdict::judge(
             "The constant quadtree is slightly below QEM (Sec. 6.3)",
@@ -314,19 +317,17 @@ pub fn verdicts(rows: &[Row]) -> Vec<Verdict> {
     );
 
     // The project's goals against the thesis's meshers.
-    let (mut above, mut both, mut short) = (0, 0, Vec::new());
-    for s in &scenes {
-        for rate in r.rates(s) {
-            if let (Some(q), Some(p)) = (r.at(s, "rqt", rate), r.at(s, "quadtree_plane", rate)) {
-                both += 1;
-                if q.psnr_common >= p.psnr_common {
-                    above += 1;
-                } else {
-                    short.push(format!("{s} {rate} ({:+.2})", q.psnr_common - p.psnr_common));
-                }
-            }
-        }
-    }
+    let rqt_plane = r.both("rqt", "quadtree_plane");
+    let both = rqt_plane.len();
+    let above = rqt_plane
+        .iter()
+        .filter(|(_, _, q, p)| q.psnr_common >= p.psnr_common)
+        .count();
+    let short: Vec<String> = rqt_plane
+        .iter()
+        .filter(|(_, _, q, p)| q.psnr_common < p.psnr_common)
+        .map(|(s, rate, q, p)| format!("{s} {rate} ({:+.2})", q.psnr_common - p.psnr_common))
+        .collect();
     out.push(
         Verdict::judge(
             "Goal: the served RQT at or above the plane fit at every rate on all four scenes",
@@ -356,13 +357,10 @@ pub fn verdicts(rows: &[Row]) -> Vec<Verdict> {
             ),
         );
     }
-    let speed: Vec<f64> = scenes
+    let speed: Vec<f64> = r
+        .both("qem", "rqt")
         .iter()
-        .flat_map(|s| {
-            r.rates(s)
-                .into_iter()
-                .filter_map(|rate| Some(r.at(s, "qem", rate)?.ms / r.at(s, "rqt", rate)?.ms.max(1e-9)))
-        })
+        .map(|(_, _, q, t)| q.ms / t.ms.max(1e-9))
         .collect();
     out.push(Verdict::judge(
         "Goal: the RQT at least 20 times faster than QEM at equal triangles",
